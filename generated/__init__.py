@@ -1,0 +1,1 @@
+"""Python modules written by ``derive.codegen``. Never edit by hand."""
