@@ -1,0 +1,562 @@
+"""The on-site perturbation eps * R_i(u, v) of paper Eq. 1 and the values of its parameters.
+
+``R`` is a sympy expression in ``u`` (x_i), ``v`` (x_i'), ``i`` (1-based bead index) and named
+parameters. A parameter value is one of (see DESIGN.md, Conventions):
+
+* a scalar (float), the same for every bead;
+* a tuple of N per-bead values (bead k is element k-1);
+* a :class:`RandomDraw` ``{uniform = [low, high], seed = s}``: the per-bead values are
+  ``numpy.random.default_rng(seed).uniform(low, high, size=N)``;
+* an :class:`IndexExpression`, a formula in ``i`` such as ``"1 + 0.01*i"``.
+
+:func:`make_perturbation` validates everything it can without knowing N; per-bead lists are
+checked against N in :meth:`Perturbation.bead_values`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+from dataclasses import dataclass
+from typing import Any, Iterator, Mapping, Union
+
+import numpy as np
+import sympy
+
+from derive.expression import (
+    SYMBOLS,
+    ExpressionError,
+    check_parameter_name,
+    parse_expression,
+    symbol,
+)
+
+__all__ = [
+    "IndexExpression",
+    "ParamMap",
+    "ParamValue",
+    "Perturbation",
+    "PerturbationError",
+    "RandomDraw",
+    "make_perturbation",
+    "parse_cli_param",
+    "parse_param_value",
+]
+
+DRAW_KEYS = ("uniform", "seed")
+_DRAW_EXAMPLE = "{uniform = [0, 1], seed = 7}"
+_VALUE_FORMS = (
+    "a number, a list of per-bead numbers, " + _DRAW_EXAMPLE + " or an expression of i"
+)
+
+
+class PerturbationError(ValueError):
+    """A perturbation or one of its parameter values was rejected; the message says why."""
+
+
+@dataclass(frozen=True)
+class RandomDraw:
+    """Per-bead values drawn from ``default_rng(seed).uniform(low, high, size=beads)``."""
+
+    low: float
+    high: float
+    seed: int
+    distribution: str = "uniform"
+
+
+@dataclass(frozen=True)
+class IndexExpression:
+    """Per-bead values given by a formula of the bead index ``i`` (1-based)."""
+
+    text: str
+    expr: sympy.Expr
+
+
+ParamValue = Union[float, tuple[float, ...], RandomDraw, IndexExpression]
+
+
+@dataclass(frozen=True)
+class ParamMap(Mapping[str, ParamValue]):
+    """An immutable, hashable mapping from parameter names to values (sorted by name)."""
+
+    items_: tuple[tuple[str, ParamValue], ...] = ()
+
+    @classmethod
+    def of(cls, mapping: Mapping[str, ParamValue]) -> "ParamMap":
+        return cls(tuple(sorted(mapping.items())))
+
+    def __getitem__(self, key: str) -> ParamValue:
+        for name, value in self.items_:
+            if name == key:
+                return value
+        raise KeyError(key)
+
+    def __iter__(self) -> Iterator[str]:
+        return (name for name, _ in self.items_)
+
+    def __len__(self) -> int:
+        return len(self.items_)
+
+    def __repr__(self) -> str:
+        return "ParamMap(" + repr(dict(self.items_)) + ")"
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """eps * R_i(u, v) with its parameter values (paper Eq. 1)."""
+
+    R: sympy.Expr
+    text: str
+    eps: float
+    params: ParamMap
+
+    @property
+    def used_parameters(self) -> tuple[str, ...]:
+        """Parameter names that occur in R, sorted."""
+        names = {s.name for s in self.R.free_symbols} - set(SYMBOLS)
+        return tuple(sorted(names))
+
+    @property
+    def unused_parameters(self) -> tuple[str, ...]:
+        """Parameters given a value but absent from R, sorted."""
+        used = set(self.used_parameters)
+        return tuple(name for name in self.params if name not in used)
+
+    @property
+    def is_uniform(self) -> bool:
+        """True if R is free of i and every parameter used in R is a scalar."""
+        if symbol("i") in self.R.free_symbols:
+            return False
+        return all(_is_scalar(self.params[name]) for name in self.used_parameters)
+
+    def scalar_params(self) -> dict[sympy.Symbol, sympy.Rational]:
+        """Exact values of the scalar parameters, for substitution; only for uniform R."""
+        if not self.is_uniform:
+            raise PerturbationError(
+                f"R = {self.text} is not uniform along the chain ({self._why_not_uniform()}): "
+                "use bead_values(name, beads) for per-bead values"
+            )
+        return {
+            symbol(name): _exact(value)
+            for name, value in self.params.items()
+            if _is_scalar(value)
+        }
+
+    def bead_values(self, name: str, beads: int) -> np.ndarray:
+        """Values of parameter ``name`` for beads 1..beads, shape (beads,), float64."""
+        if name not in self.params:
+            close = difflib.get_close_matches(name, list(self.params), n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            raise PerturbationError(f"no parameter named '{name}'{hint}; known: {', '.join(self.params) or 'none'}")
+        return _bead_values(name, self.params[name], _check_beads(beads))
+
+    def rest_force(self, beads: int) -> np.ndarray:
+        """R_i(0, 0) for beads 1..beads, evaluated with the per-bead parameter values."""
+        beads = _check_beads(beads)
+        at_rest = self.R.subs({symbol("u"): 0, symbol("v"): 0})
+        env = {symbol(name): self.bead_values(name, beads) for name in self.used_parameters}
+        return _evaluate(at_rest, env, beads, "R(0,0)")
+
+    def check_at_rest(self, beads: int, tol: float = 1e-12) -> None:
+        """Raise PerturbationError unless R_i(0, 0) = 0 for every bead (the chain starts at rest)."""
+        force = self.rest_force(beads)
+        bad = np.flatnonzero(np.abs(force) > tol)
+        if bad.size:
+            k = int(bad[0])
+            raise PerturbationError(
+                f"R(0,0) = {force[k]:.6g} is not zero at bead {k + 1}: a constant force would move "
+                "the chain before the pulse arrives; subtract it from R"
+            )
+
+    def _why_not_uniform(self) -> str:
+        if symbol("i") in self.R.free_symbols:
+            return "R depends on i"
+        for name in self.used_parameters:
+            value = self.params[name]
+            if not _is_scalar(value):
+                return f"parameter '{name}' is {_kind(value)}"
+        return "uniform"
+
+
+# --------------------------------------------------------------------------- construction
+
+
+def make_perturbation(
+    R: str | sympy.Expr, eps: float, params: Mapping[str, object] | None = None
+) -> Perturbation:
+    """Validate R (text or sympy), eps and the parameter values; return a Perturbation."""
+    raw_params = dict(params or {})
+    values: dict[str, ParamValue] = {}
+    for name, raw in raw_params.items():
+        _check_name(name)
+        values[name] = parse_param_value(name, raw)
+    eps_value = _parse_eps(eps)
+    if isinstance(R, str):
+        try:
+            expr = parse_expression(R, values.keys())
+        except ExpressionError as exc:
+            raise PerturbationError(str(exc)) from exc
+        text = R.strip()
+    elif isinstance(R, sympy.Basic):
+        expr = _from_sympy(R, values.keys())
+        text = str(expr)
+    elif isinstance(R, numbers.Real) and not isinstance(R, bool):
+        expr = _exact(_finite_float("R", R))
+        text = str(expr)
+    else:
+        raise PerturbationError(f"R must be a string or a sympy expression, got {type(R).__name__}")
+    perturbation = Perturbation(R=expr, text=text, eps=eps_value, params=ParamMap.of(values))
+    _check_typos(perturbation)
+    _check_rest_symbolic(perturbation)
+    return perturbation
+
+
+def parse_param_value(name: str, raw: object) -> ParamValue:
+    """A parameter value from a scene/TOML/CLI value (see the module docstring for the forms)."""
+    _check_name(name)
+    if raw is None:
+        raise PerturbationError(f"parameter '{name}' has no value: give {_VALUE_FORMS}")
+    if isinstance(raw, bool) or isinstance(raw, np.bool_):
+        raise PerturbationError(f"parameter '{name}' = {raw} is a boolean: give a number")
+    if isinstance(raw, RandomDraw):
+        return _check_draw(name, raw.low, raw.high, raw.seed, raw.distribution)
+    if isinstance(raw, IndexExpression):
+        return _index_expression(name, raw.text)
+    if isinstance(raw, numbers.Real):
+        return _finite_float(f"parameter '{name}'", raw)
+    if isinstance(raw, str):
+        return _parse_string_value(name, raw)
+    if isinstance(raw, Mapping):
+        return _parse_draw(name, raw)
+    if isinstance(raw, (list, tuple, np.ndarray)):
+        return _parse_list(name, raw)
+    raise PerturbationError(
+        f"parameter '{name}' has a value of unsupported type {type(raw).__name__}: give {_VALUE_FORMS}"
+    )
+
+
+def parse_cli_param(text: str) -> tuple[str, ParamValue]:
+    """Parse a command-line ``NAME=VALUE`` (VALUE: number, comma list, or expression of i)."""
+    if not isinstance(text, str) or "=" not in text:
+        raise PerturbationError(
+            f"--param expects NAME=VALUE (e.g. mu=0.5, k=1,2,3 or k=1+0.01*i), got {text!r}"
+        )
+    name, _, value = text.partition("=")
+    name = name.strip()
+    _check_name(name)
+    if not value.strip():
+        raise PerturbationError(f"parameter '{name}' has no value: write {name}=VALUE")
+    return name, parse_param_value(name, value)
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _check_name(name: object) -> None:
+    try:
+        check_parameter_name(name)
+    except ExpressionError as exc:
+        raise PerturbationError(str(exc)) from exc
+
+
+def _check_beads(beads: object) -> int:
+    if isinstance(beads, bool) or not isinstance(beads, numbers.Integral) or int(beads) < 1:
+        raise PerturbationError(f"beads must be a positive integer, got {beads!r}")
+    return int(beads)
+
+
+def _finite_float(what: str, raw: object) -> float:
+    if isinstance(raw, (bool, np.bool_)):
+        raise PerturbationError(f"{what} = {raw} is a boolean: give a number")
+    if not isinstance(raw, numbers.Real):
+        raise PerturbationError(f"{what} = {raw!r} is not a number")
+    value = float(raw)
+    if not math.isfinite(value):
+        raise PerturbationError(f"{what} = {value} is not finite: give a finite number")
+    return value
+
+
+def _parse_eps(eps: object) -> float:
+    if isinstance(eps, str):
+        try:
+            expr = parse_expression(eps, symbols=())
+        except ExpressionError as exc:
+            raise PerturbationError(f"eps: {exc}") from exc
+        if expr.free_symbols:
+            raise PerturbationError(f"eps = {eps!r} must be a number, not an expression of u, v or i")
+        return _finite_float("eps", _to_float(expr, "eps"))
+    return _finite_float("eps", eps)
+
+
+def _to_float(expr: sympy.Expr, what: str) -> float:
+    value = complex(sympy.N(expr))
+    if value.imag != 0 or not math.isfinite(value.real):
+        raise PerturbationError(f"{what} = {expr} is not a finite real number")
+    return value.real
+
+
+def _exact(value: float) -> sympy.Rational:
+    """The shortest decimal that round-trips ``value``, as an exact Rational (0.1 -> 1/10)."""
+    return sympy.Rational(repr(float(value)))
+
+
+def _is_scalar(value: ParamValue) -> bool:
+    return isinstance(value, float)
+
+
+def _kind(value: ParamValue) -> str:
+    if isinstance(value, tuple):
+        return f"a per-bead list of {len(value)} values"
+    if isinstance(value, RandomDraw):
+        return f"a random draw (seed {value.seed})"
+    if isinstance(value, IndexExpression):
+        return f"an expression of i ({value.text})"
+    return "a scalar"
+
+
+def _parse_string_value(name: str, raw: str) -> ParamValue:
+    text = raw.strip()
+    if not text:
+        raise PerturbationError(f"parameter '{name}' has no value: give {_VALUE_FORMS}")
+    if "," in text:
+        items = [item.strip() for item in text.split(",")]
+        return _parse_list(name, [_constant(name, item, k) for k, item in enumerate(items)])
+    return _index_expression(name, text)
+
+
+def _constant(name: str, text: str, position: int) -> float:
+    where = f"parameter '{name}' element {position + 1}"
+    if not text:
+        raise PerturbationError(f"{where} is empty (stray ',' in the list)")
+    try:
+        expr = parse_expression(text, symbols=())
+    except ExpressionError as exc:
+        raise PerturbationError(f"{where}: {exc}") from exc
+    if expr.free_symbols:
+        raise PerturbationError(f"{where} = {text!r} must be a number in a list of per-bead values")
+    return _to_float(expr, where)
+
+
+def _index_expression(name: str, text: str) -> ParamValue:
+    try:
+        expr = parse_expression(text, symbols=("i",))
+    except ExpressionError as exc:
+        raise PerturbationError(f"parameter '{name}': {exc}") from exc
+    others = sorted(s.name for s in expr.free_symbols if s.name != "i")
+    if others:
+        raise PerturbationError(
+            f"parameter '{name}' = {text!r} may depend only on the bead index i, not on {', '.join(others)}"
+        )
+    if not expr.free_symbols:
+        return _finite_float(f"parameter '{name}'", _to_float(expr, f"parameter '{name}'"))
+    return IndexExpression(text=text.strip(), expr=expr)
+
+
+def _parse_list(name: str, raw: Any) -> tuple[float, ...]:
+    if isinstance(raw, np.ndarray) and raw.ndim != 1:
+        raise PerturbationError(f"parameter '{name}' per-bead values must be a flat list, got shape {raw.shape}")
+    items = list(raw)
+    if not items:
+        raise PerturbationError(f"parameter '{name}' is an empty list: give one value per bead")
+    values = []
+    for k, item in enumerate(items):
+        if isinstance(item, (bool, np.bool_)) or not isinstance(item, numbers.Real):
+            raise PerturbationError(
+                f"parameter '{name}' element {k + 1} = {item!r} is not a number "
+                "(per-bead lists hold numbers only)"
+            )
+        values.append(_finite_float(f"parameter '{name}' element {k + 1}", item))
+    return tuple(values)
+
+
+def _parse_draw(name: str, raw: Mapping) -> RandomDraw:
+    for key in raw:
+        if key not in DRAW_KEYS:
+            close = difflib.get_close_matches(str(key), DRAW_KEYS, n=1)
+            hint = f"did you mean '{close[0]}'? " if close else ""
+            raise PerturbationError(
+                f"parameter '{name}': unknown random-draw key {str(key)!r}: {hint}"
+                f"use {_DRAW_EXAMPLE}"
+            )
+    if "uniform" not in raw:
+        raise PerturbationError(f"parameter '{name}': a random draw needs uniform = [low, high], e.g. {_DRAW_EXAMPLE}")
+    if "seed" not in raw:
+        raise PerturbationError(
+            f"parameter '{name}': random draws need a seed for reproducibility: {_DRAW_EXAMPLE}"
+        )
+    bounds = raw["uniform"]
+    if isinstance(bounds, (str, Mapping)) or not hasattr(bounds, "__len__") or len(bounds) != 2:
+        raise PerturbationError(f"parameter '{name}': uniform must be [low, high], got {bounds!r}")
+    return _check_draw(name, bounds[0], bounds[1], raw["seed"], "uniform")
+
+
+def _check_draw(name: str, low: object, high: object, seed: object, distribution: str) -> RandomDraw:
+    if distribution != "uniform":
+        raise PerturbationError(f"parameter '{name}': only uniform random draws are supported, got {distribution!r}")
+    lo = _finite_float(f"parameter '{name}' uniform low", low)
+    hi = _finite_float(f"parameter '{name}' uniform high", high)
+    if lo > hi:
+        raise PerturbationError(f"parameter '{name}': uniform = [{lo}, {hi}] has low > high; swap them")
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral) or int(seed) < 0:
+        raise PerturbationError(
+            f"parameter '{name}': seed must be a non-negative integer, got {seed!r} (e.g. {_DRAW_EXAMPLE})"
+        )
+    return RandomDraw(low=lo, high=hi, seed=int(seed), distribution="uniform")
+
+
+def _bead_values(name: str, value: ParamValue, beads: int) -> np.ndarray:
+    if isinstance(value, float):
+        return np.full(beads, value, dtype=np.float64)
+    if isinstance(value, tuple):
+        if len(value) != beads:
+            raise PerturbationError(
+                f"parameter '{name}' has {len(value)} per-bead values but the chain has {beads} beads: "
+                f"give exactly {beads}"
+            )
+        return np.asarray(value, dtype=np.float64)
+    if isinstance(value, RandomDraw):
+        rng = np.random.default_rng(value.seed)
+        return rng.uniform(value.low, value.high, size=beads).astype(np.float64)
+    if isinstance(value, IndexExpression):
+        return _evaluate(value.expr, {}, beads, f"parameter '{name}' = {value.text!r}")
+    raise PerturbationError(f"parameter '{name}' has an unsupported value {value!r}")
+
+
+_NUMPY_FUNCTIONS = (
+    (sympy.sin, np.sin),
+    (sympy.cos, np.cos),
+    (sympy.tan, np.tan),
+    (sympy.exp, np.exp),
+    (sympy.log, np.log),
+    (sympy.tanh, np.tanh),
+    (sympy.sinh, np.sinh),
+    (sympy.cosh, np.cosh),
+    (sympy.Abs, np.abs),
+    (sympy.sign, np.sign),
+)
+
+
+def _evaluate(expr: sympy.Expr, env: Mapping[sympy.Symbol, np.ndarray], beads: int, what: str) -> np.ndarray:
+    """Evaluate an expression of i (and per-bead parameter arrays) for beads 1..beads."""
+    index = np.arange(1, beads + 1, dtype=np.float64)
+    full_env = {symbol("i"): index, **env}
+    with np.errstate(all="ignore"):
+        values = np.broadcast_to(_numeric(expr, full_env, what), (beads,)).astype(np.float64)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        raise PerturbationError(f"{what} is not finite (or not real) at bead {int(bad[0]) + 1}")
+    return values
+
+
+def _numeric(expr: sympy.Expr, env: Mapping[sympy.Symbol, np.ndarray], what: str) -> Any:
+    if expr.is_Symbol:
+        if expr in env:
+            return env[expr]
+        raise PerturbationError(f"{what} depends on {expr}, which has no per-bead value here")
+    if expr.is_number:
+        value = complex(sympy.N(expr))
+        return value.real if value.imag == 0 else np.nan
+    args = [_numeric(arg, env, what) for arg in expr.args]
+    if expr.is_Add:
+        return sum(args[1:], args[0])
+    if expr.is_Mul:
+        result = args[0]
+        for arg in args[1:]:
+            result = result * arg
+        return result
+    if expr.is_Pow:
+        base = np.asarray(args[0], dtype=np.float64)
+        return np.power(base, args[1])
+    for sympy_func, numpy_func in _NUMPY_FUNCTIONS:
+        if expr.func == sympy_func:
+            return numpy_func(args[0])
+    raise PerturbationError(f"{what}: cannot evaluate {expr.func.__name__} numerically")
+
+
+def _from_sympy(R: sympy.Basic, parameters: Any) -> sympy.Expr:
+    """Check a sympy R from Python and rebuild it with the parser's (real) symbols."""
+    if not isinstance(R, sympy.Expr):
+        raise PerturbationError(f"R must be a sympy expression, got {type(R).__name__}")
+    known = set(SYMBOLS) | set(parameters)
+    undefined = R.atoms(sympy.core.function.AppliedUndef)
+    if undefined:
+        raise PerturbationError(f"R contains undefined function {sorted(map(str, undefined))[0]}: use u, v, i and parameters")
+    if R.has(sympy.Derivative, sympy.Integral):
+        raise PerturbationError("R must not contain unevaluated derivatives or integrals")
+    replacements = {}
+    for sym in sorted(R.free_symbols, key=lambda s: s.name):
+        if not isinstance(sym, sympy.Symbol):
+            raise PerturbationError(f"R contains {sym!r}, which is not a plain symbol")
+        if sym.name == "eps":
+            raise PerturbationError("'eps' must not appear in R: eps is given separately and multiplies R")
+        if sym.name not in known:
+            raise PerturbationError(_unknown_symbol(sym.name, str(R), parameters))
+        replacements[sym] = symbol(sym.name)
+    expr = R.xreplace(replacements)
+    if expr.has(sympy.zoo, sympy.oo, -sympy.oo, sympy.nan):
+        raise PerturbationError(f"R = {expr} is not finite: check for division by zero or log(0)")
+    if expr.has(sympy.I):
+        raise PerturbationError(f"R = {expr} is complex: R must be real")
+    return expr
+
+
+def _unknown_symbol(name: str, text: str, parameters: Any) -> str:
+    close = difflib.get_close_matches(name, sorted(parameters), n=1)
+    hint = f"did you mean '{close[0]}'? " if close else ""
+    return (
+        f"unknown symbol '{name}' in \"{text[:60]}\": {hint}declare it as a parameter "
+        f"(--param {name}=VALUE) or use u, v, i"
+    )
+
+
+def _check_typos(perturbation: Perturbation) -> None:
+    used = list(SYMBOLS) + list(perturbation.used_parameters)
+    for name in perturbation.unused_parameters:
+        close = difflib.get_close_matches(name, used, n=1, cutoff=0.8)
+        if close:
+            raise PerturbationError(
+                f"parameter '{name}' is not used in R = {perturbation.text} but looks like a typo "
+                f"of '{close[0]}': rename or remove it"
+            )
+
+
+def _check_rest_symbolic(perturbation: Perturbation) -> None:
+    """R_i(0, 0) must vanish for every bead: decide symbolically where possible."""
+    at_rest = perturbation.R.subs({symbol("u"): 0, symbol("v"): 0})
+    if at_rest.has(sympy.zoo, sympy.oo, -sympy.oo, sympy.nan):
+        raise PerturbationError(
+            f"R(0,0) is undefined for R = {perturbation.text} ({at_rest}): the chain starts at rest, "
+            "so R must be finite and zero at u = v = 0"
+        )
+    scalars = {
+        symbol(name): _exact(value)
+        for name, value in perturbation.params.items()
+        if _is_scalar(value)
+    }
+    if perturbation.R.subs(scalars).has(sympy.zoo, sympy.oo, -sympy.oo, sympy.nan):
+        raise PerturbationError(
+            f"R = {perturbation.text} is undefined with the given parameter values "
+            f"({', '.join(f'{k}={v}' for k, v in scalars.items())}): check for division by zero"
+        )
+    at_rest = at_rest.subs(scalars)
+    bead_index = sympy.Symbol("i", positive=True, integer=True)
+    at_rest = at_rest.xreplace({symbol("i"): bead_index})
+    if at_rest == 0:
+        return
+    if at_rest.free_symbols - {bead_index}:
+        return  # depends on per-bead values: checked by Perturbation.check_at_rest(beads)
+    if not at_rest.free_symbols:
+        if abs(complex(sympy.N(at_rest, 30))) < 1e-20:
+            return  # zero up to rounding, e.g. sin(1)**2 + cos(1)**2 - 1
+    elif sympy.count_ops(at_rest) <= 200 and sympy.simplify(at_rest) == 0:
+        return
+    shown = str(at_rest.xreplace({bead_index: symbol("i")}))
+    if len(shown) > 80:
+        shown = shown[:77] + "..."
+    if at_rest.is_number and not at_rest.is_Rational:
+        shown = f"{shown} (= {float(sympy.N(at_rest)):.6g})"
+    raise PerturbationError(
+        f"R(0,0) = {shown} is not zero: a constant force would move the chain before the pulse "
+        "arrives (it starts at rest in equilibrium); subtract it from R"
+    )
