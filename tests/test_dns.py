@@ -1,0 +1,299 @@
+"""DNS of paper Eq. 1: conservation, homogeneity, convergence, methods, peaks, guards."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from solvers.dns import (
+    DNSResult,
+    OnSiteForce,
+    band_pattern,
+    chain_length_for,
+    choose_method,
+    energy,
+    make_packed_jacobian,
+    make_rhs,
+    make_sparse_jacobian,
+    simulate,
+)
+from solvers.peaks import scan_step
+
+FIRST_PERTURBED = 16
+
+
+def damping(eps_mu: float, beads: int, first: int = FIRST_PERTURBED) -> OnSiteForce:
+    """F = -eps*mu*v on beads >= first, with its analytic Jacobian."""
+    mask = (np.arange(1, beads + 1) >= first).astype(float)
+    return OnSiteForce(
+        force=lambda x, v: -eps_mu * mask * v,
+        dforce_dx=lambda x, v: np.zeros(beads),
+        dforce_dv=lambda x, v: -eps_mu * mask,
+        stiffness_hint=eps_mu,
+    )
+
+
+def rel(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.max(np.abs(np.asarray(a) / np.asarray(b) - 1.0)))
+
+
+# ----------------------------------------------------------------------------- unperturbed chain
+
+
+@pytest.fixture(scope="module", params=[1.5, 3.0], ids=["n=1.5", "n=3"])
+def unperturbed(request) -> tuple[float, DNSResult, DNSResult]:
+    n = request.param
+    beads = chain_length_for(40)
+    slow = simulate(beads, n, 1.0, (1, 40))
+    fast = simulate(beads, n, 4.0, (1, 40))
+    return n, slow, fast
+
+
+def test_unperturbed_finishes_with_all_contacts_alive(unperturbed):
+    _, slow, fast = unperturbed
+    for res in (slow, fast):
+        assert res.stop_reason == "last contact peaked"
+        assert res.alive.all() and np.isfinite(res.peaks).all()
+        assert res.method == "DOP853"
+        assert list(res.contacts) == list(range(1, 41))
+
+
+def test_energy_conserved(unperturbed):
+    _, slow, fast = unperturbed
+    assert slow.energy_drift is not None and slow.energy_drift < 3e-8
+    assert fast.energy_drift < 3e-8
+
+
+def test_energy_drift_shrinks_with_tolerance():
+    loose = simulate(30, 1.5, 1.0, (1, 20), rtol=1e-9, atol=1e-11)
+    tight = simulate(30, 1.5, 1.0, (1, 20), rtol=1e-12, atol=1e-14)
+    assert tight.energy_drift < 1e-10
+    assert tight.energy_drift < loose.energy_drift
+
+
+def test_peaks_constant_after_formation(unperturbed):
+    n, slow, _ = unperturbed
+    formed = slow.peaks[24:40]  # contacts 25..40 (n = 1.5 forms within ~20 contacts)
+    assert rel(formed, formed[5]) < 1e-6
+    # ... but not before: the first contact is visibly above the formed wave
+    assert slow.peaks[0] > formed[-1] * (1 + 1e-4)
+
+
+def test_homogeneity_of_peaks(unperturbed):
+    """Eq. 1 is homogeneous: peaks scale as v0^(2/(n+1)) contact by contact."""
+    n, slow, fast = unperturbed
+    ratio = 4.0 ** (2.0 / (n + 1.0))
+    assert rel(fast.peaks / slow.peaks, ratio) < 1e-7
+
+
+def test_homogeneity_of_delays(unperturbed):
+    """Time scales as peak^(-s), s = (n-1)/2: the pulse delay between contacts follows."""
+    n, slow, fast = unperturbed
+    s = (n - 1.0) / 2.0
+    d_slow = np.diff(slow.peak_times)[20:]
+    d_fast = np.diff(fast.peak_times)[20:]
+    expected = (fast.peaks[21:] / slow.peaks[21:]) ** (-s)
+    assert rel(d_fast / d_slow, expected) < 1e-6
+    assert rel(d_slow, d_slow[0]) < 1e-5  # constant speed of the formed wave
+
+
+def test_two_tolerances_agree():
+    beads = chain_length_for(30)
+    loose = simulate(beads, 1.5, 1.0, (1, 30), rtol=1e-8, atol=1e-10)
+    tight = simulate(beads, 1.5, 1.0, (1, 30), rtol=1e-11, atol=1e-13)
+    assert rel(loose.peaks, tight.peaks) < 1e-6
+    assert rel(np.diff(loose.peak_times), np.diff(tight.peak_times)) < 1e-6
+    assert tight.nfev > loose.nfev  # the tighter run did more work
+
+
+def test_peaks_are_leading_edge_not_roundoff(unperturbed):
+    """Pre-arrival wiggles are never peaks: times increase, each delay is a pulse delay."""
+    n, slow, _ = unperturbed
+    delays = np.diff(slow.peak_times)
+    assert np.all(delays > 0.5 * delays[-1])
+    assert np.all(slow.peaks[1:] > 1e-2 * slow.peaks[:-1])
+    assert slow.peak_times[0] > 0.5
+
+
+def test_scan_step_skips_subthreshold_wiggle():
+    """A + to - crossing of delta' whose maximum is round-off sized is not a peak."""
+    beads = 4
+
+    def state(t: float) -> np.ndarray:
+        # delta_2 = 1e-15 sin(t): a wiggle with a maximum at t = pi/2
+        y = np.zeros(2 * beads)
+        y[2] = 1e-15 * np.sin(t)
+        y[3] = 1e-15 * np.cos(t)
+        return y
+
+    args = (state(1.0), state(2.0), 1.0, 2.0, lambda: state)
+    assert scan_step(*args, next_contact=2, last_contact=3, threshold=1e-3, fraction=1e-2) == []
+    found = scan_step(*args, next_contact=2, last_contact=3, threshold=1e-16, fraction=1e-2)
+    assert len(found) == 1 and found[0].contact == 2
+    assert found[0].time == pytest.approx(np.pi / 2, abs=1e-12)
+    assert found[0].value == pytest.approx(1e-15, rel=1e-12)
+
+
+# ----------------------------------------------------------------------------- damped chain
+
+
+@pytest.fixture(scope="module")
+def damped_reference() -> DNSResult:
+    beads = chain_length_for(30)
+    return simulate(beads, 1.5, 1.0, (16, 30), damping(0.3, beads), method="DOP853", rtol=1e-9)
+
+
+@pytest.mark.parametrize("method", ["Radau", "BDF", "LSODA", "RK45"])
+def test_methods_agree_on_damped_chain(damped_reference, method):
+    beads = damped_reference.beads
+    res = simulate(beads, 1.5, 1.0, (16, 30), damping(0.3, beads), method=method, rtol=1e-9)
+    assert res.method == method
+    assert res.alive.all() and damped_reference.alive.all()
+    assert rel(res.peaks, damped_reference.peaks) < 1e-6
+    if method in ("Radau", "BDF"):
+        assert res.njev >= 1  # the analytic Jacobian was used (LSODA stays non-stiff here)
+
+
+def test_finite_difference_jacobian_path_agrees(damped_reference):
+    beads = damped_reference.beads
+    f = damping(0.3, beads)
+    no_jac = OnSiteForce(force=f.force, stiffness_hint=0.3)
+    res = simulate(beads, 1.5, 1.0, (16, 30), no_jac, method="LSODA", rtol=1e-9)
+    assert rel(res.peaks, damped_reference.peaks) < 1e-6
+
+
+def test_damped_peaks_decrease_and_pulse_dies():
+    beads = chain_length_for(50)
+    res = simulate(beads, 1.5, 1.0, (16, 50), damping(0.3, beads))
+    live = res.peaks[res.alive]
+    assert len(live) > 10
+    assert np.all(np.diff(live) < 0)
+    # at v0 = 1 this pulse stops advancing a few tens of contacts in (ERRATA: "many pulses die")
+    assert res.stop_reason.startswith("pulse died")
+    assert not res.alive[-1] and np.isnan(res.peaks[-1])
+    dead = ~res.alive
+    assert np.all(dead[np.argmax(dead):])  # once dead, dead for good
+
+
+def test_strong_damping_finishes_quickly_with_implicit_method():
+    beads = chain_length_for(45)
+    res = simulate(beads, 1.5, 1.0, (16, 45), damping(100.0, beads))
+    assert res.method in ("Radau", "BDF", "LSODA")
+    assert res.stop_reason.startswith("pulse died")
+    assert res.alive.sum() <= 1 and not res.alive[1:].any()
+    assert np.isnan(res.peaks[1:]).all()
+    assert res.wall_time_s < 5.0
+    assert res.nfev < 50_000
+    assert res.njev >= 1  # stiff: the banded analytic Jacobian was used
+    explicit = simulate(beads, 1.5, 1.0, (16, 45), damping(100.0, beads), method="DOP853")
+    assert explicit.stop_reason.startswith("pulse died")
+    assert res.peaks[0] == pytest.approx(explicit.peaks[0], rel=1e-6)
+
+
+def test_auto_method_choice():
+    assert choose_method(None, 1.0, 1.5) == "DOP853"
+    assert choose_method(damping(0.3, 20), 1.0, 1.5) == "DOP853"
+    assert choose_method(damping(1e4, 20), 1.0, 1.5) == "LSODA"
+
+
+# ----------------------------------------------------------------------------- building blocks
+
+
+def test_rhs_matches_eq1_on_three_beads():
+    x = np.array([0.3, 0.1, 0.2])
+    v = np.array([1.0, -0.5, 0.25])
+    y = np.ravel(np.column_stack([x, v]))
+    out = make_rhs(3, 1.5, None)(0.0, y)
+    assert np.allclose(out[0::2], v)
+    assert np.allclose(out[1::2], [-(0.2**1.5), 0.2**1.5, 0.0])  # contact 2 is open
+
+
+def test_jacobians_match_finite_differences():
+    rng = np.random.default_rng(1)
+    beads = 9
+    f = OnSiteForce(
+        force=lambda x, v: -0.7 * v - 0.4 * x**3,
+        dforce_dx=lambda x, v: -1.2 * x**2,
+        dforce_dv=lambda x, v: -0.7 * np.ones_like(v),
+    )
+    y = rng.normal(scale=0.5, size=2 * beads)
+    rhs = make_rhs(beads, 1.5, f)
+    h = 1e-7
+    fd = np.column_stack([(rhs(0, y + h * e) - rhs(0, y - h * e)) / (2 * h) for e in np.eye(2 * beads)])
+    sp = make_sparse_jacobian(beads, 1.5, f)(0.0, y).toarray()
+    assert np.allclose(sp, fd, atol=1e-6)
+    assert np.all((band_pattern(beads).toarray() != 0) | (fd == 0))
+    packed = make_packed_jacobian(beads, 1.5, f)(0.0, y)
+    unpacked = np.zeros_like(fd)
+    for i in range(2 * beads):
+        for j in range(max(0, i - 3), min(2 * beads, i + 2)):
+            unpacked[i, j] = packed[1 + i - j, j]
+    assert np.allclose(unpacked, sp)
+
+
+def test_energy_and_chain_length():
+    assert energy(np.array([0.0, 0.0]), np.array([2.0, 0.0]), 1.5) == pytest.approx(2.0)
+    assert energy(np.array([1.0, 0.0]), np.zeros(2), 3.0) == pytest.approx(0.25)
+    assert energy(np.array([0.0, 1.0]), np.zeros(2), 3.0) == 0.0  # open contact stores nothing
+    assert chain_length_for(120) == 131
+    assert chain_length_for(120, margin=0) == 121
+
+
+# ----------------------------------------------------------------------------- guards and errors
+
+
+def test_energy_blowup_stops_run():
+    res = simulate(20, 1.5, 1.0, (1, 9), OnSiteForce(lambda x, v: 5.0 * v))
+    assert "energy grew" in res.stop_reason
+    assert not res.alive.any() and np.isnan(res.peaks).all()
+
+
+def test_nonfinite_force_stops_run():
+    res = simulate(20, 1.5, 1.0, (1, 9), OnSiteForce(lambda x, v: np.where(np.abs(x) > 0.5, np.nan, 0.0)))
+    assert "non-finite" in res.stop_reason or "integrator failed" in res.stop_reason
+    assert res.alive.sum() < 9
+
+
+def test_t_max_keeps_measured_peaks():
+    res = simulate(20, 1.5, 1.0, (1, 9), t_max=3.0)
+    assert res.stop_reason.startswith("t_max reached")
+    assert res.alive[:2].all() and not res.alive[2:].any()
+    assert np.isnan(res.peaks[2:]).all() and np.isfinite(res.peaks[:2]).all()
+
+
+def test_reports_only_requested_range():
+    res = simulate(30, 1.5, 1.0, (10, 12))
+    full = simulate(30, 1.5, 1.0, (1, 12))
+    assert list(res.contacts) == [10, 11, 12]
+    assert np.array_equal(res.peaks, full.peaks[9:])
+
+
+@pytest.mark.parametrize(
+    "kwargs, pattern",
+    [
+        (dict(beads=1), "beads"),
+        (dict(beads=10.5), "beads"),
+        (dict(exponent=1.0), "exponent"),
+        (dict(exponent=float("nan")), "exponent"),
+        (dict(velocity=float("inf")), "velocity"),
+        (dict(velocity=0.0), "velocity"),
+        (dict(velocity=-1.0), "velocity"),
+        (dict(contacts=(0, 5)), "contacts"),
+        (dict(contacts=(5, 20)), "contacts"),
+        (dict(contacts=(6, 5)), "contacts"),
+        (dict(contacts=(1.5, 5)), "contacts"),
+        (dict(contacts=5), "contacts"),
+        (dict(rtol=0.0), "rtol"),
+        (dict(atol=-1.0), "atol"),
+        (dict(method="Euler"), "method"),
+        (dict(peak_fraction=1.5), "peak_fraction"),
+        (dict(death_fraction=-0.1), "death_fraction"),
+        (dict(t_max=-1.0), "t_max"),
+        (dict(stall_factor=0.5), "stall_factor"),
+    ],
+)
+def test_bad_arguments(kwargs, pattern):
+    args = dict(beads=20, exponent=1.5, velocity=1.0, contacts=(1, 5))
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=pattern):
+        simulate(**args)
