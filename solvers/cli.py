@@ -50,6 +50,36 @@ def cmd_profile(args: argparse.Namespace) -> int:
     return 0
 
 
+# ------------------------------------------------------------------------------ derive
+def cmd_derive(args: argparse.Namespace) -> int:
+    """``pulsemap derive``: expansion, map (Eq. 23), long-wave law (Eq. 30), Eq. 41."""
+    from derive.derivation import derive_all, to_json, to_latex, to_text
+    from derive.perturbation import make_perturbation, parse_cli_param
+
+    params = {}
+    for text in args.param:
+        name, value = parse_cli_param(text)
+        if name in params:
+            raise UsageError(f"--param {name} given twice")
+        params[name] = value
+    pert = make_perturbation(args.expr, args.eps, params)
+    d = derive_all(
+        pert,
+        n=args.n,
+        profile=args.profile,
+        variant=args.variant,
+        fold=args.fold,
+        A0_value=args.A0,
+        i0=args.i0,
+        dps=args.dps,
+        sympy_seconds=args.sympy_seconds,
+    )
+    print(to_latex(d) if args.latex else to_text(d))
+    if args.json:
+        _write_json(args.json, to_json(d))
+    return 0
+
+
 # ------------------------------------------------------------------------------- main
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -66,12 +96,40 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dps", type=int, default=None, help="mpmath working precision (digits)")
     p.add_argument("--json", metavar="OUT", help="write the report as JSON ('-' for stdout)")
     p.set_defaults(func=cmd_profile)
+
+    p = sub.add_parser("derive", help="derive the map, long-wave law and stationary equation for R(u, v)")
+    p.add_argument("expr", metavar="EXPR", help='on-site perturbation R in u, v, i and parameters, e.g. "-mu*v"')
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="parameter value: a number, a comma list (per bead) or an expression of i")
+    p.add_argument("--eps", type=_positive_float, default=0.1, help="small parameter eps (default 0.1)")
+    p.add_argument("--n", type=_positive_float, default=1.5, help="contact exponent n > 1 (default 1.5)")
+    p.add_argument("--profile", default="exact", help="exact (default) or pade")
+    p.add_argument("--variant", default="paper", help="map variant: paper (default), corrected, 1d")
+    p.add_argument("--fold", metavar="NAME", help="locate the saddle-node of Eq. 41 in parameter NAME")
+    p.add_argument("--A0", type=_positive_float, default=None, help="initial amplitude for the law's singular index")
+    p.add_argument("--i0", type=_positive_float, default=0.0, help="contact index of A0 (default 0)")
+    p.add_argument("--dps", type=int, default=None, help="mpmath working precision (digits)")
+    p.add_argument("--sympy-seconds", type=_positive_float, default=2.0,
+                   help="time bound for sympy's closed-form integration (default 2 s)")
+    p.add_argument("--latex", action="store_true", help="print LaTeX instead of text")
+    p.add_argument("--json", metavar="OUT", help="write the derivation as JSON ('-' for stdout)")
+    p.set_defaults(func=cmd_derive)
     return parser
+
+
+def _protect_expressions(argv: list[str]) -> list[str]:
+    """Let an expression that starts with '-' (e.g. "-mu*v") pass as a positional argument."""
+    out = []
+    for arg in argv:
+        if arg.startswith("-") and not arg.startswith("--") and any(c in arg for c in "*()^/+ "):
+            arg = " " + arg  # argparse treats it as a value; the parser skips the space
+        out.append(arg)
+    return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_protect_expressions(list(sys.argv[1:] if argv is None else argv)))
     func: Callable[[argparse.Namespace], int] = args.func
     try:
         return func(args)

@@ -1,0 +1,321 @@
+"""From a perturbation R to the map (Eq. 23), the long-wave law (Eq. 30) and Eq. 41, in one call.
+
+``derive_all`` runs the pipeline expression -> expansion -> integrals (only those that occur)
+-> map -> law -> stationary equation and returns a :class:`Derivation`; ``to_json``,
+``to_text`` and ``to_latex`` render it. The JSON follows DESIGN.md ("derive" contract).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import sympy
+
+from .amplitude_map import EPS, AmplitudeMap, check_variant, latex_names
+from .expansion import Expansion, expand
+from .expression import symbol
+from .integrals import DEFAULT_DPS, F_NAMES, constants
+from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, longwave_law
+from .perturbation import Perturbation
+from .profile import check_exponent, check_profile_kind, get_profile
+from .stationary import Stationary, StationaryError, stationary
+
+
+class DerivationError(ValueError):
+    """The derivation cannot proceed as asked."""
+
+
+@dataclass(frozen=True)
+class Derivation:
+    """Everything derived for one perturbation, with the choices that produced it."""
+
+    perturbation: Perturbation
+    n: float
+    profile: str
+    variant: str
+    dps: int
+    S0: float
+    profile_accuracy: float
+    expansion: Expansion
+    constants: dict
+    errors: dict
+    amap: AmplitudeMap
+    longwave: LongwaveLaw | None
+    longwave_note: str
+    stationary: Stationary | None
+    stationary_note: str
+    A0: float | None = None
+    i0: float = 0.0
+    timings_s: dict = field(default_factory=dict)
+
+
+def site_dependent_params(pert: Perturbation) -> tuple[str, ...]:
+    """Parameters of R whose values vary along the chain (lists, draws, expressions of i)."""
+    out = []
+    for name in pert.used_parameters:
+        value = pert.params[name]
+        if not isinstance(value, (int, float)):
+            out.append(name)
+    return tuple(out)
+
+
+def derive_all(
+    pert: Perturbation,
+    n: float = 1.5,
+    profile: str = "exact",
+    variant: str = "paper",
+    fold: str | None = None,
+    A0_value: float | None = None,
+    i0: float = 0.0,
+    dps: int | None = None,
+    sympy_seconds: float = 2.0,
+) -> Derivation:
+    """Derive the map, the long-wave law and the stationary equation for ``pert`` (Eqs. 9-41)."""
+    times: dict[str, float] = {}
+    t0 = time.perf_counter()
+    n = check_exponent(n)
+    profile = check_profile_kind(profile)
+    variant = check_variant(variant)
+    site = site_dependent_params(pert)
+    ex = expand(pert.R, n, site)
+    times["expansion"] = time.perf_counter() - t0
+
+    t1 = time.perf_counter()
+    names = list(F_NAMES) + list(ex.integrals())
+    consts = constants(names, n=n, profile=profile, dps=dps)
+    values = {k: c.value for k, c in consts.items()}
+    errors = {k: c.error for k, c in consts.items()}
+    prof = get_profile(profile, n)
+    times["integrals"] = time.perf_counter() - t1
+
+    t2 = time.perf_counter()
+    scalars = {symbol(k): sympy.Rational(repr(float(v))) for k, v in pert.params.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    amap = AmplitudeMap(ex.n, variant, ex, values, scalars)
+    law, law_note = None, ""
+    try:
+        law = longwave_law(amap, float(pert.eps), seconds=sympy_seconds)
+    except LongwaveError as exc:
+        law_note = str(exc)
+    times["longwave"] = time.perf_counter() - t2
+
+    t3 = time.perf_counter()
+    stat, stat_note = None, ""
+    if site:
+        stat_note = "Eq. 41 needs a uniform perturbation (site-dependent parameters: " + ", ".join(site) + ")"
+        if fold:
+            raise DerivationError(f"--fold {fold}: the perturbation is site-dependent, Eq. 41 needs uniform R")
+    else:
+        try:
+            stat = stationary(amap, scalars, prof.S0, fold=fold)
+        except StationaryError as exc:
+            if fold:
+                raise
+            stat_note = str(exc)
+    times["stationary"] = time.perf_counter() - t3
+    times["total"] = time.perf_counter() - t0
+    return Derivation(
+        perturbation=pert,
+        n=n,
+        profile=profile,
+        variant=variant,
+        dps=dps if dps is not None else DEFAULT_DPS[profile],
+        S0=prof.S0,
+        profile_accuracy=prof.accuracy,
+        expansion=ex,
+        constants=values,
+        errors=errors,
+        amap=amap,
+        longwave=law,
+        longwave_note=law_note,
+        stationary=stat,
+        stationary_note=stat_note,
+        A0=A0_value,
+        i0=i0,
+        timings_s=times,
+    )
+
+
+# ------------------------------------------------------------------------- rendering
+def _law_data(d: Derivation) -> dict | None:
+    law = d.longwave
+    if law is None:
+        return None
+    out = {
+        "kind": law.kind,
+        "ode": str(law.ode()),
+        "ode_numeric": str(law.ode(symbolic=False)),
+        "B": f"A**({law.P})",
+        "terms": [
+            {"power_of_B": str(p), "coefficient": str(cs), "value": c}
+            for p, c, cs in zip(law.powers, law.coefficients, law.symbolic_coefficients)
+        ],
+        "f1_minus_f3": law.f1_minus_f3,
+        "eps": law.eps,
+        "law": str(law.law) if law.law is not None else None,
+        "law_numeric": str(law.numeric_law()) if law.law is not None else None,
+        "rate_k": law.rate() if len(law.powers) == 1 else None,
+        "implicit_i_of_A": str(law.implicit) if law.implicit is not None else None,
+    }
+    if d.A0 is not None:
+        index, what = law.singular_index(d.A0, d.i0)
+        out["A0"] = d.A0
+        out["i0"] = d.i0
+        out["singular_index"] = index
+        out["singular_kind"] = what
+    return out
+
+
+def to_json(d: Derivation) -> dict:
+    """The derivation as JSON-serialisable data (DESIGN.md "derive" contract)."""
+    pert = d.perturbation
+    st = d.stationary
+    stationary_data = None
+    if st is not None:
+        stationary_data = {
+            "equation": str(st.equation) + " = 0",
+            "equation_numeric": str(st.numeric) + " = 0",
+            "roots": [{"A": r, "peak": r * d.S0} for r in st.roots],
+        }
+        if st.fold is not None:
+            f = st.fold
+            stationary_data["fold"] = {"param": f.param, "value": f.value, "A": f.A, "peak": f.peak, "kind": f.kind}
+            stationary_data["folds"] = [
+                {"param": x.param, "value": x.value, "A": x.A, "peak": x.peak, "kind": x.kind} for x in st.folds
+            ]
+    return {
+        "expression": pert.text,
+        "R": str(pert.R),
+        "eps": pert.eps,
+        "params": {k: _param_json(v) for k, v in pert.params.items()},
+        "n": d.n,
+        "profile": d.profile,
+        "variant": d.variant,
+        "dps": d.dps,
+        "profile_accuracy": d.profile_accuracy,
+        "S0": d.S0,
+        **{k: d.constants[k] for k in F_NAMES},
+        "constant_errors": d.errors,
+        "g_i": str(d.expansion.g1),
+        "g_ip1": str(d.expansion.g2),
+        "monomials": [
+            {
+                "equation": t.equation,
+                "exponents": list(t.exponents),
+                "monomial": str(t.monomial),
+                "coefficient": str(t.coefficient),
+                "integral": t.integral,
+                "integral_value": d.constants[t.integral],
+                "power_of_A": str(t.power),
+            }
+            for t in d.expansion.terms
+        ],
+        "site_dependent": list(d.expansion.site_dependent),
+        "map": {
+            **d.amap.as_data(),
+            "equations": [str(e) + " = 0" for e in d.amap.equations()],
+            "equations_numeric": [str(e) + " = 0" for e in d.amap.equations(numeric=True)],
+        },
+        "longwave": _law_data(d),
+        "longwave_note": d.longwave_note or None,
+        "stationary": stationary_data,
+        "stationary_note": d.stationary_note or None,
+        "timings_s": {k: round(v, 6) for k, v in d.timings_s.items()},
+    }
+
+
+def _param_json(value):
+    if isinstance(value, (int, float, str)):
+        return value
+    if isinstance(value, tuple):
+        return list(value)
+    if hasattr(value, "text"):
+        return value.text
+    if hasattr(value, "seed"):
+        return {"uniform": [value.low, value.high], "seed": value.seed}
+    return repr(value)
+
+
+def to_text(d: Derivation) -> str:
+    """A readable report of the derivation."""
+    pert = d.perturbation
+    lines = [
+        f"R(u, v) = {pert.R}    eps = {pert.eps:g}    n = {d.n:g}    profile = {d.profile}    map variant = {d.variant}",
+        f"S(0) = {d.S0:.12g}; constants with mpmath dps {d.dps} (profile accuracy {d.profile_accuracy:.1e})",
+        "",
+        "Expansion (Eqs. 9, 12): delta_i, delta_ip1 are the contact strains, v_i, v_ip1 their rates",
+        f"  g_i     = {d.expansion.g1}",
+        f"  g_(i+1) = {d.expansion.g2}",
+        "  monomial -> coefficient x integral x A^power:",
+    ]
+    for t in d.expansion.terms:
+        amp = "A_i" if t.equation == 1 else "A_(i+1)"
+        lines.append(
+            f"    [eq {t.equation}] {str(t.monomial):28s} {str(t.coefficient):>12s} x {t.integral} "
+            f"(= {d.constants[t.integral]:.12g}) x {amp}^({t.power})"
+        )
+    lines += ["", f"Amplitude map (Eq. 23, variant '{d.variant}'):"]
+    for e, en in zip(d.amap.equations(), d.amap.equations(numeric=True)):
+        lines.append(f"  0 = {e}")
+        lines.append(f"    = {en}")
+    lines.append("")
+    if d.longwave is not None:
+        law = d.longwave
+        lines.append(f"Long-wave ODE (Eq. 30), B = A^({law.P}):")
+        lines.append(f"  {law.ode()}")
+        lines.append(f"  {law.ode(symbolic=False)}")
+        if law.law is not None:
+            lines.append(f"Amplitude law ({law.kind}), k = eps*C/(f1 - f3) = {law.rate():.12g}:")
+            lines.append(f"  A(i) = {law.law}")
+        elif law.implicit is not None:
+            lines.append("Amplitude law (Eq. 31a integrated in closed form, implicit):")
+            lines.append(f"  i(A) = {law.implicit}")
+        elif law.kind == "constant":
+            lines.append("Amplitude law: A constant (no forcing of contact i)")
+        else:
+            lines.append("Amplitude law: Eq. 31a by numerical quadrature (no closed form within the time bound)")
+        if d.A0 is not None:
+            index, what = law.singular_index(d.A0, d.i0)
+            where = f"at contact index {index:.6g}" if index is not None else ""
+            lines.append(f"  from A0 = {d.A0:g} at i0 = {d.i0:g}: {what} {where}".rstrip())
+    else:
+        lines.append(f"Long-wave law: not available ({d.longwave_note})")
+    lines.append("")
+    if d.stationary is not None:
+        st = d.stationary
+        lines.append("Stationary shocks (Eq. 41):")
+        lines.append(f"  0 = {st.equation}")
+        lines.append(f"    = {st.numeric}")
+        if st.roots:
+            for r in st.roots:
+                lines.append(f"  root A = {r:.12g}   peak A S(0) = {r * d.S0:.12g}")
+        else:
+            lines.append("  no positive root")
+        if st.fold is not None:
+            f = st.fold
+            lines.append(
+                f"  saddle-node in {f.param}: {f.param} = {f.value:.10g} at A = {f.A:.10g} "
+                f"(peak {f.peak:.10g}); roots exist for {f.param} {'above' if f.kind == 'minimum' else 'below'} it"
+            )
+    else:
+        lines.append(f"Stationary shocks: not available ({d.stationary_note})")
+    return "\n".join(lines)
+
+
+def to_latex(d: Derivation) -> str:
+    """The map, the long-wave ODE and law, and Eq. 41 in LaTeX."""
+    names = latex_names(list(d.constants))
+    lx = lambda e: sympy.latex(e, symbol_names=names)  # noqa: E731
+    out = [r"% pulsemap derivation: R = " + str(d.perturbation.R)]
+    for k, e in enumerate(d.amap.equations(), 1):
+        out.append(rf"0 = {lx(e)} \tag{{23.{k}}}")
+    if d.longwave is not None:
+        out.append(lx(d.longwave.ode()))
+        if d.longwave.law is not None:
+            out.append(rf"A(i) = {lx(d.longwave.law)}")
+    if d.stationary is not None:
+        out.append(rf"0 = {lx(d.stationary.equation)} \tag{{41}}")
+    return "\n".join(out)
+
+
+__all__ = ["Derivation", "DerivationError", "derive_all", "to_json", "to_text", "to_latex", "A0", "I", "I0", "EPS"]

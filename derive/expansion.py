@@ -1,0 +1,146 @@
+"""Expansion of the on-site perturbation into monomials of the travelling-wave ansatz (Eqs. 9-12, 23).
+
+With u_i ~ delta_i + delta_{i+1} on (-inf, T_i] (Eq. 9) the forcing of contact i is
+
+    g_i     = R_i(delta_i + delta_{i+1}, v_i + v_{i+1}) - R_{i+1}(delta_{i+1}, v_{i+1})   (Eq. 12)
+    g_{i+1} = R_{i+1}(delta_{i+1}, v_{i+1}) - R_{i+2}(0, 0)                             (Eq. 21)
+
+(v = delta'). A monomial delta_i^k delta_{i+1}^l v_i^m v_{i+1}^q of g_i integrates, with
+delta_j = A S(A^s t - j), to A^(k + l + (1 + s)(m + q) - s) g^(1)_klmq; a monomial
+delta_{i+1}^p v_{i+1}^r of g_{i+1} to A_{i+1}^(p + (1 + s) r - s) g^(2)_pr, s = (n - 1)/2.
+
+Site-dependent parameters (per-bead values, or R depending on i) keep their bead: parameter
+``k`` of bead i is the symbol ``k_i``, of bead i+1 ``k_ip1`` (printed k_{i+1}).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable
+
+import sympy
+
+from .expression import symbol
+from .integrals import g1_name, g2_name
+
+#: The ansatz symbols: delta_i, delta_{i+1}, delta_i', delta_{i+1}'.
+D0, D1, W0, W1 = sympy.symbols("delta_i delta_ip1 v_i v_ip1", real=True)
+
+
+class ExpansionError(ValueError):
+    """R cannot be expanded into the monomials of Eq. 23 (and why)."""
+
+
+@dataclass(frozen=True)
+class Term:
+    """One monomial of the map: coefficient * A^power * integral (Eq. 23)."""
+
+    equation: int  # 1: contact i (g^(1)); 2: auxiliary, contact i+1 (g^(2))
+    exponents: tuple[int, ...]  # (k, l, m, q) or (p, r)
+    coefficient: sympy.Expr  # in the parameters (bead-indexed when site-dependent)
+    integral: str  # g1_klmq or g2_pr
+    power: sympy.Rational  # of A_i (equation 1) or A_{i+1} (equation 2)
+
+    @property
+    def monomial(self) -> sympy.Expr:
+        """The monomial of the ansatz symbols this term comes from."""
+        if self.equation == 1:
+            k, l, m, q = self.exponents
+            return D0**k * D1**l * W0**m * W1**q
+        p, r = self.exponents
+        return D1**p * W1**r
+
+
+@dataclass(frozen=True)
+class Expansion:
+    """g_i and g_{i+1} of Eq. 12/21 and their monomials."""
+
+    R: sympy.Expr
+    n: sympy.Rational
+    g1: sympy.Expr  # g_i in D0, D1, W0, W1
+    g2: sympy.Expr  # g_{i+1} in D1, W1
+    terms: tuple[Term, ...]
+    site_dependent: tuple[str, ...]  # parameters that carry a bead index
+
+    @property
+    def s(self) -> sympy.Rational:
+        return (self.n - 1) / 2
+
+    def integrals(self) -> tuple[str, ...]:
+        """The integrals that occur (only these are ever computed)."""
+        return tuple(dict.fromkeys(t.integral for t in self.terms))
+
+    def equation_terms(self, equation: int) -> tuple[Term, ...]:
+        return tuple(t for t in self.terms if t.equation == equation)
+
+
+def exact_exponent(n: float | int | sympy.Rational | str) -> sympy.Rational:
+    """n as an exact rational (1.5 -> 3/2), for exact powers of A."""
+    if isinstance(n, sympy.Rational):
+        return n
+    value = sympy.Rational(str(n)) if not isinstance(n, int) else sympy.Integer(n)
+    if value <= 1:
+        raise ExpansionError(f"exponent n must be > 1, got {n}")
+    return value
+
+
+def bead_symbol(name: str, offset: int) -> sympy.Symbol:
+    """Parameter ``name`` at bead i + offset (offset 0, 1, 2)."""
+    suffix = {0: "_i", 1: "_ip1", 2: "_ip2"}[offset]
+    return sympy.Symbol(name + suffix, real=True)
+
+
+def _at_bead(R: sympy.Expr, offset: int, site_dependent: Iterable[str]) -> sympy.Expr:
+    """R_{i+offset}: i -> i + offset and site-dependent parameters -> their bead symbols."""
+    sub = {symbol(name): bead_symbol(name, offset) for name in site_dependent}
+    if offset:
+        sub[symbol("i")] = symbol("i") + offset
+    return R.xreplace(sub) if sub else R
+
+
+def _check_polynomial(R: sympy.Expr) -> None:
+    u, v = symbol("u"), symbol("v")
+    if not R.is_polynomial(u, v):
+        bad = [
+            a
+            for a in sympy.Add.make_args(sympy.expand(R))
+            if not a.is_polynomial(u, v)
+        ]
+        raise ExpansionError(
+            f"R = {R} is not a polynomial in u, v (term {bad[0] if bad else R}): the map of "
+            "Eq. 23 needs polynomial R (Eq. 10); Taylor-expand it (e.g. sin(u) -> u - u**3/6)"
+        )
+    at_rest = sympy.simplify(R.xreplace({u: 0, v: 0}))
+    if at_rest != 0:
+        raise ExpansionError(
+            f"R(0, 0) = {at_rest} is not zero: a constant on-site force moves the chain before "
+            "the pulse arrives and makes the integrals of Eq. 23 diverge; subtract it from R"
+        )
+
+
+def expand(
+    R: sympy.Expr, n: float | sympy.Rational = 1.5, site_dependent: Iterable[str] = ()
+) -> Expansion:
+    """Expand R (polynomial in u, v) into the monomials of Eq. 23 for exponent n."""
+    n_exact = exact_exponent(n)
+    site = tuple(sorted(site_dependent))
+    _check_polynomial(R)
+    u, v = symbol("u"), symbol("v")
+    r_i = _at_bead(R, 0, site)
+    r_ip1 = _at_bead(R, 1, site)
+    g_i = sympy.expand(r_i.xreplace({u: D0 + D1, v: W0 + W1}) - r_ip1.xreplace({u: D1, v: W1}))
+    g_ip1 = sympy.expand(r_ip1.xreplace({u: D1, v: W1}))
+    s = (n_exact - 1) / 2
+    terms: list[Term] = []
+    for (k, l, m, q), coeff in sympy.Poly(g_i, D0, D1, W0, W1).terms():
+        coeff = sympy.factor_terms(coeff)
+        if coeff == 0:
+            continue
+        terms.append(Term(1, (k, l, m, q), coeff, g1_name(k, l, m, q), k + l + (1 + s) * (m + q) - s))
+    for (p, r), coeff in sympy.Poly(g_ip1, D1, W1).terms():
+        coeff = sympy.factor_terms(coeff)
+        if coeff == 0:
+            continue
+        terms.append(Term(2, (p, r), coeff, g2_name(p, r), p + (1 + s) * r - s))
+    terms.sort(key=lambda t: (t.equation, t.power, t.exponents))
+    return Expansion(R=R, n=n_exact, g1=g_i, g2=g_ip1, terms=tuple(terms), site_dependent=site)

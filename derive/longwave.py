@@ -1,0 +1,172 @@
+"""The long-wave limit of the map (Eqs. 27-31) and its amplitude law A(i).
+
+For a uniform perturbation, with B = A^P, P = (n + 1)/2, and B_{i+-1} = B +- B' (Eq. 28) in the
+first map equation (the contact terms cancel since f1 - 2 f2 + f3 = 0):
+
+    (f1 - f3) dB/di = eps sum_p C_p B^p,   C_p = sum_j c_j g^(1)_j over terms of A-power P p  (Eq. 30)
+
+One power: separation of variables gives a power law (or an exponential for p = 1) in closed
+form. Several powers: i - i0 = (f1 - f3)/eps int_{B0}^{B} dB / sum_p C_p B^p (Eq. 31a), in
+closed form when sympy integrates it within a time bound, else by quadrature. Every law is
+derived here, never copied from the paper (ERRATA items 1-3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mpmath
+import sympy
+
+from .amplitude_map import EPS, F_SYMBOLS, AmplitudeMap
+from .timebox import bounded
+
+B = sympy.Symbol("B", positive=True)
+A = sympy.Symbol("A", positive=True)
+A0 = sympy.Symbol("A_0", positive=True)
+B0 = sympy.Symbol("B_0", positive=True)
+I = sympy.Symbol("i", real=True)  # the continuous contact index ("t" in Eqs. 31, 36)
+I0 = sympy.Symbol("i_0", real=True)
+
+
+class LongwaveError(ValueError):
+    """The long-wave law cannot be formed (site-dependent R, no perturbation)."""
+
+
+@dataclass(frozen=True)
+class LongwaveLaw:
+    """Eq. 30 and its solution for one uniform perturbation."""
+
+    P: sympy.Rational
+    powers: tuple[sympy.Rational, ...]  # powers p of B on the right-hand side
+    coefficients: tuple[float, ...]  # numeric C_p
+    symbolic_coefficients: tuple[sympy.Expr, ...]  # C_p with integrals as symbols
+    f1_minus_f3: float
+    eps: float
+    kind: str  # "power law", "exponential", "implicit", "quadrature", "constant"
+    law: sympy.Expr | None  # A(i) in A_0, i, i_0 (power law / exponential), symbolic constants
+    implicit: sympy.Expr | None  # i(A) for the implicit kind (numeric constants)
+
+    # --------------------------------------------------------------- equations
+    def ode(self, symbolic: bool = True) -> sympy.Eq:
+        """(f1 - f3) dB/di = eps sum C_p B^p, B = A^P (Eq. 30)."""
+        Bf = sympy.Function("B")(I)
+        cs = self.symbolic_coefficients if symbolic else [sympy.Float(c, 15) for c in self.coefficients]
+        lhs = (F_SYMBOLS["f1"] - F_SYMBOLS["f3"]) if symbolic else sympy.Float(self.f1_minus_f3, 15)
+        rhs = (EPS if symbolic else sympy.Float(self.eps, 15)) * sum(
+            (c * Bf**p for c, p in zip(cs, self.powers)), sympy.Integer(0)
+        )
+        return sympy.Eq(lhs * Bf.diff(I), rhs)
+
+    def rate(self) -> float:
+        """k = eps C / (f1 - f3) for a single power."""
+        return self.eps * self.coefficients[0] / self.f1_minus_f3
+
+    def numeric_law(self) -> sympy.Expr | None:
+        """The closed-form A(i) with all constants numeric (A_0, i_0 symbolic)."""
+        if self.law is None:
+            return None
+        return self.law.xreplace(self._numeric_subs())
+
+    def _numeric_subs(self) -> dict:
+        return {sympy.Symbol("k", real=True): sympy.Float(self.rate(), 17)}
+
+    # ------------------------------------------------------------ singular index
+    def singular_index(self, a0: float, i0: float = 0.0) -> tuple[float | None, str]:
+        """(index, what) where the law reaches A = 0 ("extinction") or A = inf ("blow-up").
+
+        None with the reason when neither happens at a finite index.
+        """
+        if self.kind == "constant":
+            return None, "no perturbation of contact i: A stays constant"
+        if a0 <= 0:
+            raise LongwaveError(f"the initial amplitude A0 must be > 0, got {a0}")
+        P = float(self.P)
+        if len(self.powers) == 1:
+            p = float(self.powers[0])
+            k = self.rate()
+            if k == 0:
+                return None, "zero coefficient: A stays constant"
+            if p == 1.0:
+                return None, "exponential law: no finite-index singularity"
+            base0 = a0 ** (P * (1 - p))
+            index = i0 - base0 / ((1 - p) * k)
+            if index <= i0:
+                return None, ("decays algebraically" if k < 0 else "grows algebraically") + ", never singular"
+            return index, "extinction (A -> 0)" if 1 - p > 0 else "blow-up (A -> inf)"
+        return self._singular_by_quadrature(a0, i0)
+
+    def _rhs(self, b):
+        return sum(c * b ** float(p) for c, p in zip(self.coefficients, self.powers))
+
+    def _singular_by_quadrature(self, a0: float, i0: float):
+        """Eq. 31a by quadrature: the index where B reaches 0 or infinity, if finite."""
+        b0 = a0 ** float(self.P)
+        scale = self.f1_minus_f3 / self.eps
+        f0 = self._rhs(b0)
+        if f0 == 0:
+            return None, "A0 is a stationary amplitude"
+        # the nearest zero of the right-hand side in the direction of motion stops B
+        grid = [b0 * 10 ** (k / 50) for k in range(-800, 801)]
+        ahead = [b for b in grid if (b < b0 if f0 < 0 else b > b0)]
+        ahead.sort(reverse=f0 < 0)
+        for b in ahead:
+            if (self._rhs(b) > 0) != (f0 > 0):
+                return None, "approaches a stationary amplitude (a root of Eq. 41) asymptotically"
+        end = 0 if f0 < 0 else mpmath.inf
+        with mpmath.workdps(20):
+            try:
+                span = mpmath.quad(lambda b: 1 / self._rhs(b), [b0, end] if f0 > 0 else [end, b0])
+            except (ZeroDivisionError, ValueError):
+                return None, "quadrature of Eq. 31a failed"
+        span = abs(float(span)) * scale
+        if not mpmath.isfinite(span) or span > 1e12:
+            return None, "never singular at a finite index"
+        return i0 + span, "extinction (A -> 0)" if f0 < 0 else "blow-up (A -> inf)"
+
+
+def _integrate(expr, var):
+    return sympy.integrate(expr, var)
+
+
+def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> LongwaveLaw:
+    """Form Eq. 30 from the map's first equation and solve it (closed form where possible)."""
+    if amap.expansion.site_dependent or sympy.Symbol("i", real=True) in amap.expansion.R.free_symbols:
+        raise LongwaveError(
+            "the long-wave law (Eq. 30) needs a uniform perturbation; this R is site-dependent "
+            "(per-bead parameters or i): iterate the map instead"
+        )
+    P = amap.P
+    terms = [t for t in amap.power_terms(1) if t.value != 0]
+    f13 = float(amap.constants["f1"] - amap.constants["f3"])
+    powers = tuple(t.power / P for t in terms)
+    coeffs = tuple(float(t.value) for t in terms)
+    symb = tuple(t.coefficient for t in terms)
+    if not terms:
+        return LongwaveLaw(P, (), (), (), f13, eps, "constant", A0 + 0 * I, None)
+    if len(terms) == 1:
+        p = powers[0]
+        # separation of variables: int B^-p dB = k (i - i0), with sympy
+        k = sympy.Symbol("k", real=True)
+        G = sympy.integrate(B**-p, B)
+        if p == 1:
+            # G = log(B): B = B0 exp(k (i - i0))
+            law_B = B0 * sympy.exp(k * (I - I0))
+            kind = "exponential"
+        else:
+            # G(B) = B^(1-p)/(1-p): B^(1-p) = B0^(1-p) + (1-p) k (i - i0)
+            lhs = sympy.expand(G * (1 - p))  # = B^(1-p)
+            assert lhs == B ** (1 - p), lhs
+            law_B = (B0 ** (1 - p) + (1 - p) * k * (I - I0)) ** (1 / (1 - p))
+            kind = "power law"
+        law_A = sympy.powsimp(sympy.powdenest(law_B.xreplace({B0: A0**P}) ** (1 / P), force=True), force=True)
+        return LongwaveLaw(P, powers, coeffs, symb, f13, eps, kind, law_A, None)
+    # several powers: Eq. 31a, closed form if sympy finds one in time
+    F = sum((sympy.nsimplify(c, rational=False) * B**p for c, p in zip(coeffs, powers)), sympy.Integer(0))
+    G = bounded(_integrate, (1 / F, B), seconds)
+    implicit = None
+    kind = "quadrature"
+    if G is not None and not G.has(sympy.Integral):
+        implicit = sympy.Float(f13 / eps, 17) * (G.xreplace({B: A**P}) - G.xreplace({B: A0**P})) + I0
+        kind = "implicit"
+    return LongwaveLaw(P, powers, coeffs, symb, f13, eps, kind, None, implicit)
