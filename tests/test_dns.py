@@ -134,6 +134,22 @@ def test_scan_step_skips_subthreshold_wiggle():
     assert found[0].value == pytest.approx(1e-15, rel=1e-12)
 
 
+def test_noisy_rest_state_gives_no_early_peaks():
+    """Beads ahead of the pulse oscillate at ~1e-10 (offset foundation): no peak is taken
+    from that noise, whatever the acceptance fraction, and peak times stay ordered."""
+    beads = 40
+    offsets = np.random.default_rng(3).uniform(-1e-10, 1e-10, beads)
+    noisy = OnSiteForce(lambda x, v: -0.2 * (x - offsets))
+    clean = OnSiteForce(lambda x, v: -0.2 * x)
+    ref = simulate(beads, 1.5, 1.0, (1, 30), clean)
+    for fraction in (1e-2, 1e-300):
+        res = simulate(beads, 1.5, 1.0, (1, 30), noisy, peak_fraction=fraction)
+        assert res.alive.all()
+        assert np.all(np.diff(res.peak_times) > 0.5)
+        assert rel(res.peaks, ref.peaks) < 1e-6
+        assert rel(res.peak_times, ref.peak_times) < 1e-6
+
+
 # ----------------------------------------------------------------------------- damped chain
 
 
@@ -173,6 +189,18 @@ def test_damped_peaks_decrease_and_pulse_dies():
     assert not res.alive[-1] and np.isnan(res.peaks[-1])
     dead = ~res.alive
     assert np.all(dead[np.argmax(dead):])  # once dead, dead for good
+
+
+def test_amplitude_death_keeps_the_dying_peak():
+    """A peak below death_fraction x the first requested peak ends the run at that contact."""
+    beads = chain_length_for(40)
+    res = simulate(beads, 1.5, 1.0, (16, 40), damping(0.3, beads), death_fraction=0.5)
+    assert res.stop_reason.startswith("pulse died at contact")
+    k = int(res.stop_reason.split()[4])
+    i = k - 16
+    assert res.peaks[i] < 0.5 * res.peaks[0] <= res.peaks[i - 1]
+    assert res.alive[:i].all() and not res.alive[i:].any()
+    assert np.isfinite(res.peaks[: i + 1]).all() and np.isnan(res.peaks[i + 1 :]).all()
 
 
 def test_strong_damping_finishes_quickly_with_implicit_method():
@@ -297,3 +325,13 @@ def test_bad_arguments(kwargs, pattern):
     args.update(kwargs)
     with pytest.raises(ValueError, match=pattern):
         simulate(**args)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["LSODA", "BDF", "Radau"])
+def test_long_chain_methods_agree(method):
+    """140 beads to contact 120 (the paper's chain), implicit vs DOP853 at rtol 1e-10."""
+    ref = simulate(140, 1.5, 1.0, (1, 120), method="DOP853")
+    res = simulate(140, 1.5, 1.0, (1, 120), method=method)
+    assert res.alive.all() and rel(res.peaks, ref.peaks) < 1e-6
+    assert res.energy_drift < 1e-6
