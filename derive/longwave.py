@@ -137,10 +137,11 @@ def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> Longwa
             "(per-bead parameters or i): iterate the map instead"
         )
     P = amap.P
-    terms = [t for t in amap.power_terms(1) if t.value != 0]
+    terms = [t for t in amap.power_terms(1) if t.value != 0 and t.coefficient != 0]
     f13 = float(amap.constants["f1"] - amap.constants["f3"])
     powers = tuple(t.power / P for t in terms)
-    coeffs = tuple(float(t.value) for t in terms)
+    # numeric C_p when every parameter has a value; None entries when parameters stay symbolic
+    coeffs = tuple(float(t.value) if t.value is not None else None for t in terms)
     symb = tuple(t.coefficient for t in terms)
     if not terms:
         return LongwaveLaw(P, (), (), (), f13, eps, "constant", A0 + 0 * I, None)
@@ -162,6 +163,8 @@ def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> Longwa
         law_A = sympy.powsimp(sympy.powdenest(law_B.xreplace({B0: A0**P}) ** (1 / P), force=True), force=True)
         return LongwaveLaw(P, powers, coeffs, symb, f13, eps, kind, law_A, None)
     # several powers: Eq. 31a, closed form if sympy finds one in time
+    if any(c is None for c in coeffs):
+        return LongwaveLaw(P, powers, coeffs, symb, f13, eps, "quadrature", None, None)
     F = sum((sympy.nsimplify(c, rational=False) * B**p for c, p in zip(coeffs, powers)), sympy.Integer(0))
     G = bounded(_integrate, (1 / F, B), seconds)
     implicit = None

@@ -1,0 +1,76 @@
+"""Load the generated modules (generated/ or the cache) a scene needs, by their source hash.
+
+Looking a module up never imports sympy; only when the module is missing is ``derive`` called to
+write it (opty's habit: generated code carries the hash of its source, so stale code is never
+used and never silently rebuilt).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+from pathlib import Path
+from types import ModuleType
+
+from derive.cache import cache_dir
+from derive.sources import ForceSource, MapSource, module_name
+
+PACKAGE_DIR = Path(__file__).resolve().parent.parent / "generated"
+
+
+def _dirs() -> list[Path]:
+    return [PACKAGE_DIR, cache_dir() / "generated"]
+
+
+def _load_path(path: Path) -> ModuleType:
+    text = path.read_text(encoding="utf-8")
+    first = text.find('"""')
+    end = text.find('"""\n', first + 3)
+    head, body = text[: end + 4], text[end + 4 :]
+    expected = next((ln.split(": ", 1)[1] for ln in head.splitlines() if ln.startswith("content-hash: ")), None)
+    if expected is None or hashlib.sha256(body.encode()).hexdigest() != expected:
+        raise RuntimeError(
+            f"generated module {path} does not match its content-hash (edited by hand?): delete it "
+            "and rerun to regenerate"
+        )
+    spec = importlib.util.spec_from_file_location(f"pulsemap_generated_{path.stem}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)  # our own generated, hash-checked file
+    return module
+
+
+def load_by_name(name: str) -> ModuleType:
+    """Load generated module ``name`` (e.g. ``map_0123abcd...``) from generated/ or the cache."""
+    for folder in _dirs():
+        path = folder / f"{name}.py"
+        if path.is_file():
+            return _load_path(path)
+    raise FileNotFoundError(f"no generated module {name}: run the scene once to generate it")
+
+
+def _ensure(source) -> ModuleType:
+    name = module_name(source)
+    for folder in _dirs():
+        path = folder / f"{name}.py"
+        if path.is_file():
+            return _load_path(path)
+    from derive import codegen  # only now: the code is missing and must be generated
+
+    return _load_path(codegen.write(source))
+
+
+def map_module(R_text: str, params, n: float, profile: str = "exact", variant: str = "paper",
+               site_dependent=()) -> ModuleType:
+    """The generated map module (Eq. 23, one variant) for this source, generating it if missing."""
+    from derive.sources import VARIANTS
+
+    if variant not in VARIANTS:
+        raise ValueError(f"unknown map variant {variant!r}: choose one of {', '.join(VARIANTS)}")
+    if profile not in ("exact", "pade"):
+        raise ValueError(f"unknown profile {profile!r}: choose one of exact, pade")
+    return _ensure(MapSource.of(R_text, params, n, profile, variant, site_dependent))
+
+
+def force_module(R_text: str, params) -> ModuleType:
+    """The generated on-site force module for R, generating it if missing."""
+    return _ensure(ForceSource.of(R_text, params))

@@ -1,0 +1,208 @@
+"""Iterate the amplitude map of Eq. 23 along the chain (generated residuals and Jacobian).
+
+At contact i, with A_{i-1} known, solve F1 = F2 = 0 for (A_i, A_{i+1}) (variants ``paper``,
+``corrected``) or F1 = 0 for A_i (variant ``1d``), keep A_i, and move on (the three-stage scheme
+after Eq. 23). Newton's method in log-amplitudes with the generated Jacobian; when it fails, a
+bracketing fallback (eliminate A_{i+1} from F2, then bisect F1 in A_i). When no positive root
+exists, or A falls below ``death_fraction`` of its seed, the pulse has died: the iteration stops
+at that contact and says so.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from types import ModuleType
+from typing import Mapping
+
+import numpy as np
+from scipy.optimize import brentq
+
+Array = np.ndarray
+
+
+class MapIterationError(ValueError):
+    """Bad arguments to the map iteration."""
+
+
+@dataclass(frozen=True)
+class MapRun:
+    """Amplitudes A_i (and peaks A_i S(0), Eq. 32) of the contacts the map reached."""
+
+    contacts: Array  # contacts with a value (first..stopped)
+    A: Array
+    peaks: Array
+    status: str  # "ok", "died"
+    message: str
+    variant: str
+    profile: str
+    seed_A: float
+    seed_contact: int
+    fallbacks: int  # steps where Newton failed and bracketing was used
+
+
+def contact_params(module: ModuleType, params: Mapping[str, object], contact: int) -> tuple:
+    """The generated functions' parameter arguments (after eps) at contact ``contact``.
+
+    ``params`` maps parameter names to a scalar or a per-bead array (bead k at index k - 1).
+    """
+    out = []
+    for name in module.PARAMS:
+        if name == "i":
+            out.append(float(contact))
+            continue
+        base, offset = name, 0
+        for suffix, off in (("_ip1", 1), ("_ip2", 2), ("_i", 0)):
+            if name.endswith(suffix) and name[: -len(suffix)] in params:
+                base, offset = name[: -len(suffix)], off
+                break
+        if base not in params:
+            raise MapIterationError(f"the map needs a value for parameter '{base}'")
+        value = params[base]
+        if np.ndim(value) == 0:
+            out.append(float(value))
+        else:
+            arr = np.asarray(value, dtype=float)
+            k = contact + offset  # bead index (1-based)
+            if k > arr.size:
+                raise MapIterationError(
+                    f"parameter '{base}' has values for {arr.size} beads; contact {contact} needs bead {k}"
+                )
+            out.append(float(arr[k - 1]))
+    return tuple(out)
+
+
+def _newton(module, a_prev: float, guess: tuple[float, ...], eps: float, args: tuple) -> tuple[float, ...] | None:
+    """Newton in log-amplitudes; None if it does not converge to positive amplitudes."""
+    x = [math.log(g) for g in guess]
+    two = len(guess) == 2
+    for _ in range(60):
+        amps = [math.exp(v) for v in x]
+        try:
+            res = module.map_residual(a_prev, *amps, eps, *args)
+            jac, _ = module.map_jacobian(a_prev, *amps, eps, *args)
+        except (OverflowError, ZeroDivisionError, ValueError):
+            return None
+        if two:
+            (j11, j12), (j21, j22) = jac
+            # chain rule to log variables
+            j11, j21 = j11 * amps[0], j21 * amps[0]
+            j12, j22 = j12 * amps[1], j22 * amps[1]
+            det = j11 * j22 - j12 * j21
+            if det == 0 or not math.isfinite(det):
+                return None
+            d0 = (res[0] * j22 - res[1] * j12) / det
+            d1 = (res[1] * j11 - res[0] * j21) / det
+            step = (d0, d1)
+        else:
+            j = jac[0][0] * amps[0]
+            if j == 0 or not math.isfinite(j):
+                return None
+            step = (res[0] / j,)
+        big = max(abs(s) for s in step)
+        if not math.isfinite(big):
+            return None
+        damp = 1.0 if big < 0.5 else 0.5 / big
+        x = [v - damp * s for v, s in zip(x, step)]
+        if big < 1e-13:
+            return tuple(math.exp(v) for v in x)
+    return None
+
+
+def _bracket_root(func, lo: float, hi: float, points: int = 400) -> float | None:
+    """First sign change of func on a log grid in [lo, hi], refined by brentq."""
+    grid = np.geomspace(lo, hi, points)
+    prev = None
+    for a, b in zip(grid[:-1], grid[1:]):
+        fa = func(a) if prev is None else prev
+        fb = func(b)
+        prev = fb
+        if math.isfinite(fa) and math.isfinite(fb) and fa * fb <= 0:
+            return brentq(func, a, b, xtol=1e-15 * b, rtol=1e-15, maxiter=200)
+    return None
+
+
+def _fallback(module, a_prev: float, eps: float, args: tuple, two: bool) -> tuple[float, ...] | None:
+    """Bracketing: A_{i+1}(A_i) from F2, then F1 in A_i; None when no positive root exists."""
+
+    def next_of(a_i: float) -> float:
+        root = _bracket_root(lambda c: module.map_residual(a_prev, a_i, c, eps, *args)[1], a_i * 1e-6, a_i * 1e3, 200)
+        return math.nan if root is None else root
+
+    def f1(a_i: float) -> float:
+        if two:
+            c = next_of(a_i)
+            if not math.isfinite(c):
+                return math.nan
+            return module.map_residual(a_prev, a_i, c, eps, *args)[0]
+        return module.map_residual(a_prev, a_i, eps, *args)[0]
+
+    a_i = _bracket_root(f1, a_prev * 1e-9, a_prev * 1e2, 600)
+    if a_i is None:
+        return None
+    return (a_i, next_of(a_i)) if two else (a_i,)
+
+
+def step(module, a_prev: float, eps: float, args: tuple, guess: tuple[float, ...] | None = None):
+    """One step of the map: (A_i, A_{i+1}) (or (A_i,)) and whether the fallback was used."""
+    two = module.VARIANT != "1d"
+    if guess is None:
+        guess = (a_prev, a_prev) if two else (a_prev,)
+    sol = _newton(module, a_prev, guess, eps, args)
+    if sol is not None:
+        return sol, False
+    return _fallback(module, a_prev, eps, args, two), True
+
+
+def iterate_map(
+    module: ModuleType,
+    seed_A: float,
+    seed_contact: int,
+    last_contact: int,
+    eps: float,
+    params: Mapping[str, object],
+    death_fraction: float = 1e-6,
+) -> MapRun:
+    """Iterate Eq. 23 from A_{seed_contact} = seed_A through contact ``last_contact``."""
+    if not (isinstance(seed_A, (int, float)) and math.isfinite(seed_A) and seed_A > 0):
+        raise MapIterationError(f"the map's seed amplitude must be a finite number > 0, got {seed_A!r}")
+    if last_contact <= seed_contact:
+        raise MapIterationError(
+            f"last contact {last_contact} must come after the seed contact {seed_contact}"
+        )
+    contacts, amps = [], []
+    a_prev = float(seed_A)
+    guess = None
+    fallbacks = 0
+    status, message = "ok", f"reached contact {last_contact}"
+    for i in range(seed_contact + 1, last_contact + 1):
+        args = contact_params(module, params, i)
+        sol, used_fallback = step(module, a_prev, eps, args, guess)
+        fallbacks += used_fallback
+        if sol is None or not all(math.isfinite(s) and s > 0 for s in sol):
+            status = "died"
+            message = f"pulse died at contact {i}: the map has no positive root there"
+            break
+        a_i = sol[0]
+        if a_i < death_fraction * seed_A:
+            status = "died"
+            message = f"pulse died at contact {i}: A fell below {death_fraction:g} of its seed"
+            break
+        contacts.append(i)
+        amps.append(a_i)
+        ratio = a_i / a_prev
+        guess = tuple(s * ratio for s in sol)
+        a_prev = a_i
+    A = np.array(amps)
+    return MapRun(
+        contacts=np.array(contacts, dtype=int),
+        A=A,
+        peaks=A * module.S0,
+        status=status,
+        message=message,
+        variant=module.VARIANT,
+        profile=module.SOURCE["profile"],
+        seed_A=float(seed_A),
+        seed_contact=seed_contact,
+        fallbacks=fallbacks,
+    )
