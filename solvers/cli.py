@@ -80,6 +80,39 @@ def cmd_derive(args: argparse.Namespace) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------------- run
+def cmd_run(args: argparse.Namespace) -> int:
+    """``pulsemap run SCENE``: DNS, map and long-wave peaks per contact, errors, timings."""
+    from solvers.run import plot, progress_enabled, run_scene, to_csv, to_text
+    from solvers.scene import load_scene
+
+    scene = load_scene(args.scene)
+    methods = args.methods.split(",") if args.methods else None
+    result = run_scene(scene, methods=methods, profile=args.profile, variant=args.variant,
+                       progress=progress_enabled() and not args.quiet)
+    print(to_text(result))
+    if args.json:
+        _write_json(args.json, result)
+    if args.csv:
+        with open(args.csv, "w", encoding="utf-8") as fh:
+            fh.write(to_csv(result))
+    if args.plot:
+        plot(result, args.plot)
+    return 0
+
+
+def cmd_scenes(args: argparse.Namespace) -> int:
+    """``pulsemap scenes``: the built-in scenes."""
+    from solvers.scene import DEFAULT_SCENE, builtin_scenes, load_scene
+
+    for name in builtin_scenes():
+        sc = load_scene(name)
+        mark = "  (default)" if name == DEFAULT_SCENE else ""
+        print(f"{name:16s} R = {sc.perturbation.text:28s} eps = {sc.perturbation.eps:<5g} v0 = {sc.velocity:<5g} "
+              f"contacts {sc.contacts[0]}..{sc.contacts[1]}  [{', '.join(sc.methods)}]{mark}")
+    return 0
+
+
 # ------------------------------------------------------------------------------- main
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -114,6 +147,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--latex", action="store_true", help="print LaTeX instead of text")
     p.add_argument("--json", metavar="OUT", help="write the derivation as JSON ('-' for stdout)")
     p.set_defaults(func=cmd_derive)
+
+    p = sub.add_parser("run", help="run a scene: DNS, map and long-wave law side by side")
+    p.add_argument("scene", metavar="SCENE", help="a TOML scene file or a built-in name (see 'pulsemap scenes')")
+    p.add_argument("--methods", help="comma list overriding the scene's methods (map,longwave,dns)")
+    p.add_argument("--profile", help="exact or pade (default: the scene's, else exact)")
+    p.add_argument("--variant", help="map variant: paper, corrected, 1d (default: the scene's, else paper)")
+    p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-' for stdout)")
+    p.add_argument("--csv", metavar="OUT", help="write peaks per contact as CSV")
+    p.add_argument("--plot", metavar="OUT.png", help="plot in the paper's style (needs matplotlib)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("scenes", help="list the built-in scenes")
+    p.set_defaults(func=cmd_scenes)
     return parser
 
 

@@ -1,0 +1,325 @@
+"""Run a scene: DNS, map and long-wave law side by side, with errors and timings (DESIGN.md).
+
+Only what the scene asks for is computed: no DNS unless "dns" is among its methods (the map is
+then seeded from v0 through kappa_n), no long-wave law for a site-dependent perturbation, and a
+chain only as long as the contacts need. In a run with the DNS, the map and the law start from
+the DNS peak at the last unperturbed contact (first_perturbed - 1), converted by Eq. 32.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from solvers import __version__
+from solvers.codeload import force_module, map_module
+from solvers.dns import OnSiteForce, chain_length_for, simulate
+from solvers.longwave_eval import evaluate_law
+from solvers.map_iteration import iterate_map
+from solvers.scene import Scene
+
+EPS_WARN = 0.3  # eps above this is outside the map's asymptotic assumption (eps << 1)
+
+
+class RunError(ValueError):
+    """A scene that cannot be run as asked."""
+
+
+@dataclass(frozen=True)
+class Choice:
+    """Profile and map variant of a run (scene defaults unless overridden)."""
+
+    profile: str
+    variant: str
+
+
+def _params(scene: Scene, beads: int | None) -> dict:
+    """Parameter values: scalars, or per-bead arrays when the scene fixes the chain length."""
+    pert = scene.perturbation
+    out = {}
+    for name in pert.used_parameters:
+        value = pert.params[name]
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            out[name] = float(value)
+        else:
+            if beads is None:
+                raise RunError(f"parameter '{name}' varies along the chain: set [chain] beads")
+            out[name] = pert.bead_values(name, beads)
+    return out
+
+
+def _site_dependent(scene: Scene) -> tuple[str, ...]:
+    pert = scene.perturbation
+    return tuple(
+        name for name in pert.used_parameters
+        if not (isinstance(pert.params[name], (int, float)) and not isinstance(pert.params[name], bool))
+    )
+
+
+def make_force(scene: Scene, beads: int) -> OnSiteForce:
+    """eps_i R_i(x_i, v_i) for the DNS from the generated force module (zero before first_perturbed)."""
+    pert = scene.perturbation
+    mod = force_module(pert.text, pert.used_parameters)
+    idx = np.arange(1, beads + 1, dtype=float)
+    eps = np.where(idx >= scene.first_perturbed, float(pert.eps), 0.0)
+    prm = _params(scene, beads)
+    args = tuple(prm[name] for name in mod.PARAMS)
+    zeros = np.zeros(beads)
+    try:
+        with np.errstate(all="ignore"):
+            kx = np.abs(np.asarray(mod.force_dx(zeros, zeros, idx, eps, *args), dtype=float))
+            kv = np.abs(np.asarray(mod.force_dv(zeros, zeros, idx, eps, *args), dtype=float))
+            f0 = np.asarray(mod.force(zeros, zeros, idx, eps, *args), dtype=float)
+    except (ValueError, ZeroDivisionError, FloatingPointError) as exc:
+        raise RunError(f"the on-site force cannot be evaluated at rest: {exc}") from None
+    if not (np.all(np.isfinite(kx)) and np.all(np.isfinite(kv)) and np.all(np.isfinite(f0))):
+        raise RunError("the on-site force is undefined at rest (non-finite value): check R and its parameters")
+    if np.any(np.abs(f0) > 1e-12):
+        k = int(np.argmax(np.abs(f0)))
+        raise RunError(f"R(0, 0) = {f0[k] / max(eps[k], 1e-300):.6g} at bead {k + 1}: the chain would not start at rest")
+    hint = float(max(kv.max(initial=0.0), math.sqrt(kx.max(initial=0.0))))
+    return OnSiteForce(
+        force=lambda x, v: mod.force(x, v, idx, eps, *args),
+        dforce_dx=lambda x, v: mod.force_dx(x, v, idx, eps, *args),
+        dforce_dv=lambda x, v: mod.force_dv(x, v, idx, eps, *args),
+        stiffness_hint=hint,
+    )
+
+
+def _errors(ref: list, alive: list, values: list) -> dict:
+    """Max and RMS relative error of ``values`` against the live DNS peaks."""
+    rel = []
+    missing = 0
+    for r, a, v in zip(ref, alive, values):
+        if not a or r is None:
+            continue
+        if v is None:
+            missing += 1
+            continue
+        rel.append(abs(v - r) / abs(r))
+    if not rel:
+        return {"max_rel": None, "rms_rel": None, "compared": 0, "missing": missing}
+    arr = np.array(rel)
+    return {"max_rel": float(arr.max()), "rms_rel": float(np.sqrt(np.mean(arr**2))), "compared": int(arr.size), "missing": missing}
+
+
+def _clean(x) -> float | None:
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+def run_scene(
+    scene: Scene,
+    *,
+    methods: Sequence[str] | None = None,
+    profile: str | None = None,
+    variant: str | None = None,
+    progress: bool = False,
+    dns_window: "int | str | None" = None,
+) -> dict:
+    """Run ``scene`` and return the result as JSON-serialisable data (DESIGN.md contract)."""
+    methods = tuple(methods) if methods is not None else tuple(scene.methods)
+    for m in methods:
+        if m not in ("map", "longwave", "dns"):
+            raise RunError(f"unknown method {m!r}: choose from map, longwave, dns")
+    choice = Choice(profile or scene.profile, variant or scene.variant)
+    c0, c1 = scene.contacts
+    fp = scene.first_perturbed
+    seed_contact = fp - 1
+    pert = scene.perturbation
+    site = _site_dependent(scene)
+    timings: dict[str, float] = {}
+    warnings: list[str] = []
+    contacts = list(range(c0, c1 + 1))
+    out: dict = {
+        "pulsemap_version": __version__,
+        "scene": scene.as_dict(),
+        "choices": {"profile": choice.profile, "variant": choice.variant, "methods": list(methods)},
+        "contacts": contacts,
+        "peaks": {"dns": None, "map": None, "longwave": None},
+        "errors": {},
+        "timings_s": timings,
+        "warnings": warnings,
+    }
+    if pert.eps > EPS_WARN and ("map" in methods or "longwave" in methods):
+        warnings.append(f"eps = {pert.eps:g} is not small: the map and the law assume eps << 1")
+
+    # ---------------------------------------------------------------- DNS
+    seed_peak = None
+    dns_peaks = dns_alive = None
+    if "dns" in methods:
+        beads = scene.beads or chain_length_for(c1)
+        t0 = time.perf_counter()
+        force = make_force(scene, beads)
+        timings["derive_force"] = time.perf_counter() - t0
+        first = min(c0, seed_contact) if seed_contact >= 1 else c0
+        t0 = time.perf_counter()
+        res = simulate(
+            beads, scene.exponent, scene.velocity, (first, c1), force,
+            method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
+            atol=float(scene.dns.get("atol", 1e-12)), progress=progress,
+            **({"window": dns_window} if dns_window is not None else {}),
+        )
+        timings["dns"] = time.perf_counter() - t0
+        by_contact = {int(c): (float(p), bool(a)) for c, p, a in zip(res.contacts, res.peaks, res.alive)}
+        dns_peaks = [_clean(by_contact[c][0]) if by_contact[c][1] else None for c in contacts]
+        dns_alive = [by_contact[c][1] for c in contacts]
+        out["peaks"]["dns"] = dns_peaks
+        out["dns"] = {
+            "method": res.method, "rtol": res.rtol, "atol": res.atol, "beads": res.beads,
+            "stop_reason": res.stop_reason, "nfev": int(res.nfev),
+            "alive": dns_alive,
+            "live_contacts": [c for c, a in zip(contacts, dns_alive) if a],
+        }
+        if not all(dns_alive):
+            dead = [c for c, a in zip(contacts, dns_alive) if not a]
+            warnings.append(f"DNS: no live primary pulse at contacts {dead[0]}..{dead[-1]} ({res.stop_reason})")
+        if seed_contact >= 1 and by_contact.get(seed_contact, (None, False))[1]:
+            seed_peak = by_contact[seed_contact][0]
+
+    # ----------------------------------------------------------- map + law
+    if "map" in methods or "longwave" in methods:
+        t0 = time.perf_counter()
+        mod = map_module(pert.text, pert.used_parameters, scene.exponent, choice.profile, choice.variant, site)
+        timings["derive_map"] = time.perf_counter() - t0
+        S0 = float(mod.S0)
+        if seed_peak is not None:
+            seed_from = f"DNS peak at contact {seed_contact}"
+        else:
+            from solvers.kappa import peak_from_velocity
+
+            t0 = time.perf_counter()
+            seed_peak = float(peak_from_velocity(scene.velocity, scene.exponent))
+            timings["kappa"] = time.perf_counter() - t0
+            seed_from = "impulse v0 through kappa_n (unperturbed incoming peak)"
+        seed_A = seed_peak / S0
+        out["seed"] = {"contact": seed_contact, "peak": seed_peak, "A": seed_A, "from": seed_from}
+        prm = _params(scene, scene.beads)
+        if "map" in methods:
+            t0 = time.perf_counter()
+            mr = iterate_map(mod, seed_A, seed_contact, c1, float(pert.eps), prm)
+            timings["map"] = time.perf_counter() - t0
+            got = {int(c): float(p) for c, p in zip(mr.contacts, mr.peaks)}
+            out["peaks"]["map"] = [got.get(c) for c in contacts]
+            out["map"] = {"variant": mr.variant, "profile": mr.profile, "status": mr.status,
+                          "message": mr.message, "newton_fallbacks": mr.fallbacks,
+                          "generated": mod.__name__}
+            if mr.status != "ok":
+                warnings.append(f"map: {mr.message}")
+        if "longwave" in methods:
+            if site:
+                warnings.append("long-wave law skipped: the perturbation is site-dependent (" + ", ".join(site) + ")")
+            else:
+                t0 = time.perf_counter()
+                law = evaluate_law(mod, seed_A, float(seed_contact), contacts, float(pert.eps), prm)
+                timings["longwave"] = time.perf_counter() - t0
+                out["peaks"]["longwave"] = [_clean(p) for p in law.peaks]
+                out["longwave"] = {"kind": law.kind, "ended_at": law.ended_at, "ended": law.ended or None,
+                                   "profile": choice.profile}
+                if law.ended:
+                    warnings.append(f"long-wave law: {law.ended} at contact index {law.ended_at:.4g}")
+
+    # ------------------------------------------------------------- errors
+    if dns_peaks is not None:
+        for name in ("map", "longwave"):
+            if out["peaks"][name] is not None:
+                out["errors"][name] = _errors(dns_peaks, dns_alive, out["peaks"][name])
+    return out
+
+
+def to_csv(result: dict) -> str:
+    """One row per contact: contact, dns, map, longwave (empty where not computed)."""
+    lines = ["contact,dns,map,longwave,dns_alive"]
+    alive = (result.get("dns") or {}).get("alive") or [None] * len(result["contacts"])
+    for k, c in enumerate(result["contacts"]):
+        row = [str(c)]
+        for name in ("dns", "map", "longwave"):
+            vals = result["peaks"][name]
+            row.append("" if vals is None or vals[k] is None else repr(vals[k]))
+        row.append("" if alive[k] is None else str(bool(alive[k])).lower())
+        lines.append(",".join(row))
+    return "\n".join(lines) + "\n"
+
+
+def to_text(result: dict) -> str:
+    """A short human-readable summary of a run."""
+    sc = result["scene"]
+    ch = result["choices"]
+    lines = [
+        f"scene {sc['name']}: R = {sc['perturbation']['R']}, eps = {sc['perturbation']['eps']}, "
+        f"v0 = {sc['excitation']['velocity']}, contacts {result['contacts'][0]}..{result['contacts'][-1]}",
+        f"  profile {ch['profile']}, map variant {ch['variant']}, methods {', '.join(ch['methods'])}",
+    ]
+    if "seed" in result:
+        s = result["seed"]
+        lines.append(f"  seed: A_{s['contact']} = {s['A']:.6g} (peak {s['peak']:.6g}, from {s['from']})")
+    if "dns" in result:
+        d = result["dns"]
+        lines.append(f"  DNS: {d['method']} rtol {d['rtol']:g}, {d['beads']} beads, {d['stop_reason']}")
+    for name, err in result["errors"].items():
+        if err["max_rel"] is None:
+            lines.append(f"  {name:8s} vs DNS: nothing to compare ({err['missing']} live contacts without a value)")
+        else:
+            lines.append(
+                f"  {name:8s} vs DNS: max rel {err['max_rel']:.3g}, rms rel {err['rms_rel']:.3g} over "
+                f"{err['compared']} live contacts" + (f" ({err['missing']} without a value)" if err["missing"] else "")
+            )
+    t = result["timings_s"]
+    lines.append("  time: " + ", ".join(f"{k} {v:.4g} s" for k, v in t.items()))
+    header = f"  {'contact':>7s} {'dns':>12s} {'map':>12s} {'longwave':>12s}"
+    lines.append(header)
+    step = max(1, len(result["contacts"]) // 12)
+    for k in range(0, len(result["contacts"]), step):
+        row = [f"  {result['contacts'][k]:7d}"]
+        for name in ("dns", "map", "longwave"):
+            vals = result["peaks"][name]
+            row.append(f"{'-' if vals is None or vals[k] is None else format(vals[k], '.6g'):>12s}")
+        lines.append(" ".join(row))
+    for w in result["warnings"]:
+        lines.append(f"  warning: {w}")
+    return "\n".join(lines)
+
+
+def plot(result: dict, path: str) -> None:
+    """The paper's style: DNS as +, map as dots, long-wave law as a line (matplotlib, optional)."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise RunError("--plot needs matplotlib: pip install 'pulsemap[plot]'") from None
+    c = result["contacts"]
+    fig, ax = plt.subplots(figsize=(6, 4))
+
+    def series(name):
+        vals = result["peaks"][name]
+        if vals is None:
+            return None, None
+        pts = [(ci, v) for ci, v in zip(c, vals) if v is not None]
+        return ([p[0] for p in pts], [p[1] for p in pts]) if pts else (None, None)
+
+    x, y = series("dns")
+    if x:
+        ax.plot(x, y, "k+", label="DNS")
+    x, y = series("map")
+    if x:
+        ax.plot(x, y, "r.", label=f"map ({result['choices']['variant']}, {result['choices']['profile']})")
+    x, y = series("longwave")
+    if x:
+        ax.plot(x, y, "b-", lw=1, label="long-wave law")
+    ax.set_xlabel("contact i")
+    ax.set_ylabel("primary pulse peak")
+    ax.set_title(result["scene"]["name"])
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def progress_enabled() -> bool:
+    return sys.stderr.isatty()
