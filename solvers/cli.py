@@ -113,6 +113,34 @@ def cmd_scenes(args: argparse.Namespace) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------- generate
+def cmd_generate(args: argparse.Namespace) -> int:
+    """``pulsemap generate``: write the generated modules the given scenes use."""
+    from derive import codegen
+    from solvers.run import _site_dependent
+    from solvers.scene import builtin_scenes, load_scene
+
+    names = args.scenes or builtin_scenes()
+    written = set()
+    for name in names:
+        scene = load_scene(name)
+        pert = scene.perturbation
+        sources = []
+        if "dns" in scene.methods:
+            sources.append(codegen.force_source(pert.text, pert.used_parameters))
+        if "map" in scene.methods or "longwave" in scene.methods:
+            sources.append(codegen.map_source(pert.text, pert.used_parameters, scene.exponent,
+                                              args.profile or scene.profile, args.variant or scene.variant,
+                                              _site_dependent(scene)))
+        for src in sources:
+            key = codegen.module_name(src)
+            if key not in written:
+                path = codegen.write(src, args.into or codegen.PACKAGE_DIR)
+                written.add(key)
+                print(f"{path}  <- {name}")
+    return 0
+
+
 # ------------------------------------------------------------------------------- main
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -158,6 +186,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="OUT.png", help="plot in the paper's style (needs matplotlib)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("generate", help="write the generated modules that scenes use (default: all built-in)")
+    p.add_argument("scenes", nargs="*", metavar="SCENE")
+    p.add_argument("--into", metavar="DIR", help="target directory (default: the package's generated/)")
+    p.add_argument("--profile", help="exact or pade (default: the scene's)")
+    p.add_argument("--variant", help="paper, corrected or 1d (default: the scene's)")
+    p.set_defaults(func=cmd_generate)
 
     p = sub.add_parser("scenes", help="list the built-in scenes")
     p.set_defaults(func=cmd_scenes)
