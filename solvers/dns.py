@@ -14,13 +14,16 @@ from __future__ import annotations
 import sys
 import time as _time
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 import scipy.integrate as _integrate
 from scipy import sparse
 
 from solvers.peaks import first_threshold, scan_step
+
+if TYPE_CHECKING:  # pragma: no cover
+    from solvers.window import WindowRule
 
 Array = np.ndarray
 EXPLICIT_METHODS = ("DOP853", "RK45", "RK23")
@@ -37,12 +40,16 @@ class OnSiteForce:
     Optional dF/dx and dF/dv (diagonal, arrays (N,)) give implicit methods an analytic
     Jacobian; when either is missing a banded finite-difference Jacobian is used.
     ``stiffness_hint`` is a rate (e.g. max |dF/dv|, sqrt(max |dF/dx|)) used by method='auto'.
+    ``restrict(lo, hi)``, optional, returns the same force acting on beads lo..hi-1 only
+    (0-based slice; arrays of length hi-lo) for the moving-window DNS; without it the window
+    embeds its beads in full-length arrays, which works for any force but costs O(N) per call.
     """
 
     force: Callable[[Array, Array], Array]
     dforce_dx: Callable[[Array, Array], Array] | None = None
     dforce_dv: Callable[[Array, Array], Array] | None = None
     stiffness_hint: float = 0.0
+    restrict: Callable[[int, int], "OnSiteForce"] | None = None
 
     @property
     def has_jacobian(self) -> bool:
@@ -51,7 +58,12 @@ class OnSiteForce:
 
 @dataclass(frozen=True)
 class DNSResult:
-    """Leading-edge peaks of the requested contacts (1-based) and how the run went."""
+    """Leading-edge peaks of the requested contacts (1-based) and how the run went.
+
+    ``mode`` is "full" (all N beads integrated) or "window" (moving window, solvers/window.py);
+    ``window_beads`` is the largest number of beads integrated at once, ``window_shifts`` the
+    number of solver restarts the window needed and ``window_rule`` its geometry (None: full).
+    """
 
     contacts: Array
     peaks: Array
@@ -69,6 +81,10 @@ class DNSResult:
     exponent: float = 0.0
     velocity: float = 0.0
     t_end: float = 0.0
+    mode: str = "full"
+    window_beads: int = 0
+    window_shifts: int = 0
+    window_rule: object | None = None
 
 
 # ----------------------------------------------------------------------------- small helpers
@@ -299,8 +315,19 @@ def simulate(
     t_max: float | None = None,
     stall_factor: float = 5.0,
     progress: bool = False,
+    window: "int | str | WindowRule | None" = None,
+    window_accuracy: float = 1e-8,
+    window_engine: str = "auto",
 ) -> DNSResult:
     """Integrate Eq. 1 and return the leading-edge peaks of contacts[0]..contacts[1].
+
+    ``window=None`` (default) integrates the whole chain. ``window="auto"`` integrates only a
+    moving window of beads around the leading edge (solvers/window.py), sized so that the
+    window costs less than ``window_accuracy`` relative peak error; an int gives the window's
+    width in beads, a ``WindowRule`` its full geometry. The windowed cost per contact does not
+    grow with N. Its ``energy_drift`` counts the energy carried out by dropped beads.
+    ``window_engine``: "auto" (Hairer's Fortran DOP853/DOPRI5 for those methods, else the
+    scipy OdeSolver), "fortran" or "scipy".
 
     All contacts 1..last are tracked (each one's acceptance threshold is ``peak_fraction``
     times the previous contact's peak; contact 1 uses the scale v0^(2/(n+1))). The run stops
@@ -314,6 +341,14 @@ def simulate(
     beads, exponent, velocity = int(beads), float(exponent), float(velocity)
     chosen = choose_method(force, velocity, exponent) if method == "auto" else method
     t_limit = default_t_max(last, velocity, exponent) if t_max is None else float(t_max)
+    if window is not None:
+        from solvers.window import resolve_rule, simulate_windowed
+
+        return simulate_windowed(
+            beads, exponent, velocity, (first, last), force, rule=resolve_rule(window, window_accuracy),
+            method=chosen, rtol=rtol, atol=atol, peak_fraction=peak_fraction,
+            death_fraction=death_fraction, t_max=t_limit, stall_factor=stall_factor,
+            progress=progress, engine=window_engine)
     y0 = initial_state(beads, velocity)
     e0 = energy(y0[0::2], y0[1::2], exponent)
 
@@ -399,4 +434,5 @@ def simulate(
         exponent=exponent,
         velocity=velocity,
         t_end=float(solver.t),
+        window_beads=beads,
     )
