@@ -113,6 +113,18 @@ def cmd_scenes(args: argparse.Namespace) -> int:
     return 0
 
 
+# ------------------------------------------------------------------------------- table
+def cmd_table(args: argparse.Namespace) -> int:
+    """``pulsemap table``: map and law errors against the DNS for the paper's scenes."""
+    from solvers.table import markdown, table
+
+    rows = table(args.scenes or None, progress=not args.quiet)
+    print(markdown(rows))
+    if args.json:
+        _write_json(args.json, {"rows": rows})
+    return 0
+
+
 # ---------------------------------------------------------------------------- generate
 def cmd_generate(args: argparse.Namespace) -> int:
     """``pulsemap generate``: write the generated modules the given scenes use."""
@@ -193,6 +205,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--profile", help="exact or pade (default: the scene's)")
     p.add_argument("--variant", help="paper, corrected or 1d (default: the scene's)")
     p.set_defaults(func=cmd_generate)
+
+    p = sub.add_parser("table", help="errors of map and long-wave law against the DNS for the paper's scenes")
+    p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: all built-in scenes")
+    p.add_argument("--json", metavar="OUT", help="write the rows as JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=cmd_table)
 
     p = sub.add_parser("scenes", help="list the built-in scenes")
     p.set_defaults(func=cmd_scenes)

@@ -120,8 +120,13 @@ def run_scene(
     variant: str | None = None,
     progress: bool = False,
     dns_window: "int | str | None" = None,
+    reuse_dns: dict | None = None,
 ) -> dict:
-    """Run ``scene`` and return the result as JSON-serialisable data (DESIGN.md contract)."""
+    """Run ``scene`` and return the result as JSON-serialisable data (DESIGN.md contract).
+
+    ``reuse_dns``: the result of an earlier run of the same scene with the DNS; its peaks (and
+    its seed) are used instead of running the DNS again (for comparing profiles and variants).
+    """
     methods = tuple(methods) if methods is not None else tuple(scene.methods)
     for m in methods:
         if m not in ("map", "longwave", "dns"):
@@ -180,6 +185,16 @@ def run_scene(
             warnings.append(f"DNS: no live primary pulse at contacts {dead[0]}..{dead[-1]} ({res.stop_reason})")
         if seed_contact >= 1 and by_contact.get(seed_contact, (None, False))[1]:
             seed_peak = by_contact[seed_contact][0]
+
+    if reuse_dns is not None and "dns" not in methods:
+        if reuse_dns.get("contacts") != contacts or reuse_dns["peaks"].get("dns") is None:
+            raise RunError("reuse_dns must be a DNS run of the same scene and contacts")
+        dns_peaks = reuse_dns["peaks"]["dns"]
+        dns_alive = reuse_dns["dns"]["alive"]
+        out["peaks"]["dns"] = dns_peaks
+        out["dns"] = {**reuse_dns["dns"], "reused": True}
+        if reuse_dns.get("seed", {}).get("from", "").startswith("DNS"):
+            seed_peak = reuse_dns["seed"]["peak"]
 
     # ----------------------------------------------------------- map + law
     if "map" in methods or "longwave" in methods:
