@@ -20,7 +20,7 @@ import numpy as np
 import scipy.integrate as _integrate
 from scipy import sparse
 
-from solvers.peaks import first_threshold, scan_step
+from solvers.peaks import first_threshold, primary_pulse_lost, scan_step
 
 if TYPE_CHECKING:  # pragma: no cover
     from solvers.window import WindowRule
@@ -315,6 +315,7 @@ def simulate(
     t_max: float | None = None,
     stall_factor: float = 5.0,
     progress: bool = False,
+    overtake_factor: float = 1.25,
     window: "int | str | WindowRule | None" = None,
     window_accuracy: float = 1e-8,
     window_engine: str = "auto",
@@ -334,8 +335,12 @@ def simulate(
     when the last contact has peaked, when the pulse dies (a peak below ``death_fraction``
     times the first requested contact's peak), when no new contact peaks within
     ``stall_factor`` times the last inter-peak delay, at ``t_max``, or when the state becomes
-    non-finite or the energy grows beyond 1e6 times its initial value.
+    non-finite or the energy grows beyond 1e6 times its initial value. A contact whose first
+    maximum exceeds ``overtake_factor`` times the previous contact's no longer carries the
+    primary pulse (the wake overtook the front): the run stops there too.
     """
+    if not (np.isfinite(overtake_factor) and overtake_factor > 1.0):
+        raise ValueError(f"overtake_factor must be a finite number > 1, got {overtake_factor!r}")
     first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol,
                            peak_fraction, death_fraction, t_max, stall_factor)
     beads, exponent, velocity = int(beads), float(exponent), float(velocity)
@@ -348,7 +353,7 @@ def simulate(
             beads, exponent, velocity, (first, last), force, rule=resolve_rule(window, window_accuracy),
             method=chosen, rtol=rtol, atol=atol, peak_fraction=peak_fraction,
             death_fraction=death_fraction, t_max=t_limit, stall_factor=stall_factor,
-            progress=progress, engine=window_engine)
+            progress=progress, engine=window_engine, overtake_factor=overtake_factor)
     y0 = initial_state(beads, velocity)
     e0 = energy(y0[0::2], y0[1::2], exponent)
 
@@ -390,11 +395,12 @@ def simulate(
             last_peak_time = peak.time
             threshold = peak_fraction * peak.value
             next_contact = k + 1
-            if k >= first and peak.value < death_fraction * peaks[first - 1]:
+            why = primary_pulse_lost(peaks, k, first, death_fraction, overtake_factor)
+            if why:
                 died_at = k
                 break
         if died_at is not None:
-            reason = f"pulse died at contact {died_at} (peak below {death_fraction:g} x peak at contact {first})"
+            reason = f"pulse died at contact {died_at} ({why})"
             break
         if next_contact > last:
             reason = "last contact peaked"

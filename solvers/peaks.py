@@ -104,3 +104,23 @@ def scan_step(
         t_floor = t_peak
         k += 1
     return found
+
+
+def primary_pulse_lost(peaks: np.ndarray, k: int, first: int, death_fraction: float,
+                       overtake_factor: float) -> str:
+    """Why contact k no longer carries the primary pulse ("" while it does).
+
+    The pulse has died when its peak falls below ``death_fraction`` times the peak at contact
+    ``first``; it has been overtaken when contact k's first maximum exceeds ``overtake_factor``
+    times contact k-1's: an O(eps) perturbation changes the pulse little from one contact to the
+    next, so such a jump means the wake (or a self-excited wave) arrived first.
+    """
+    if k < first:
+        return ""
+    value = peaks[k - 1]
+    if value < death_fraction * peaks[first - 1]:
+        return f"peak below {death_fraction:g} x peak at contact {first}"
+    if k > first and value > overtake_factor * peaks[k - 2]:
+        return (f"the wake overtook the front: peak jumped {value / peaks[k - 2]:.3g}x from contact "
+                f"{k - 1}, above the {overtake_factor:g}x an eps-small perturbation allows")
+    return ""

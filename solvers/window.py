@@ -34,7 +34,7 @@ from typing import Callable
 import numpy as np
 import scipy.integrate as _integrate
 
-from solvers.peaks import first_threshold, scan_step
+from solvers.peaks import first_threshold, primary_pulse_lost, scan_step
 
 Array = np.ndarray
 BOUNDARIES = ("coast", "free")
@@ -406,6 +406,7 @@ def simulate_windowed(
     stall_factor: float = 5.0,
     progress: bool = False,
     engine: str = "auto",
+    overtake_factor: float = 1.25,
 ):
     """Moving-window integration of Eq. 1 (arguments validated by dns.simulate, which calls it).
 
@@ -459,12 +460,12 @@ def simulate_windowed(
             run.last_peak_time = peak.time
             run.threshold = peak_fraction * peak.value
             run.next_contact = k + 1
-            if k >= first and peak.value < death_fraction * run.peaks[first - 1]:
+            why = primary_pulse_lost(run.peaks, k, first, death_fraction, overtake_factor)
+            if why:
                 run.died_at = k
                 break
         if run.died_at is not None:
-            run.reason = (f"pulse died at contact {run.died_at} (peak below {death_fraction:g} x peak"
-                          f" at contact {first})")
+            run.reason = f"pulse died at contact {run.died_at} ({why})"
         elif run.next_contact > last:
             run.reason = "last contact peaked"
         elif t_new - run.last_peak_time > run.stall:

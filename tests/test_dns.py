@@ -139,8 +139,8 @@ def test_noisy_rest_state_gives_no_early_peaks():
     from that noise, whatever the acceptance fraction, and peak times stay ordered."""
     beads = 40
     offsets = np.random.default_rng(3).uniform(-1e-10, 1e-10, beads)
-    noisy = OnSiteForce(lambda x, v: -0.2 * (x - offsets))
-    clean = OnSiteForce(lambda x, v: -0.2 * x)
+    noisy = OnSiteForce(lambda x, v: -0.05 * (x - offsets))
+    clean = OnSiteForce(lambda x, v: -0.05 * x)
     ref = simulate(beads, 1.5, 1.0, (1, 30), clean)
     for fraction in (1e-2, 1e-300):
         res = simulate(beads, 1.5, 1.0, (1, 30), noisy, peak_fraction=fraction)

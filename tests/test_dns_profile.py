@@ -39,3 +39,27 @@ def test_dns_strain_follows_the_travelling_wave_shape():
     dev = np.max(np.abs(strain - model)) / res.peaks[1]
     print(f"leading-edge shape deviation {dev:.2e}")
     assert dev < 1e-7
+
+
+def test_overtake_predicate():
+    from solvers.peaks import primary_pulse_lost
+
+    peaks = np.array([1.0, 0.9, 0.8, 0.85, 1.2, 0.0005])
+    assert primary_pulse_lost(peaks, 4, 1, 1e-3, 1.25) == ""  # +6 %: an eps-small change
+    assert "overtook" in primary_pulse_lost(peaks, 5, 1, 1e-3, 1.25)  # +41 %
+    assert "below" in primary_pulse_lost(peaks, 6, 1, 1e-3, 1.25)
+    assert primary_pulse_lost(peaks, 5, 5, 1e-3, 1.25) == ""  # the first contact has no predecessor
+
+
+def test_wake_overtaking_a_dying_pulse_ends_the_primary_pulse():
+    """Linear foundation (paper Fig. 6, eps = 0.1): the pulse fades, the wake arrives first."""
+    from solvers.run import make_force
+    from solvers.scene import load_scene
+
+    sc = load_scene("fig6-eps0.1")
+    res = simulate(131, 1.5, 1.0, (15, 120), make_force(sc, 131))
+    assert "overtook" in res.stop_reason
+    live = res.peaks[res.alive]
+    assert 20 < live.size < 60
+    assert np.all(np.diff(live) < 0)  # the foundation drains the pulse: monotone decay while alive
+    assert not res.alive[-1]
