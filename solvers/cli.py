@@ -89,7 +89,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene)
     methods = args.methods.split(",") if args.methods else None
     result = run_scene(scene, methods=methods, profile=args.profile, variant=args.variant,
-                       progress=progress_enabled() and not args.quiet)
+                       progress=progress_enabled() and not args.quiet, seed_peak=args.seed_peak)
     print(to_text(result))
     if args.json:
         _write_json(args.json, result)
@@ -196,6 +196,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-' for stdout)")
     p.add_argument("--csv", metavar="OUT", help="write peaks per contact as CSV")
     p.add_argument("--plot", metavar="OUT.png", help="plot in the paper's style (needs matplotlib)")
+    p.add_argument("--seed-peak", type=_positive_float, default=None, metavar="PEAK",
+                   help="seed map and law with this peak at contact first_perturbed - 1 (default: the DNS "
+                        "peak there, or v0 through kappa_n without the DNS)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=cmd_run)
 

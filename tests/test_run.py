@@ -81,3 +81,24 @@ def test_van_der_pol_mu1_decays_while_the_primary_pulse_lives():
     dns = [p for p in res["peaks"]["dns"] if p is not None]
     assert len(dns) > 30
     assert all(b < a for a, b in zip(dns, dns[1:]))
+
+
+def test_seed_from_a_given_peak_equals_seed_from_that_amplitude():
+    from solvers.codeload import map_module
+    from solvers.map_iteration import iterate_map
+
+    res = run_scene(_small("fig8-eps0.1", 30), methods=["map"], seed_peak=0.7)
+    assert res["seed"]["peak"] == 0.7 and "given" in res["seed"]["from"]
+    mod = map_module("-mu*v", ["mu"], 1.5)
+    direct = iterate_map(mod, 0.7 / mod.S0, 15, 30, 0.1, {"mu": 1.0})
+    assert res["peaks"]["map"] == pytest.approx(list(direct.peaks), rel=1e-15)
+
+
+def test_plot_in_the_papers_style(tmp_path):
+    pytest.importorskip("matplotlib")
+    from solvers.run import plot
+
+    res = run_scene(_small("fig8-eps0.1", 30), methods=["map", "longwave"])
+    out = tmp_path / "p.png"
+    plot(res, str(out))
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
