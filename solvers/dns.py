@@ -395,7 +395,7 @@ def simulate(
             last_peak_time = peak.time
             threshold = peak_fraction * peak.value
             next_contact = k + 1
-            why = primary_pulse_lost(peaks, k, first, death_fraction, overtake_factor)
+            why = primary_pulse_lost(peaks, k, first, death_fraction, overtake_factor, times)
             if why:
                 died_at = k
                 break

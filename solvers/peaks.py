@@ -107,13 +107,16 @@ def scan_step(
 
 
 def primary_pulse_lost(peaks: np.ndarray, k: int, first: int, death_fraction: float,
-                       overtake_factor: float) -> str:
+                       overtake_factor: float, times: np.ndarray | None = None,
+                       delay_factor: float = 2.0) -> str:
     """Why contact k no longer carries the primary pulse ("" while it does).
 
     The pulse has died when its peak falls below ``death_fraction`` times the peak at contact
-    ``first``; it has been overtaken when contact k's first maximum exceeds ``overtake_factor``
-    times contact k-1's: an O(eps) perturbation changes the pulse little from one contact to the
-    next, so such a jump means the wake (or a self-excited wave) arrived first.
+    ``first``. An O(eps) perturbation changes the pulse little from one contact to the next, so
+    a jump means contact k's first maximum is something else: a peak above ``overtake_factor``
+    times contact k-1's (the wake, or a self-excited wave, arrived first), or a delay since
+    contact k-1 above ``delay_factor`` times the delay before it (the front no longer travels
+    as a solitary wave, e.g. a slow compression left by strong damping).
     """
     if k < first:
         return ""
@@ -123,4 +126,9 @@ def primary_pulse_lost(peaks: np.ndarray, k: int, first: int, death_fraction: fl
     if k > first and value > overtake_factor * peaks[k - 2]:
         return (f"the wake overtook the front: peak jumped {value / peaks[k - 2]:.3g}x from contact "
                 f"{k - 1}, above the {overtake_factor:g}x an eps-small perturbation allows")
+    if times is not None and k >= 3 and k - 2 >= first:
+        before, now = times[k - 2] - times[k - 3], times[k - 1] - times[k - 2]
+        if before > 0 and now > delay_factor * before:
+            return (f"the front stopped travelling as a solitary wave: delay {now:.3g} after contact "
+                    f"{k - 1}, over {delay_factor:g}x the {before:.3g} before it")
     return ""

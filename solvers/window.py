@@ -460,7 +460,7 @@ def simulate_windowed(
             run.last_peak_time = peak.time
             run.threshold = peak_fraction * peak.value
             run.next_contact = k + 1
-            why = primary_pulse_lost(run.peaks, k, first, death_fraction, overtake_factor)
+            why = primary_pulse_lost(run.peaks, k, first, death_fraction, overtake_factor, run.times)
             if why:
                 run.died_at = k
                 break

@@ -63,3 +63,23 @@ def test_wake_overtaking_a_dying_pulse_ends_the_primary_pulse():
     assert 20 < live.size < 60
     assert np.all(np.diff(live) < 0)  # the foundation drains the pulse: monotone decay while alive
     assert not res.alive[-1]
+
+
+def test_delay_jump_ends_the_primary_pulse():
+    from solvers.peaks import primary_pulse_lost
+
+    peaks = np.array([1.0, 0.8, 0.6, 0.5])
+    times = np.array([0.0, 1.0, 2.1, 6.0])
+    assert primary_pulse_lost(peaks, 3, 1, 1e-3, 1.25, times) == ""  # 1.1 after 1.0
+    assert "solitary" in primary_pulse_lost(peaks, 4, 1, 1e-3, 1.25, times)  # 3.9 after 1.1
+
+
+def test_strong_damping_stops_at_the_end_of_the_solitary_front():
+    """eps mu = 1 (Fig. 8, eps = 1): a slow compression follows the pulse; it is not the pulse."""
+    from solvers.run import make_force
+    from solvers.scene import load_scene
+
+    sc = load_scene("fig8-eps1")
+    res = simulate(131, 1.5, 1.0, (15, 120), make_force(sc, 131))
+    assert "solitary" in res.stop_reason
+    assert res.alive.sum() < 15 and res.t_end < 100
