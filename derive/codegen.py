@@ -30,7 +30,7 @@ from .amplitude_map import A_I, A_NEXT, A_PREV, F_SYMBOLS, AmplitudeMap, check_v
 from .expansion import bead_symbol, expand
 from .expression import parse_expression, symbol
 from .integrals import F_NAMES, constants
-from .sources import ForceSource, MapSource, module_name, source_from_dict, source_hash  # noqa: F401
+from .sources import ForceSource, MapSource, module_name, source_from_dict
 from .longwave import A0 as SYM_A0
 from .longwave import I as SYM_I
 from .longwave import I0 as SYM_I0
@@ -249,7 +249,7 @@ def generate_map(source: MapSource) -> str:
                 base = SYM_A0 ** (law.P * (1 - p)) + (1 - p) * k * (SYM_I - SYM_I0)
                 expo = 1 / (law.P * (1 - p))
                 lines.append(f"    base = {_code(base, {SYM_A0: 'A0', SYM_I: 'i', SYM_I0: 'i0', k: 'k'})}")
-                lines.append(f"    safe = numpy.where(base > 0, base, 1.0)")
+                lines.append("    safe = numpy.where(base > 0, base, 1.0)")
                 lines.append(f"    return safe ** ({_const(float(expo))}), base")
             lines.append("")
         A = sympy.Symbol("A", positive=True)

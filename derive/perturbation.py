@@ -19,10 +19,12 @@ import difflib
 import math
 import numbers
 from dataclasses import dataclass
-from typing import Any, Iterator, Mapping, Union
+from typing import Any, Mapping, Union
 
 import numpy as np
 import sympy
+
+from derive.frozenmap import FrozenMap
 
 from derive.expression import (
     SYMBOLS,
@@ -77,26 +79,12 @@ ParamValue = Union[float, tuple[float, ...], RandomDraw, IndexExpression]
 
 
 @dataclass(frozen=True)
-class ParamMap(Mapping[str, ParamValue]):
+class ParamMap(FrozenMap):
     """An immutable, hashable mapping from parameter names to values (sorted by name)."""
-
-    items_: tuple[tuple[str, ParamValue], ...] = ()
 
     @classmethod
     def of(cls, mapping: Mapping[str, ParamValue]) -> "ParamMap":
         return cls(tuple(sorted(mapping.items())))
-
-    def __getitem__(self, key: str) -> ParamValue:
-        for name, value in self.items_:
-            if name == key:
-                return value
-        raise KeyError(key)
-
-    def __iter__(self) -> Iterator[str]:
-        return (name for name, _ in self.items_)
-
-    def __len__(self) -> int:
-        return len(self.items_)
 
     def __repr__(self) -> str:
         return "ParamMap(" + repr(dict(self.items_)) + ")"

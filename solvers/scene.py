@@ -37,12 +37,14 @@ import re
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterator, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 try:  # Python >= 3.11
     import tomllib
 except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (pyproject pulls in tomli)
     import tomli as tomllib  # type: ignore[no-redef]
+
+from derive.frozenmap import FrozenMap
 
 if TYPE_CHECKING:  # pragma: no cover
     from derive.perturbation import Perturbation
@@ -100,36 +102,6 @@ class SceneError(ValueError):
 
 class _Problem(Exception):
     """A problem found by a field check; turned into a SceneError with the scene's name."""
-
-
-@dataclass(frozen=True, eq=False)
-class FrozenMap(Mapping[str, Any]):
-    """An immutable, hashable mapping that keeps its insertion order."""
-
-    items_: tuple[tuple[str, Any], ...] = ()
-
-    def __getitem__(self, key: str) -> Any:
-        for name, value in self.items_:
-            if name == key:
-                return value
-        raise KeyError(key)
-
-    def __iter__(self) -> Iterator[str]:
-        return (name for name, _ in self.items_)
-
-    def __len__(self) -> int:
-        return len(self.items_)
-
-    def __eq__(self, other: object) -> bool:
-        if not isinstance(other, Mapping):
-            return NotImplemented
-        return dict(self.items_) == dict(other.items())
-
-    def __hash__(self) -> int:
-        return hash(frozenset(self.items_))
-
-    def __repr__(self) -> str:
-        return "FrozenMap(" + repr(dict(self.items_)) + ")"
 
 
 def _default_dns() -> FrozenMap:

@@ -11,9 +11,9 @@ from derive.derivation import derive_all, to_json, to_latex, to_text
 from derive.expansion import D0, D1, W0, W1, ExpansionError, expand
 from derive.expression import parse_expression, symbol
 from derive.integrals import F_NAMES, constants
-from derive.longwave import A0, B, I, I0, longwave_law
+from derive.longwave import A0, I, I0, longwave_law
 from derive.perturbation import make_perturbation
-from derive.profile import exact_profile, get_profile
+from derive.profile import exact_profile
 from derive.stationary import positive_roots
 
 u, v = symbol("u"), symbol("v")
@@ -203,7 +203,6 @@ def test_van_der_pol_saddle_node(profile):
     f = st_.fold
     assert f.kind == "minimum" and 1.0 < f.value < 2.0
     # at the fold: Phi = 0 and dPhi/dA = 0, checked on the sympy equation directly
-    Aq = sympy.Symbol("A", positive=True)
     phi = st_.equation
     vals = {sympy.Symbol(k, real=True): v for k, v in d.constants.items()}
     phi_num = phi.xreplace(vals).xreplace({symbol("mu"): f.value})

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from derive import integrals
-from derive.integrals import IntegralError, constants, f_constants, g1, g2
+from derive.integrals import constants, f_constants, g1, g2
 from derive.profile import exact_profile
 
 
