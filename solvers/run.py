@@ -305,6 +305,8 @@ def to_text(result: dict) -> str:
             lines.append(
                 f"  {name:8s} vs DNS: max rel {err['max_rel']:.3g}, rms rel {err['rms_rel']:.3g} over "
                 f"{err['compared']} live contacts" + (f" ({err['missing']} without a value)" if err["missing"] else "")
+                + (f"; max rel {err['max_rel_strong']:.3g} while the DNS peak >= 10 % of its entry value"
+                   if err.get("max_rel_strong") is not None else "")
             )
     t = result["timings_s"]
     lines.append("  time: " + ", ".join(f"{k} {v:.4g} s" for k, v in t.items()))
