@@ -205,6 +205,7 @@ def run_scene(
             warnings.append(f"DNS: no live primary pulse at contacts {dead[0]}..{dead[-1]} ({res.stop_reason})")
         if seed_contact >= 1 and by_contact.get(seed_contact, (None, False))[1]:
             seed_peak = by_contact[seed_contact][0]
+            out["dns"]["seed_peak"] = seed_peak  # peak at first_perturbed - 1, seeds map and law
 
     if reuse_dns is not None and "dns" not in methods:
         if reuse_dns.get("contacts") != contacts or reuse_dns["peaks"].get("dns") is None:
@@ -213,8 +214,7 @@ def run_scene(
         dns_alive = reuse_dns["dns"]["alive"]
         out["peaks"]["dns"] = dns_peaks
         out["dns"] = {**reuse_dns["dns"], "reused": True}
-        if reuse_dns.get("seed", {}).get("from", "").startswith("DNS"):
-            seed_peak = reuse_dns["seed"]["peak"]
+        seed_peak = reuse_dns["dns"].get("seed_peak")
 
     # ----------------------------------------------------------- map + law
     if "map" in methods or "longwave" in methods:

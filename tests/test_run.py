@@ -102,3 +102,12 @@ def test_plot_in_the_papers_style(tmp_path):
     out = tmp_path / "p.png"
     plot(res, str(out))
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_reusing_a_dns_run_gives_the_same_errors_as_running_it():
+    scene = _small("vdp-mu3-v2.3", 40)
+    full = run_scene(scene, methods=["dns", "map", "longwave"])
+    ref = run_scene(scene, methods=["dns"])
+    again = run_scene(scene, methods=["map", "longwave"], reuse_dns=ref)
+    assert again["seed"] == full["seed"]
+    assert again["errors"] == full["errors"]
