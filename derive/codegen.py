@@ -30,7 +30,7 @@ from .amplitude_map import A_I, A_NEXT, A_PREV, F_SYMBOLS, AmplitudeMap, check_v
 from .expansion import bead_symbol, expand
 from .expression import parse_expression, symbol
 from .integrals import F_NAMES, constants
-from .sources import ForceSource, MapSource, module_name, source_from_dict
+from .sources import ForceSource, GeneratedCodeError, MapSource, module_name, source_from_dict, verify_generated
 from .longwave import A0 as SYM_A0
 from .longwave import I as SYM_I
 from .longwave import I0 as SYM_I0
@@ -41,8 +41,7 @@ PACKAGE_DIR = Path(__file__).resolve().parent.parent / "generated"
 SIG_DIGITS = 12
 
 
-class CodegenError(ValueError):
-    """Generated code that cannot be produced or trusted."""
+CodegenError = GeneratedCodeError  # generated code that cannot be produced or trusted
 
 
 def map_source(R_text: str, params, n, profile: str = "exact", variant: str = "paper", site_dependent=(), dps: int | None = None) -> MapSource:
@@ -85,38 +84,9 @@ def _header(title: str, source: dict, body: str) -> str:
     )
 
 
-def _split(text: str) -> tuple[dict, str, str, str]:
-    """(source dict, source-hash, content-hash, body) of a generated file's text."""
-    head, _, body = _partition_header(text)
-    fields = {}
-    for line in head.splitlines():
-        for key in ("source", "source-hash", "content-hash"):
-            if line.startswith(key + ": "):
-                fields[key] = line[len(key) + 2 :]
-    if set(fields) != {"source", "source-hash", "content-hash"}:
-        raise CodegenError("not a pulsemap generated file (header missing)")
-    return json.loads(fields["source"]), fields["source-hash"], fields["content-hash"], body
-
-
-def _partition_header(text: str) -> tuple[str, str, str]:
-    first = text.find('"""')
-    end = text.find('"""\n', first + 3)
-    if first < 0 or end < 0:
-        raise CodegenError("not a pulsemap generated file (no header docstring)")
-    return text[: end + 4], "", text[end + 4 :]
-
-
 def verify(text: str) -> dict:
     """Check a generated file's content hash; return its source dict."""
-    source, shash, chash, body = _split(text)
-    if hashlib.sha256(body.encode()).hexdigest() != chash:
-        raise CodegenError(
-            "generated code does not match its content-hash (edited by hand?): delete the file "
-            "and let pulsemap regenerate it"
-        )
-    if hashlib.sha256(json.dumps(source, sort_keys=True).encode()).hexdigest() != shash:
-        raise CodegenError("generated code's source-hash does not match its source: delete the file")
-    return source
+    return verify_generated(text)
 
 
 def _f_block(values: dict, profile: str) -> list[str]:
@@ -299,21 +269,7 @@ def generate_force(source: ForceSource) -> str:
     return _header(title, source.as_dict(), body) + body
 
 
-# ------------------------------------------------------------------ write and find
-def generated_dirs() -> list[Path]:
-    """Where generated modules are looked up: the package's generated/ and the cache."""
-    return [PACKAGE_DIR, cache.cache_dir() / "generated"]
-
-
-def find(source: MapSource | ForceSource) -> Path | None:
-    name = module_name(source) + ".py"
-    for folder in generated_dirs():
-        path = folder / name
-        if path.is_file():
-            return path
-    return None
-
-
+# ------------------------------------------------------------------------ write
 def write(source: MapSource | ForceSource, directory: Path | None = None) -> Path:
     """Generate the module for ``source`` into ``directory`` (default: the cache)."""
     text = generate_map(source) if isinstance(source, MapSource) else generate_force(source)
@@ -323,15 +279,6 @@ def write(source: MapSource | ForceSource, directory: Path | None = None) -> Pat
     tmp = path.with_suffix(f".tmp{os.getpid()}")
     tmp.write_text(text, encoding="utf-8")
     os.replace(tmp, path)
-    return path
-
-
-def ensure(source: MapSource | ForceSource) -> Path:
-    """The path of a verified module for ``source``, generating it if missing."""
-    path = find(source)
-    if path is None:
-        return write(source)
-    verify(path.read_text(encoding="utf-8"))
     return path
 
 

@@ -96,3 +96,37 @@ def source_hash(source: MapSource | ForceSource) -> str:
 def module_name(source: MapSource | ForceSource) -> str:
     kind = "map" if isinstance(source, MapSource) else "force"
     return f"{kind}_{source_hash(source)[:16]}"
+
+
+class GeneratedCodeError(ValueError):
+    """A generated file that is not ours or does not match its hashes."""
+
+
+def split_generated(text: str) -> tuple[dict, str, str, str]:
+    """(source dict, source-hash, content-hash, body) of a generated file's text."""
+    first = text.find('"""')
+    end = text.find('"""\n', first + 3)
+    if first < 0 or end < 0:
+        raise GeneratedCodeError("not a pulsemap generated file (no header docstring)")
+    head, body = text[: end + 4], text[end + 4 :]
+    fields = {}
+    for line in head.splitlines():
+        for key in ("source", "source-hash", "content-hash"):
+            if line.startswith(key + ": "):
+                fields[key] = line[len(key) + 2 :]
+    if set(fields) != {"source", "source-hash", "content-hash"}:
+        raise GeneratedCodeError("not a pulsemap generated file (header missing)")
+    return json.loads(fields["source"]), fields["source-hash"], fields["content-hash"], body
+
+
+def verify_generated(text: str) -> dict:
+    """Check a generated file's content and source hashes; return its source dict."""
+    source, shash, chash, body = split_generated(text)
+    if hashlib.sha256(body.encode()).hexdigest() != chash:
+        raise GeneratedCodeError(
+            "generated code does not match its content-hash (edited by hand?): delete the file "
+            "and let pulsemap regenerate it"
+        )
+    if hashlib.sha256(json.dumps(source, sort_keys=True).encode()).hexdigest() != shash:
+        raise GeneratedCodeError("generated code's source-hash does not match its source: delete the file")
+    return source

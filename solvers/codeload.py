@@ -7,13 +7,12 @@ used and never silently rebuilt).
 
 from __future__ import annotations
 
-import hashlib
 import importlib.util
 from pathlib import Path
 from types import ModuleType
 
 from derive.cache import cache_dir
-from derive.sources import ForceSource, MapSource, module_name
+from derive.sources import ForceSource, GeneratedCodeError, MapSource, module_name, verify_generated
 
 PACKAGE_DIR = Path(__file__).resolve().parent.parent / "generated"
 
@@ -23,16 +22,10 @@ def _dirs() -> list[Path]:
 
 
 def _load_path(path: Path) -> ModuleType:
-    text = path.read_text(encoding="utf-8")
-    first = text.find('"""')
-    end = text.find('"""\n', first + 3)
-    head, body = text[: end + 4], text[end + 4 :]
-    expected = next((ln.split(": ", 1)[1] for ln in head.splitlines() if ln.startswith("content-hash: ")), None)
-    if expected is None or hashlib.sha256(body.encode()).hexdigest() != expected:
-        raise RuntimeError(
-            f"generated module {path} does not match its content-hash (edited by hand?): delete it "
-            "and rerun to regenerate"
-        )
+    try:
+        verify_generated(path.read_text(encoding="utf-8"))
+    except GeneratedCodeError as exc:
+        raise RuntimeError(f"generated module {path}: {exc}") from None
     spec = importlib.util.spec_from_file_location(f"pulsemap_generated_{path.stem}", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)  # our own generated, hash-checked file
