@@ -50,16 +50,6 @@ class Derivation:
     timings_s: dict = field(default_factory=dict)
 
 
-def site_dependent_params(pert: Perturbation) -> tuple[str, ...]:
-    """Parameters of R whose values vary along the chain (lists, draws, expressions of i)."""
-    out = []
-    for name in pert.used_parameters:
-        value = pert.params[name]
-        if not isinstance(value, (int, float)):
-            out.append(name)
-    return tuple(out)
-
-
 def derive_all(
     pert: Perturbation,
     n: float = 1.5,
@@ -77,7 +67,7 @@ def derive_all(
     n = check_exponent(n)
     profile = check_profile_kind(profile)
     variant = check_variant(variant)
-    site = site_dependent_params(pert)
+    site = pert.site_dependent
     ex = expand(pert.R, n, site)
     times["expansion"] = time.perf_counter() - t0
 

@@ -112,6 +112,11 @@ class Perturbation:
         return tuple(name for name in self.params if name not in used)
 
     @property
+    def site_dependent(self) -> tuple[str, ...]:
+        """Parameters of R whose values vary along the chain (lists, draws, expressions of i)."""
+        return tuple(name for name in self.used_parameters if not _is_scalar(self.params[name]))
+
+    @property
     def is_uniform(self) -> bool:
         """True if R is free of i and every parameter used in R is a scalar."""
         if symbol("i") in self.R.free_symbols:

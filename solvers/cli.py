@@ -129,7 +129,6 @@ def cmd_table(args: argparse.Namespace) -> int:
 def cmd_generate(args: argparse.Namespace) -> int:
     """``pulsemap generate``: write the generated modules the given scenes use."""
     from derive import codegen
-    from solvers.run import _site_dependent
     from solvers.scene import builtin_scenes, load_scene
 
     names = args.scenes or builtin_scenes()
@@ -143,7 +142,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
         if "map" in scene.methods or "longwave" in scene.methods:
             sources.append(codegen.map_source(pert.text, pert.used_parameters, scene.exponent,
                                               args.profile or scene.profile, args.variant or scene.variant,
-                                              _site_dependent(scene)))
+                                              scene.perturbation.site_dependent))
         for src in sources:
             key = codegen.module_name(src)
             if key not in written:

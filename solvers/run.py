@@ -43,22 +43,13 @@ def _params(scene: Scene, beads: int | None) -> dict:
     pert = scene.perturbation
     out = {}
     for name in pert.used_parameters:
-        value = pert.params[name]
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            out[name] = float(value)
+        if name not in pert.site_dependent:
+            out[name] = float(pert.params[name])
+        elif beads is None:
+            raise RunError(f"parameter '{name}' varies along the chain: set [chain] beads")
         else:
-            if beads is None:
-                raise RunError(f"parameter '{name}' varies along the chain: set [chain] beads")
             out[name] = pert.bead_values(name, beads)
     return out
-
-
-def _site_dependent(scene: Scene) -> tuple[str, ...]:
-    pert = scene.perturbation
-    return tuple(
-        name for name in pert.used_parameters
-        if not (isinstance(pert.params[name], (int, float)) and not isinstance(pert.params[name], bool))
-    )
 
 
 def make_force(scene: Scene, beads: int) -> OnSiteForce:
@@ -157,7 +148,7 @@ def run_scene(
     fp = scene.first_perturbed
     seed_contact = fp - 1
     pert = scene.perturbation
-    site = _site_dependent(scene)
+    site = pert.site_dependent
     timings: dict[str, float] = {}
     warnings: list[str] = []
     contacts = list(range(c0, c1 + 1))
