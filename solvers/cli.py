@@ -8,25 +8,30 @@ from __future__ import annotations
 
 import argparse
 import json
+import importlib
 import sys
 import time
 from typing import Callable, Sequence
 
 EXIT_USAGE = 2
 
+# Sub-commands that live in their own module: each defines ``register(subparsers)`` and imports
+# what its command needs inside the command function (so building the parser stays cheap).
+COMMAND_MODULES: tuple[str, ...] = ()
+
 
 class UsageError(ValueError):
     """A command-line argument that cannot be used as given."""
 
 
-def _positive_float(text: str) -> float:
+def number(text: str) -> float:
     try:
         return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
 
 
-def _write_json(path: str, payload: dict) -> None:
+def write_json(path: str, payload: dict) -> None:
     if path == "-":
         json.dump(payload, sys.stdout, indent=2, sort_keys=False)
         sys.stdout.write("\n")
@@ -46,7 +51,7 @@ def cmd_profile(args: argparse.Namespace) -> int:
     report["timing_s"] = round(time.perf_counter() - t0, 6)
     print(profile_text(report))
     if args.json:
-        _write_json(args.json, report)
+        write_json(args.json, report)
     return 0
 
 
@@ -76,7 +81,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
     )
     print(to_latex(d) if args.latex else to_text(d))
     if args.json:
-        _write_json(args.json, to_json(d))
+        write_json(args.json, to_json(d))
     return 0
 
 
@@ -92,7 +97,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                        progress=progress_enabled() and not args.quiet, seed_peak=args.seed_peak)
     print(to_text(result))
     if args.json:
-        _write_json(args.json, result)
+        write_json(args.json, result)
     if args.csv:
         with open(args.csv, "w", encoding="utf-8") as fh:
             fh.write(to_csv(result))
@@ -121,7 +126,7 @@ def cmd_table(args: argparse.Namespace) -> int:
     rows = table(args.scenes or None, progress=not args.quiet)
     print(markdown(rows))
     if args.json:
-        _write_json(args.json, {"rows": rows})
+        write_json(args.json, {"rows": rows})
     return 0
 
 
@@ -163,7 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     p = sub.add_parser("profile", help="solitary-wave profile, Pade fit and universal constants")
-    p.add_argument("--n", type=_positive_float, default=1.5, help="contact exponent n > 1 (default 1.5)")
+    p.add_argument("--n", type=number, default=1.5, help="contact exponent n > 1 (default 1.5)")
     p.add_argument("--profile", default="exact", help="profile for f1..f7: exact (default) or pade")
     p.add_argument("--dps", type=int, default=None, help="mpmath working precision (digits)")
     p.add_argument("--json", metavar="OUT", help="write the report as JSON ('-' for stdout)")
@@ -173,15 +178,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("expr", metavar="EXPR", help='on-site perturbation R in u, v, i and parameters, e.g. "-mu*v"')
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="parameter value: a number, a comma list (per bead) or an expression of i")
-    p.add_argument("--eps", type=_positive_float, default=0.1, help="small parameter eps (default 0.1)")
-    p.add_argument("--n", type=_positive_float, default=1.5, help="contact exponent n > 1 (default 1.5)")
+    p.add_argument("--eps", type=number, default=0.1, help="small parameter eps (default 0.1)")
+    p.add_argument("--n", type=number, default=1.5, help="contact exponent n > 1 (default 1.5)")
     p.add_argument("--profile", default="exact", help="exact (default) or pade")
     p.add_argument("--variant", default="paper", help="map variant: paper (default), corrected, 1d")
     p.add_argument("--fold", metavar="NAME", help="locate the saddle-node of Eq. 41 in parameter NAME")
-    p.add_argument("--A0", type=_positive_float, default=None, help="initial amplitude for the law's singular index")
-    p.add_argument("--i0", type=_positive_float, default=0.0, help="contact index of A0 (default 0)")
+    p.add_argument("--A0", type=number, default=None, help="initial amplitude for the law's singular index")
+    p.add_argument("--i0", type=number, default=0.0, help="contact index of A0 (default 0)")
     p.add_argument("--dps", type=int, default=None, help="mpmath working precision (digits)")
-    p.add_argument("--sympy-seconds", type=_positive_float, default=2.0,
+    p.add_argument("--sympy-seconds", type=number, default=2.0,
                    help="time bound for sympy's closed-form integration (default 2 s)")
     p.add_argument("--latex", action="store_true", help="print LaTeX instead of text")
     p.add_argument("--json", metavar="OUT", help="write the derivation as JSON ('-' for stdout)")
@@ -195,7 +200,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-' for stdout)")
     p.add_argument("--csv", metavar="OUT", help="write peaks per contact as CSV")
     p.add_argument("--plot", metavar="OUT.png", help="plot in the paper's style (needs matplotlib)")
-    p.add_argument("--seed-peak", type=_positive_float, default=None, metavar="PEAK",
+    p.add_argument("--seed-peak", type=number, default=None, metavar="PEAK",
                    help="seed map and law with this peak at contact first_perturbed - 1 (default: the DNS "
                         "peak there, or v0 through kappa_n without the DNS)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -216,6 +221,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("scenes", help="list the built-in scenes")
     p.set_defaults(func=cmd_scenes)
+
+    for modname in COMMAND_MODULES:
+        importlib.import_module(modname).register(sub)
     return parser
 
 
