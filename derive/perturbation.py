@@ -41,6 +41,7 @@ __all__ = [
     "Perturbation",
     "PerturbationError",
     "RandomDraw",
+    "check_all_used",
     "make_perturbation",
     "parse_cli_param",
     "parse_param_value",
@@ -205,6 +206,23 @@ def make_perturbation(
     return perturbation
 
 
+def check_all_used(perturbation: Perturbation) -> Perturbation:
+    """Return ``perturbation`` if R uses every parameter given a value, else raise PerturbationError.
+
+    Scene files and the command line call this: a value R never reads is almost always a typo or
+    a forgotten term in R, and ignoring it would silently compute a different model. (The Python
+    API itself allows extra values; see :attr:`Perturbation.unused_parameters`.)
+    """
+    unused = perturbation.unused_parameters
+    if unused:
+        names = ", ".join(f"'{name}'" for name in unused)
+        what = "parameter" if len(unused) == 1 else "parameters"
+        raise PerturbationError(
+            f"{what} {names} given but not used in R = {perturbation.text}: remove it or use it in R"
+        )
+    return perturbation
+
+
 def parse_param_value(name: str, raw: object) -> ParamValue:
     """A parameter value from a scene/TOML/CLI value (see the module docstring for the forms)."""
     _check_name(name)
@@ -278,8 +296,17 @@ def _parse_eps(eps: object) -> float:
             raise PerturbationError(f"eps: {exc}") from exc
         if expr.free_symbols:
             raise PerturbationError(f"eps = {eps!r} must be a number, not an expression of u, v or i")
-        return _finite_float("eps", _to_float(expr, "eps"))
-    return _finite_float("eps", eps)
+        return _check_eps_sign(_finite_float("eps", _to_float(expr, "eps")))
+    return _check_eps_sign(_finite_float("eps", eps))
+
+
+def _check_eps_sign(eps: float) -> float:
+    if eps < 0:
+        raise PerturbationError(
+            f"eps = {eps!r} must be >= 0: eps is the size of the perturbation eps*R; "
+            "put the sign into R (e.g. R = \"mu*v\" rather than eps < 0)"
+        )
+    return eps
 
 
 def _to_float(expr: sympy.Expr, what: str) -> float:

@@ -7,11 +7,14 @@ Every error a user can cause is a one-line message on stderr and exit status 2.
 from __future__ import annotations
 
 import argparse
+import difflib
 import json
 import importlib
+import re
 import sys
 import time
-from typing import Callable, Sequence
+from pathlib import Path
+from typing import Callable, NoReturn, Sequence
 
 EXIT_USAGE = 2
 
@@ -22,6 +25,42 @@ COMMAND_MODULES: tuple[str, ...] = ()
 
 class UsageError(ValueError):
     """A command-line argument that cannot be used as given."""
+
+
+class _ArgumentParser(argparse.ArgumentParser):
+    """argparse whose usage errors are UsageErrors (one line, exit 2 in :func:`main`).
+
+    Sub-parsers inherit the class, so every sub-command's argument errors behave the same.
+    """
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(_usage_message(self.prog, message))
+
+
+def _usage_message(prog: str, message: str) -> str:
+    """argparse's message on one line, with a suggestion for a misspelt choice and a pointer to --help."""
+    message = " ".join(message.split())
+    match = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+    if match:
+        choices = [c.strip().strip("'\"") for c in match.group(2).split(",")]
+        close = difflib.get_close_matches(match.group(1), choices, n=1)
+        if close:
+            message += f"; did you mean '{close[0]}'?"
+    return f"{message} (see '{prog} --help')"
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Output files (--json, --csv, --plot) must be writable places: fail before a long run, not after."""
+    for option in ("json", "csv", "plot"):
+        value = getattr(args, option, None)
+        if not isinstance(value, str) or value == "-":
+            continue
+        path = Path(value).expanduser()
+        if path.is_dir():
+            raise UsageError(f"--{option} {value}: is a directory: give a file name in it")
+        parent = path.parent
+        if not parent.is_dir():
+            raise UsageError(f"--{option} {value}: directory {parent} does not exist: create it or choose another path")
 
 
 def number(text: str) -> float:
@@ -59,7 +98,7 @@ def cmd_profile(args: argparse.Namespace) -> int:
 def cmd_derive(args: argparse.Namespace) -> int:
     """``pulsemap derive``: expansion, map (Eq. 23), long-wave law (Eq. 30), Eq. 41."""
     from derive.derivation import derive_all, to_json, to_latex, to_text
-    from derive.perturbation import make_perturbation, parse_cli_param
+    from derive.perturbation import check_all_used, make_perturbation, parse_cli_param
 
     params = {}
     for text in args.param:
@@ -67,7 +106,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
         if name in params:
             raise UsageError(f"--param {name} given twice")
         params[name] = value
-    pert = make_perturbation(args.expr, args.eps, params)
+    pert = check_all_used(make_perturbation(args.expr, args.eps, params))
     d = derive_all(
         pert,
         n=args.n,
@@ -159,7 +198,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------- main
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _ArgumentParser(
         prog="pulsemap",
         description="Primary pulses in uncompressed granular chains with on-site perturbations "
         "(Starosvetsky's amplitude map, long-wave law, stationary shocks, checked by DNS).",
@@ -238,10 +277,11 @@ def _protect_expressions(argv: list[str]) -> list[str]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(_protect_expressions(list(sys.argv[1:] if argv is None else argv)))
-    func: Callable[[argparse.Namespace], int] = args.func
     try:
+        parser = build_parser()
+        args = parser.parse_args(_protect_expressions(list(sys.argv[1:] if argv is None else argv)))
+        _check_outputs(args)
+        func: Callable[[argparse.Namespace], int] = args.func
         return func(args)
     except BrokenPipeError:  # e.g. piped into `head`
         sys.stderr.close()

@@ -21,7 +21,7 @@ from solvers.codeload import force_module, map_module
 from solvers.dns import OnSiteForce, chain_length_for, simulate
 from solvers.longwave_eval import evaluate_law
 from solvers.map_iteration import iterate_map
-from solvers.scene import Scene
+from solvers.scene import METHODS, PROFILES, VARIANTS, Scene, SceneError, check_choice
 
 EPS_WARN = 0.3  # eps above this is outside the map's asymptotic assumption (eps << 1)
 
@@ -140,10 +140,12 @@ def run_scene(
         raise RunError(f"seed peak must be a finite number > 0, got {seed_peak!r}")
     given_seed = seed_peak
     methods = tuple(methods) if methods is not None else tuple(scene.methods)
-    for m in methods:
-        if m not in ("map", "longwave", "dns"):
-            raise RunError(f"unknown method {m!r}: choose from map, longwave, dns")
-    choice = Choice(profile or scene.profile, variant or scene.variant)
+    try:  # every choice checked before anything runs (one-line error with the closest name)
+        methods = tuple(check_choice(m.strip() if isinstance(m, str) else m, "method", METHODS) for m in methods)
+        choice = Choice(check_choice(profile or scene.profile, "profile", PROFILES),
+                        check_choice(variant or scene.variant, "map variant", VARIANTS))
+    except SceneError as exc:
+        raise RunError(str(exc)) from None
     c0, c1 = scene.contacts
     fp = scene.first_perturbed
     seed_contact = fp - 1

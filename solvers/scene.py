@@ -58,6 +58,7 @@ __all__ = [
     "SceneError",
     "builtin_scene_path",
     "builtin_scenes",
+    "check_choice",
     "load_scene",
     "parse_scene",
 ]
@@ -157,7 +158,8 @@ class Scene:
         """A copy with some fields replaced, validated like a scene file.
 
         Keys are the field names; also ``R``, ``eps`` and ``params`` (raw values, as in a scene
-        file) to rebuild the perturbation. ``dns`` is merged over the current DNS options.
+        file) to rebuild the perturbation (a new ``R`` without ``params`` keeps the current
+        parameters it uses and drops the others). ``dns`` is merged over the current DNS options.
         """
         fields = {f.name for f in dataclasses.fields(self)}
         allowed = sorted(fields | {"R", "eps", "params"})
@@ -174,7 +176,7 @@ class Scene:
                     raise _Problem("give either perturbation or R/eps/params, not both")
                 data = self.as_dict()["perturbation"]
                 data.update({key: kw[key] for key in ("R", "eps", "params") if key in kw})
-                raw["perturbation"] = _build_perturbation(data, self.name)
+                raw["perturbation"] = _build_perturbation(data, self.name, drop_unused="params" not in kw)
             values.update(_check_fields(raw))
             scene = Scene(**values)
             _check_consistency(scene)
@@ -506,6 +508,14 @@ def _check_methods(value: Any) -> tuple[str, ...]:
     return tuple(m for m in METHODS if m in value)
 
 
+def check_choice(value: Any, what: str, choices: tuple[str, ...] | list[str]) -> str:
+    """``value`` if it is one of ``choices``, else a one-line SceneError naming them (and the closest)."""
+    try:
+        return _check_choice(value, what, tuple(choices))
+    except _Problem as exc:
+        raise SceneError(str(exc)) from None
+
+
 def _check_choice(value: Any, key: str, choices: tuple[str, ...]) -> str:
     if not isinstance(value, str):
         raise _Problem(f"{key} must be a string, got {_type_name(value)}: choose one of {', '.join(choices)}")
@@ -532,10 +542,14 @@ def _check_dns_table(table: Mapping[str, Any]) -> FrozenMap:
 # --------------------------------------------------------------------------- perturbation
 
 
-def _build_perturbation(table: Mapping[str, Any], name: str) -> "Perturbation":
-    """make_perturbation(R, eps, params), its errors as one-line problems."""
+def _build_perturbation(table: Mapping[str, Any], name: str, drop_unused: bool = False) -> "Perturbation":
+    """make_perturbation(R, eps, params), its errors as one-line problems.
+
+    Every parameter given must occur in R (check_all_used); ``drop_unused`` instead drops the
+    ones R does not use (with_overrides(R=...) keeping the old parameters).
+    """
     from derive.expression import ExpressionError
-    from derive.perturbation import PerturbationError, make_perturbation
+    from derive.perturbation import PerturbationError, check_all_used, make_perturbation
 
     R = table["R"]
     if not isinstance(R, str):
@@ -545,7 +559,11 @@ def _build_perturbation(table: Mapping[str, Any], name: str) -> "Perturbation":
     if not isinstance(params, Mapping):
         raise _Problem(f"[perturbation] params must be a table of NAME = VALUE, got {_type_name(params)}")
     try:
-        return make_perturbation(R, eps, dict(params))
+        pert = make_perturbation(R, eps, dict(params))
+        if drop_unused and pert.unused_parameters:
+            used = {key: value for key, value in params.items() if key not in pert.unused_parameters}
+            pert = make_perturbation(R, eps, used)
+        return check_all_used(pert)
     except (PerturbationError, ExpressionError) as exc:
         raise _Problem("[perturbation] " + _scene_hint(str(exc))) from None
 

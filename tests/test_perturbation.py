@@ -305,4 +305,6 @@ def test_unused_parameters_are_reported() -> None:
 def test_eps_accepts_numbers_and_numeric_strings() -> None:
     assert make_perturbation("-v", 0, {}).eps == 0.0
     assert make_perturbation("-v", "1e-3", {}).eps == 0.001
-    assert make_perturbation("-v", np.float64(-0.2), {}).eps == -0.2
+    assert make_perturbation("-v", np.float64(0.2), {}).eps == 0.2
+    with pytest.raises(PerturbationError, match="eps = -0.2 must be >= 0"):  # the sign belongs in R
+        make_perturbation("-v", np.float64(-0.2), {})
