@@ -4,12 +4,18 @@ At contact i, with A_{i-1} known, solve F1 = F2 = 0 for (A_i, A_{i+1}) (variants
 ``corrected``) or F1 = 0 for A_i (variant ``1d``), keep A_i, and move on (the three-stage scheme
 after Eq. 23). Newton's method in log-amplitudes with the generated Jacobian; when it fails, a
 bracketing fallback (eliminate A_{i+1} from F2, then bisect F1 in A_i). When no positive root
-exists, or A falls below ``death_fraction`` of its seed, the pulse has died: the iteration stops
-at that contact and says so.
+exists (status "no root": the reduction breaks down, e.g. a destabilising foundation has pumped
+A up beyond the map's last solution) or A falls below ``death_fraction`` of its seed (status
+"died"), the iteration stops at that contact and its message names the contact.
+
+At every contact it also records the size of the eps term of Eq. 23 relative to the contact
+term, |eps sum_j c_j g_j A_i^e_j| / (f1 A_i^P) (= |F1(A_i, A_i, A_i)| / (f1 A_i^P), since the
+contact terms cancel at equal amplitudes): the map assumes it is small.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from types import ModuleType
@@ -32,13 +38,26 @@ class MapRun:
     contacts: Array  # contacts with a value (first..stopped)
     A: Array
     peaks: Array
-    status: str  # "ok", "died"
+    status: str  # "ok", "died" (A below death_fraction of its seed), "no root" (Eq. 23 unsolvable)
     message: str
     variant: str
     profile: str
     seed_A: float
     seed_contact: int
     fallbacks: int  # steps where Newton failed and bracketing was used
+    forcing_ratio: Array = dataclasses.field(default_factory=lambda: np.zeros(0))  # per contact, see module doc
+
+    @property
+    def max_forcing_ratio(self) -> float | None:
+        """The largest relative size of the eps term over the contacts reached (None: none reached)."""
+        return float(np.max(self.forcing_ratio)) if self.forcing_ratio.size else None
+
+
+def forcing_ratio(module: ModuleType, a_i: float, eps: float, args: tuple) -> float:
+    """|eps term| / contact term of Eq. 23 at amplitude a_i: |F1(a_i, a_i, a_i)| / (f1 a_i^P)."""
+    amps = (a_i, a_i) if module.VARIANT == "1d" else (a_i, a_i, a_i)
+    F1 = module.map_residual(*amps, eps, *args)[0]
+    return abs(float(F1)) / (float(module.f1) * a_i ** float(module.P))
 
 
 def contact_params(module: ModuleType, params: Mapping[str, object], contact: int) -> tuple:
@@ -170,7 +189,7 @@ def iterate_map(
         raise MapIterationError(
             f"last contact {last_contact} must come after the seed contact {seed_contact}"
         )
-    contacts, amps = [], []
+    contacts, amps, ratios = [], [], []
     a_prev = float(seed_A)
     guess = None
     fallbacks = 0
@@ -180,8 +199,11 @@ def iterate_map(
         sol, used_fallback = step(module, a_prev, eps, args, guess)
         fallbacks += used_fallback
         if sol is None or not all(math.isfinite(s) and s > 0 for s in sol):
-            status = "died"
-            message = f"pulse died at contact {i}: the map has no positive root there"
+            status = "no root"
+            message = (
+                f"no positive root of the map at contact {i} (A_{i - 1} = {a_prev:.6g}, peak "
+                f"{a_prev * float(module.S0):.6g}): the reduction breaks down there; the map stops at contact {i - 1}"
+            )
             break
         a_i = sol[0]
         if a_i < death_fraction * seed_A:
@@ -190,6 +212,7 @@ def iterate_map(
             break
         contacts.append(i)
         amps.append(a_i)
+        ratios.append(forcing_ratio(module, a_i, eps, args))
         ratio = a_i / a_prev
         guess = tuple(s * ratio for s in sol)
         a_prev = a_i
@@ -205,4 +228,5 @@ def iterate_map(
         seed_A=float(seed_A),
         seed_contact=seed_contact,
         fallbacks=fallbacks,
+        forcing_ratio=np.array(ratios, dtype=float),
     )

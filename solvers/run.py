@@ -24,6 +24,7 @@ from solvers.map_iteration import iterate_map
 from solvers.scene import METHODS, PROFILES, VARIANTS, Scene, SceneError, check_choice
 
 EPS_WARN = 0.3  # eps above this is outside the map's asymptotic assumption (eps << 1)
+FORCING_WARN = 0.3  # eps term of Eq. 23 above this fraction of the contact term: same assumption, per contact
 
 
 class RunError(ValueError):
@@ -238,8 +239,14 @@ def run_scene(
             out["map"] = {"variant": mr.variant, "profile": mr.profile, "status": mr.status,
                           "message": mr.message, "newton_fallbacks": mr.fallbacks,
                           "generated": mod.__name__}
+            out["map"]["max_forcing_ratio"] = mr.max_forcing_ratio  # |eps term| / contact term (map_iteration)
             if mr.status != "ok":
                 warnings.append(f"map: {mr.message}")
+            if mr.max_forcing_ratio is not None and mr.max_forcing_ratio > FORCING_WARN:
+                k = int(np.argmax(mr.forcing_ratio > FORCING_WARN))
+                warnings.append(f"map: at contact {int(mr.contacts[k])} the eps term of Eq. 23 exceeds "
+                                f"{FORCING_WARN:g} of the contact term (max {mr.max_forcing_ratio:.3g} over the run): "
+                                "outside the map's assumption eps*R << contact forces")
         if "longwave" in methods:
             if site:
                 warnings.append("long-wave law skipped: the perturbation is site-dependent (" + ", ".join(site) + ")")

@@ -85,7 +85,7 @@ CLI = [
     ("unknown profile", ["profile", "--profile", "spline"], ["unknown profile 'spline'", "exact, pade"]),
     ("unknown variant", ["derive", "-mu*v", "--param", "mu=1", "--variant", "2d"], ["variant '2d'", "paper, corrected, 1d"]),
     ("fold in an unknown parameter", ["derive", "-mu*v", "--param", "mu=1", "--fold", "nu"], ["'nu'"]),
-    ("run: unknown method", ["run", "fig8-eps0.1", "--methods", "map,dsn"], ["'dsn'", "map, longwave, dns"]),
+    ("run: unknown method", ["run", "fig8-eps0.1", "--methods", "map,dsn"], ["'dsn'", "did you mean 'dns'"]),
     ("run: unknown profile", ["run", "fig8-eps0.1", "--methods", "dns", "--profile", "spline"], ["profile 'spline'", "exact, pade"]),
     ("run: unknown variant", ["run", "fig8-eps0.1", "--variant", "papper"], ["variant 'papper'", "did you mean 'paper'"]),
     ("run: seed peak negative", ["run", "fig8-eps0.1", "--seed-peak", "-1"], ["seed peak", "> 0"]),
