@@ -20,7 +20,7 @@ EXIT_USAGE = 2
 
 # Sub-commands that live in their own module: each defines ``register(subparsers)`` and imports
 # what its command needs inside the command function (so building the parser stays cheap).
-COMMAND_MODULES: tuple[str, ...] = ()
+COMMAND_MODULES: tuple[str, ...] = ("solvers.sweep_cli",)
 
 
 class UsageError(ValueError):
