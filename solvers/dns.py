@@ -20,7 +20,7 @@ import numpy as np
 import scipy.integrate as _integrate
 from scipy import sparse
 
-from solvers.peaks import first_threshold, primary_pulse_lost, scan_step
+from solvers.peaks import PeakTracker, scan_step
 
 if TYPE_CHECKING:  # pragma: no cover
     from solvers.window import WindowRule
@@ -30,7 +30,8 @@ EXPLICIT_METHODS = ("DOP853", "RK45", "RK23")
 IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
 METHODS = ("auto",) + EXPLICIT_METHODS + IMPLICIT_METHODS
 STIFFNESS_RATIO = 30.0  # 'auto' goes implicit when stiffness_hint > this x contact rate
-ENERGY_BLOWUP = 1e6
+ENERGY_BLOWUP = 1e6  # blow-up guard: energy (kinetic + contact) beyond this x initial
+STEPS_PER_CONTACT = 2000  # step budget per contact (default_max_steps)
 
 
 @dataclass(frozen=True)
@@ -63,6 +64,8 @@ class DNSResult:
     ``mode`` is "full" (all N beads integrated) or "window" (moving window, solvers/window.py);
     ``window_beads`` is the largest number of beads integrated at once, ``window_shifts`` the
     number of solver restarts the window needed and ``window_rule`` its geometry (None: full).
+    ``blew_up``: the run was stopped by the blow-up guard (non-finite state or energy beyond
+    ENERGY_BLOWUP x initial); the peaks measured before it are kept. ``steps``: accepted steps.
     """
 
     contacts: Array
@@ -85,6 +88,8 @@ class DNSResult:
     window_beads: int = 0
     window_shifts: int = 0
     window_rule: object | None = None
+    blew_up: bool = False
+    steps: int = 0
 
 
 # ----------------------------------------------------------------------------- small helpers
@@ -128,6 +133,11 @@ def choose_method(force: OnSiteForce | None, velocity: float, exponent: float) -
 def default_t_max(last_contact: int, velocity: float, exponent: float) -> float:
     """Generous time limit: 100x the unperturbed travel time to ``last_contact``."""
     return 100.0 * (last_contact + 5) / contact_rate(velocity, exponent)
+
+
+def default_max_steps(last_contact: int) -> int:
+    """Step budget: 2000 accepted steps per contact (a formed pulse takes ~5-10 at rtol 1e-10)."""
+    return STEPS_PER_CONTACT * (int(last_contact) + 10)
 
 
 def initial_state(beads: int, velocity: float) -> Array:
@@ -319,6 +329,7 @@ def simulate(
     window: "int | str | WindowRule | None" = None,
     window_accuracy: float = 1e-8,
     window_engine: str = "auto",
+    max_steps: int | None = None,
 ) -> DNSResult:
     """Integrate Eq. 1 and return the leading-edge peaks of contacts[0]..contacts[1].
 
@@ -337,12 +348,18 @@ def simulate(
     ``stall_factor`` times the last inter-peak delay, at ``t_max``, or when the state becomes
     non-finite or the energy grows beyond 1e6 times its initial value. A contact whose first
     maximum exceeds ``overtake_factor`` times the previous contact's no longer carries the
-    primary pulse (the wake overtook the front): the run stops there too.
+    primary pulse (the wake overtook the front): the run stops there too. ``max_steps``
+    (default ``default_max_steps(last)``) bounds the accepted steps, so no run can hang.
+    Whatever stops the run, the peaks measured before it are returned (never NaN for a
+    contact marked alive).
     """
     if not (np.isfinite(overtake_factor) and overtake_factor > 1.0):
         raise ValueError(f"overtake_factor must be a finite number > 1, got {overtake_factor!r}")
     first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol,
                            peak_fraction, death_fraction, t_max, stall_factor)
+    if max_steps is not None and (isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer))
+                                  or max_steps < 1):
+        raise ValueError(f"max_steps must be an integer >= 1 or None, got {max_steps!r}")
     beads, exponent, velocity = int(beads), float(exponent), float(velocity)
     chosen = choose_method(force, velocity, exponent) if method == "auto" else method
     t_limit = default_t_max(last, velocity, exponent) if t_max is None else float(t_max)
@@ -353,82 +370,51 @@ def simulate(
             beads, exponent, velocity, (first, last), force, rule=resolve_rule(window, window_accuracy),
             method=chosen, rtol=rtol, atol=atol, peak_fraction=peak_fraction,
             death_fraction=death_fraction, t_max=t_limit, stall_factor=stall_factor,
-            progress=progress, engine=window_engine, overtake_factor=overtake_factor)
+            progress=progress, engine=window_engine, overtake_factor=overtake_factor,
+            max_steps=default_max_steps(last) if max_steps is None else int(max_steps))
     y0 = initial_state(beads, velocity)
     e0 = energy(y0[0::2], y0[1::2], exponent)
 
     wall0 = _time.perf_counter()
     solver = make_solver(chosen, beads, exponent, force, y0, t_limit, rtol, atol)
-    peaks = np.full(last, np.nan)
-    times = np.full(last, np.nan)
-    next_contact = 1
-    threshold = first_threshold(velocity, exponent, peak_fraction)
-    window = stall_factor / contact_rate(velocity, exponent)
-    last_peak_time = 0.0
-    died_at: int | None = None
+    track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
+                              death_fraction=death_fraction, overtake_factor=overtake_factor,
+                              stall_factor=stall_factor)
+    budget = default_max_steps(last) if max_steps is None else max_steps
     drift = 0.0
-    reason = ""
     wall_report = wall0
 
     while True:
         t_old, y_old = solver.t, solver.y.copy()
         message = solver.step()
         if solver.status == "failed":
-            reason = f"integrator failed at t={solver.t:.6g}: {message}"
+            track.reason = f"integrator failed at t={solver.t:.6g}: {message}"
             break
         y = solver.y
-        if not np.all(np.isfinite(y)):
-            reason = f"state became non-finite at t={solver.t:.6g}"
-            break
         e = energy(y[0::2], y[1::2], exponent)
+        if track.check_state(solver.t, e, e0, ENERGY_BLOWUP):
+            break
         drift = max(drift, abs(e - e0) / e0)
-        if not e <= ENERGY_BLOWUP * e0:
-            reason = f"energy grew beyond {ENERGY_BLOWUP:g} x initial at t={solver.t:.6g}"
-            break
-
-        found = scan_step(y_old, y, t_old, solver.t, solver.dense_output,
-                          next_contact, last, threshold, peak_fraction)
-        for peak in found:
-            k = peak.contact
-            peaks[k - 1], times[k - 1] = peak.value, peak.time
-            window = stall_factor * (peak.time - last_peak_time)
-            last_peak_time = peak.time
-            threshold = peak_fraction * peak.value
-            next_contact = k + 1
-            why = primary_pulse_lost(peaks, k, first, death_fraction, overtake_factor, times)
-            if why:
-                died_at = k
-                break
-        if died_at is not None:
-            reason = f"pulse died at contact {died_at} ({why})"
-            break
-        if next_contact > last:
-            reason = "last contact peaked"
-            break
-        if solver.t - last_peak_time > window:
-            after = f"after contact {next_contact - 1}" if next_contact > 1 else "before contact 1"
-            reason = (f"pulse died: stopped advancing {after} (no peak within {window:.4g} time"
-                      f" units, t={solver.t:.6g})")
+        track.record(scan_step(y_old, y, t_old, solver.t, solver.dense_output, track.next_contact,
+                               last, track.threshold, peak_fraction))
+        if track.check_progress(solver.t, t_limit, budget):
             break
         if solver.status == "finished":
-            reason = f"t_max reached (t={solver.t:.6g}, next contact {next_contact})"
+            track.reason = f"t_max reached (t={solver.t:.6g}, next contact {track.next_contact})"
             break
         if progress and _time.perf_counter() - wall_report > 2.0:
             wall_report = _time.perf_counter()
-            print(f"[dns] t={solver.t:.4g} contact {next_contact - 1}/{last} nfev={solver.nfev}",
+            print(f"[dns] t={solver.t:.4g} contact {track.next_contact - 1}/{last} nfev={solver.nfev}",
                   file=sys.stderr)
 
     wall = _time.perf_counter() - wall0
-    alive = np.isfinite(peaks)
-    if died_at is not None:
-        alive[died_at - 1 :] = False
-    sel = slice(first - 1, last)
+    contacts_out, peaks, times, alive = track.outcome()
     return DNSResult(
-        contacts=np.arange(first, last + 1),
-        peaks=peaks[sel].copy(),
-        peak_times=times[sel].copy(),
-        alive=alive[sel].copy(),
-        stop_reason=reason,
+        contacts=contacts_out,
+        peaks=peaks,
+        peak_times=times,
+        alive=alive,
+        stop_reason=track.reason,
         method=chosen,
         rtol=float(rtol),
         atol=float(atol),
@@ -441,4 +427,6 @@ def simulate(
         velocity=velocity,
         t_end=float(solver.t),
         window_beads=beads,
+        blew_up=track.blew_up,
+        steps=track.steps,
     )

@@ -52,8 +52,11 @@ def locate_maximum(dense: DenseOutput, t_old: float, t_new: float, k: int) -> tu
 
     The dense output is the integrator's own interpolant, so the root is as accurate as the
     step. If the interpolant does not bracket the root (it agrees with the step ends only to
-    round-off) the larger end value is returned.
+    round-off) the larger end value is returned. A ``QuinticStep`` interpolant only locates the
+    root; the value is then taken from its exact re-step to that time (see QuinticStep).
     """
+    if isinstance(dense, QuinticStep):
+        return dense.maximum(k)
 
     def rate(t: float) -> float:
         return strain_rate(dense(t), k)
@@ -67,6 +70,80 @@ def locate_maximum(dense: DenseOutput, t_old: float, t_new: float, k: int) -> tu
     else:
         t_peak = t_old if strain(dense(t_old), k) >= strain(dense(t_new), k) else t_new
     return float(t_peak), strain(dense(t_peak), k)
+
+
+ExactStep = Callable[[float, np.ndarray, np.ndarray, float], np.ndarray]
+
+
+class QuinticStep:
+    """One accepted step seen through a quintic Hermite interpolant, with an exact re-step.
+
+    For an engine without dense output (Hairer's Fortran codes). The strain delta_k(t) is
+    interpolated from delta, delta' and delta'' (accelerations of Eq. 1) at both ends of the
+    step; that locates the root t* of delta_k' to ~h^5. The peak value is then read off the
+    state at t* obtained by ``exact_step`` (one step of the integrator's own scheme from the
+    nearer end of the step, so at most half a step long and at least as accurate as the
+    accepted one), with a Newton correction delta - delta'^2 / (2 delta'') for the residual
+    offset of t*. Cost: two right-hand-side evaluations for the ends plus one re-step per peak.
+    """
+
+    def __init__(self, t0: float, y0: np.ndarray, f0: np.ndarray, t1: float, y1: np.ndarray,
+                 f1: np.ndarray, exact_step: ExactStep) -> None:
+        self.t0, self.t1, self.h = t0, t1, t1 - t0
+        self.ends = ((t0, y0, f0), (t1, y1, f1))
+        self.exact_step = exact_step
+        self.evaluations = 0
+        h = self.h
+        # positions: p(s) = sum c_j s^j, s = (t - t0)/h, with p, p', p'' matching at s = 0, 1
+        c0, c1, c2 = y0[0::2], h * y0[1::2], 0.5 * h * h * f0[1::2]
+        r0 = y1[0::2] - (c0 + c1 + c2)
+        r1 = h * y1[1::2] - (c1 + 2.0 * c2)
+        r2 = h * h * f1[1::2] - 2.0 * c2
+        self.coef = (c0, c1, c2, 10.0 * r0 - 4.0 * r1 + 0.5 * r2,
+                     -15.0 * r0 + 7.0 * r1 - r2, 6.0 * r0 - 3.0 * r1 + 0.5 * r2)
+
+    def _strain_coef(self, k: int) -> list[float]:
+        return [float(c[k - 1] - c[k]) for c in self.coef]
+
+    def __call__(self, t: float) -> np.ndarray:
+        """Interpolated state (positions and velocities) at t."""
+        s = (t - self.t0) / self.h
+        c0, c1, c2, c3, c4, c5 = self.coef
+        out = np.empty(2 * len(c0))
+        out[0::2] = c0 + s * (c1 + s * (c2 + s * (c3 + s * (c4 + s * c5))))
+        out[1::2] = (c1 + s * (2.0 * c2 + s * (3.0 * c3 + s * (4.0 * c4 + s * 5.0 * c5)))) / self.h
+        return out
+
+    def exact(self, t: float) -> np.ndarray:
+        """State at t from one step of the integrator's scheme from the nearer end."""
+        (ta, ya, fa), (tb, yb, fb) = self.ends
+        self.evaluations += 1
+        if t - ta <= tb - t:
+            return self.exact_step(ta, ya, fa, t - ta)
+        return self.exact_step(tb, yb, fb, t - tb)
+
+    def maximum(self, k: int) -> tuple[float, float]:
+        """(time, value) of the maximum of delta_k in the step (see the class docstring)."""
+        c = self._strain_coef(k)
+        h = self.h
+
+        def rate(s: float) -> float:
+            return c[1] + s * (2.0 * c[2] + s * (3.0 * c[3] + s * (4.0 * c[4] + s * 5.0 * c[5])))
+
+        def accel(s: float) -> float:
+            return (2.0 * c[2] + s * (6.0 * c[3] + s * (12.0 * c[4] + s * 20.0 * c[5]))) / (h * h)
+
+        ra, rb = rate(0.0), rate(1.0)
+        if ra > 0.0 and rb < 0.0:
+            s_peak = brentq(rate, 0.0, 1.0, xtol=1e-15, rtol=4 * np.finfo(float).eps)
+        else:  # the ends' rates are those of the step up to round-off: the maximum is an end
+            s_peak = 0.0 if ra <= 0.0 else 1.0
+        t_peak = self.t0 + s_peak * h
+        y = self.exact(t_peak)
+        value, d_rate, d_acc = strain(y, k), strain_rate(y, k), accel(s_peak)
+        if d_acc < 0.0 and abs(d_rate / d_acc) < abs(h):
+            return float(t_peak - d_rate / d_acc), float(value - 0.5 * d_rate * d_rate / d_acc)
+        return float(t_peak), float(value)
 
 
 def scan_step(
@@ -132,3 +209,100 @@ def primary_pulse_lost(peaks: np.ndarray, k: int, first: int, death_fraction: fl
             return (f"the front stopped travelling as a solitary wave: delay {now:.3g} after contact "
                     f"{k - 1}, over {delay_factor:g}x the {before:.3g} before it")
     return ""
+
+
+# ----------------------------------------------------------------------------- run bookkeeping
+
+
+@dataclass
+class PeakTracker:
+    """Peaks found so far and the stop rules of one DNS run (full chain or moving window).
+
+    Mutable bookkeeping shared by solvers/dns.py and solvers/window.py, so both stop for the
+    same reasons with the same messages: the last contact peaked, the pulse died (peak below
+    ``death_fraction`` x the first requested contact's, see ``primary_pulse_lost``), the pulse
+    stopped advancing (no new peak within ``stall_factor`` x the last inter-peak delay), t_max,
+    a step budget, or a blow-up (non-finite state, energy beyond ``ENERGY_BLOWUP`` x initial).
+    """
+
+    first: int
+    last: int
+    peak_fraction: float
+    death_fraction: float
+    overtake_factor: float
+    stall_factor: float
+    peaks: np.ndarray
+    times: np.ndarray
+    threshold: float
+    stall: float
+    next_contact: int = 1
+    last_peak_time: float = 0.0
+    died_at: int | None = None
+    reason: str = ""
+    blew_up: bool = False
+    steps: int = 0
+
+    @classmethod
+    def start(cls, first: int, last: int, velocity: float, exponent: float, *, peak_fraction: float,
+              death_fraction: float, overtake_factor: float, stall_factor: float) -> "PeakTracker":
+        """Tracker at t = 0; the first stall window is stall_factor contact times (~A^-s)."""
+        rate = velocity ** ((exponent - 1.0) / (exponent + 1.0))
+        return cls(first, last, peak_fraction, death_fraction, overtake_factor, stall_factor,
+                   np.full(last, np.nan), np.full(last, np.nan),
+                   first_threshold(velocity, exponent, peak_fraction), stall_factor / rate)
+
+    def record(self, found: list[Peak], offset: int = 0) -> None:
+        """Store peaks found in one step (contacts relative to ``offset``); stop at a lost pulse."""
+        for peak in found:
+            k = peak.contact + offset
+            self.peaks[k - 1], self.times[k - 1] = peak.value, peak.time
+            self.stall = self.stall_factor * (peak.time - self.last_peak_time)
+            self.last_peak_time = peak.time
+            self.threshold = self.peak_fraction * peak.value
+            self.next_contact = k + 1
+            why = primary_pulse_lost(self.peaks, k, self.first, self.death_fraction,
+                                     self.overtake_factor, self.times)
+            if why:
+                self.died_at = k
+                self.reason = f"pulse died at contact {k} ({why})"
+                return
+
+    def check_progress(self, t: float, t_max: float, max_steps: int) -> str:
+        """After a step: the stop reason from contacts, stall, t_max or step budget ("" to go on)."""
+        self.steps += 1
+        if self.reason:
+            return self.reason
+        if self.next_contact > self.last:
+            self.reason = "last contact peaked"
+        elif t - self.last_peak_time > self.stall:
+            nc = self.next_contact
+            after = f"after contact {nc - 1}" if nc > 1 else "before contact 1"
+            self.reason = (f"pulse died: stopped advancing {after} (no peak within {self.stall:.4g} time"
+                           f" units, t={t:.6g})")
+        elif t >= t_max:
+            self.reason = f"t_max reached (t={t:.6g}, next contact {self.next_contact})"
+        elif self.steps >= max_steps:
+            self.reason = (f"step budget of {max_steps} steps used up at t={t:.6g} before contact "
+                           f"{self.next_contact} (too stiff for the method? try method='LSODA')")
+        return self.reason
+
+    def check_state(self, t: float, e: float, e0: float, limit: float) -> str:
+        """Blow-up guard: a non-finite state/energy or energy beyond ``limit`` x initial."""
+        if not np.isfinite(e):
+            self.reason = f"blow-up: the state became non-finite at t={t:.6g}"
+        elif not e <= limit * e0:
+            self.reason = (f"blow-up: energy grew beyond {limit:g} x its initial value at t={t:.6g}"
+                           f" (unstable perturbation?); peaks up to contact {self.next_contact - 1} kept")
+        else:
+            return ""
+        self.blew_up = True
+        return self.reason
+
+    def outcome(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(contacts, peaks, peak times, alive) of the requested range first..last."""
+        alive = np.isfinite(self.peaks)
+        if self.died_at is not None:
+            alive[self.died_at - 1 :] = False
+        sel = slice(self.first - 1, self.last)
+        return (np.arange(self.first, self.last + 1), self.peaks[sel].copy(), self.times[sel].copy(),
+                alive[sel].copy())

@@ -34,7 +34,7 @@ from typing import Callable
 import numpy as np
 import scipy.integrate as _integrate
 
-from solvers.peaks import first_threshold, primary_pulse_lost, scan_step
+from solvers.peaks import PeakTracker, QuinticStep, scan_step
 
 Array = np.ndarray
 BOUNDARIES = ("coast", "free")
@@ -155,6 +155,18 @@ def coast(x_b: float, v_b: float, t_b: float) -> Callable[[float], float]:
     return lambda t: x_b + v_b * (t - t_b)
 
 
+def power_into(d: Array, exponent: float) -> None:
+    """d <- d**n in place for d >= 0 (n = 1.5, 2, 3 by products and sqrt: cheaper than pow)."""
+    if exponent == 1.5:
+        np.multiply(d, np.sqrt(d), out=d)
+    elif exponent == 2.0:
+        np.multiply(d, d, out=d)
+    elif exponent == 3.0:
+        np.multiply(d, d * d, out=d)
+    else:
+        np.power(d, exponent, out=d)
+
+
 def make_window_rhs(
     width: int,
     exponent: float,
@@ -166,31 +178,29 @@ def make_window_rhs(
 
     ``left``: displacement of the prescribed bead before the window (None: free end);
     ``wall``: the bead after the window is at rest at x = 0 (False: free end of the chain).
-    The contact forces, boundary contacts included, sit in one padded array so that the
-    accelerations are one difference (few numpy calls: the window is small, call overhead
-    dominates).
+    The positions sit in one padded array with the boundary beads (a free end is a copy of
+    its neighbour: no compression), so the contact forces are one difference and the
+    accelerations another (few numpy calls: the window is small, call overhead dominates).
     """
     n = float(exponent)
     on_site = None if force_w is None else force_w.force
-    pad = np.zeros(width + 1)  # pad[j]: force of contact j (0: left boundary, width: wall)
+    xe = np.zeros(width + 2)  # xe[0]: left boundary bead, xe[-1]: the bead after the window
+    d = np.empty(width + 1)  # d[j]: force of contact j (0: left boundary, width: wall)
+    inner = xe[1:-1]
 
     def rhs(t: float, y: Array) -> Array:
-        x = y[0::2]
         out = np.empty(2 * width)
         out[0::2] = y[1::2]
-        d = pad[1:-1]
-        np.subtract(x[:-1], x[1:], out=d)
+        inner[:] = y[0::2]
+        xe[0] = left(t) if left is not None else xe[1]
+        xe[-1] = 0.0 if wall else xe[-2]
+        np.subtract(xe[:-1], xe[1:], out=d)
         np.maximum(d, 0.0, out=d)
-        np.power(d, n, out=d)
-        if left is not None:
-            dl = left(t) - x[0]
-            pad[0] = dl**n if dl > 0.0 else 0.0
-        if wall:
-            pad[-1] = x[-1] ** n if x[-1] > 0.0 else 0.0
+        power_into(d, n)
         a = out[1::2]
-        np.subtract(pad[:-1], pad[1:], out=a)
+        np.subtract(d[:-1], d[1:], out=a)
         if on_site is not None:
-            a += on_site(x, y[1::2])
+            a += on_site(inner, y[1::2])
         return out
 
     return rhs
@@ -269,32 +279,41 @@ def moved(y: Array, scale_x: float, scale_v: float) -> float:
 # ----------------------------------------------------------------------------- engines
 
 FORTRAN_CODES = {"DOP853": "dop853", "RK45": "dopri5"}  # Hairer's codes behind scipy.integrate.ode
+FORTRAN_METHODS = {code: method for method, code in FORTRAN_CODES.items()}
+# PI step-size control (Hairer's BETA): fewer rejected steps at contact openings. Measured on
+# N = 1000, contacts 16..990, v0 = 1 (benchmarks/bench_dns.py): beta = 0.06 cut DOP853's
+# evaluations at equal peak accuracy by ~30 % (0, 0.03, 0.045, 0.06 tried; 0.1 is worse).
+FORTRAN_BETA = {"dop853": 0.06, "dopri5": 0.04}
 
 
-def refined_dense(rhs, t_old: float, y_old: Array, t_new: float, rtol: float, atol: float):
-    """Dense output over [t_old, t_new] by redoing that step with scipy's DOP853.
+def tableau(method: str) -> tuple[Array, Array, Array]:
+    """Butcher tableau (A, b, c) of the explicit scheme behind ``method`` (DOP853 or RK45)."""
+    if method == "DOP853":
+        from scipy.integrate._ivp import dop853_coefficients as co
 
-    Used by the Fortran engine (which exposes no interpolant) only on steps where a contact's
-    strain rate changes sign, about once per contact. The redone step starts with the same
-    step size as the accepted one, so it is normally one step; if scipy rejects it, the
-    interval is covered piecewise.
+        s = co.N_STAGES
+        return co.A[:s, :s], co.B, co.C[:s]
+    cls = getattr(_integrate, method)
+    return cls.A, cls.B, cls.C
+
+
+def exact_stepper(rhs, method: str):
+    """``step(t, y, f, h) -> y(t + h)``: one step of ``method``'s own scheme (h may be < 0).
+
+    Used by QuinticStep to read a peak's value at a located time: a step at most half as long
+    as an accepted one has a smaller local error (order 8 for DOP853, 5 for RK45).
     """
-    solver = _integrate.DOP853(rhs, t_old, y_old, t_new, rtol=rtol, atol=atol, first_step=t_new - t_old)
-    pieces = []
-    while solver.status == "running":
-        solver.step()
-        pieces.append((solver.t, solver.dense_output()))
-    ends = np.array([p[0] for p in pieces])
+    A, B, C = tableau(method)
+    stages = len(B)
 
-    def dense(t: float) -> Array:
-        j = min(int(np.searchsorted(ends, t)), len(pieces) - 1)
-        return pieces[j][1](t)
+    def step(t: float, y: Array, f: Array, h: float) -> Array:
+        K = np.empty((stages, len(y)))
+        K[0] = f
+        for j in range(1, stages):
+            K[j] = rhs(t + C[j] * h, y + h * (A[j, :j] @ K[:j]))
+        return y + h * (B @ K)
 
-    return dense, solver.nfev
-
-
-class _Stop(Exception):
-    """Internal: the step callback asks the engine to stop after this step."""
+    return step
 
 
 def run_fortran(code, rhs, t0, y0, t_max, rtol, atol, first_step, on_step) -> tuple[float, Array, int, float]:
@@ -305,6 +324,12 @@ def run_fortran(code, rhs, t0, y0, t_max, rtol, atol, first_step, on_step) -> tu
     """
     state = {"t": t0, "y": np.array(y0, float), "h": first_step or 0.0, "extra": 0}
 
+    def counted(t: float, y: Array) -> Array:  # evaluations outside the Fortran loop
+        state["extra"] += 1
+        return rhs(t, y)
+
+    step_exactly = exact_stepper(counted, FORTRAN_METHODS[code])
+
     def solout(t: float, y: Array) -> int:
         if t == state["t"]:
             return 0  # the initial point
@@ -312,16 +337,15 @@ def run_fortran(code, rhs, t0, y0, t_max, rtol, atol, first_step, on_step) -> tu
         y_new = np.array(y)
 
         def dense_factory():
-            dense, nfev = refined_dense(rhs, t_old, y_old, t, rtol, atol)
-            state["extra"] += nfev
-            return dense
+            return QuinticStep(t_old, y_old, counted(t_old, y_old), t, y_new, counted(t, y_new), step_exactly)
 
         state["h"] = t - t_old
         state["t"], state["y"] = t, y_new
         return -1 if on_step(t_old, y_old, t, y_new, dense_factory) else 0
 
     r = _integrate.ode(rhs).set_integrator(code, rtol=rtol, atol=atol, nsteps=2**31 - 1,
-                                           first_step=min(first_step or 0.0, t_max - t0))
+                                           first_step=min(first_step or 0.0, t_max - t0),
+                                           beta=FORTRAN_BETA[code])
     r.set_solout(solout)
     r.set_initial_value(y0, t0)
     r.integrate(t_max)
@@ -347,24 +371,19 @@ def run_scipy(solver, on_step) -> tuple[float, Array, int, float]:
 
 @dataclass
 class _Run:
-    """Mutable bookkeeping of one windowed run (internal to simulate_windowed)."""
+    """Mutable window geometry of one windowed run (internal to simulate_windowed)."""
 
     lo: int
     hi: int
-    peaks: Array
-    times: Array
-    threshold: float
-    stall: float
     left: Callable[[float], float] | None = None
-    next_contact: int = 1
-    last_peak_time: float = 0.0
-    died_at: int | None = None
     drift: float = 0.0
     e_gone: float = 0.0
-    reason: str = ""
     action: str = ""  # "", "stop", "shift", "extend"
     redo: tuple[float, Array] | None = None
     wall_report: float = 0.0
+
+
+ENERGY_EVERY = 4  # the blow-up guard computes the window's energy every this many steps
 
 
 def plan(front: int, next_contact: int, lo: int, hi: int, beads: int, rule: WindowRule) -> tuple[int, int]:
@@ -407,6 +426,7 @@ def simulate_windowed(
     progress: bool = False,
     engine: str = "auto",
     overtake_factor: float = 1.25,
+    max_steps: int = 10**9,
 ):
     """Moving-window integration of Eq. 1 (arguments validated by dns.simulate, which calls it).
 
@@ -415,7 +435,7 @@ def simulate_windowed(
     scipy OdeSolver classes, needed for RK23 and the implicit methods) or "auto" (fortran when
     the method has a Fortran code).
     """
-    from solvers.dns import ENERGY_BLOWUP, DNSResult, contact_rate, velocity_scale
+    from solvers.dns import ENERGY_BLOWUP, DNSResult, velocity_scale
 
     first, last = int(contacts[0]), int(contacts[1])
     if engine == "auto":
@@ -423,10 +443,10 @@ def simulate_windowed(
     if engine not in ("fortran", "scipy") or (engine == "fortran" and method not in FORTRAN_CODES):
         raise ValueError(f"engine {engine!r} cannot run method {method!r}; use engine='scipy'")
     scale_x, scale_v = velocity_scale(velocity, exponent), velocity
-    run = _Run(lo=0, hi=min(beads, rule.ahead + rule.chunk + 2), peaks=np.full(last, np.nan),
-               times=np.full(last, np.nan),
-               threshold=first_threshold(velocity, exponent, peak_fraction),
-               stall=stall_factor / contact_rate(velocity, exponent))
+    run = _Run(lo=0, hi=min(beads, rule.ahead + rule.chunk + 2))
+    track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
+                              death_fraction=death_fraction, overtake_factor=overtake_factor,
+                              stall_factor=stall_factor)
     y = np.zeros(2 * run.hi)
     y[1] = velocity
     t = 0.0
@@ -438,51 +458,27 @@ def simulate_windowed(
 
     def on_step(t_old: float, y_old: Array, t_new: float, y_new: Array, dense_factory) -> bool:
         """Bookkeeping after one accepted step; True asks the engine to stop."""
-        if not np.all(np.isfinite(y_new)):
-            run.reason, run.action = f"state became non-finite at t={t_new:.6g}", "stop"
-            return True
         if run.hi < beads and moved(y_new, scale_x, scale_v) > rule.threshold:
             run.action, run.redo = "extend", (t_old, y_old)  # precursor reached the edge
             return True
-        left_x = None if run.left is None else run.left(t_new)
-        e = window_energy(y_new, exponent, left_x) + run.e_gone
-        run.drift = max(run.drift, abs(e - e0) / e0)
-        if not e <= ENERGY_BLOWUP * e0:
-            run.reason, run.action = f"energy grew beyond {ENERGY_BLOWUP:g} x initial at t={t_new:.6g}", "stop"
-            return True
+        if track.steps % ENERGY_EVERY == 0 or not np.isfinite(y_new[-1] + y_new[0]):
+            left_x = None if run.left is None else run.left(t_new)
+            e = window_energy(y_new, exponent, left_x) + run.e_gone
+            if track.check_state(t_new, e, e0, ENERGY_BLOWUP):
+                run.action = "stop"
+                return True
+            run.drift = max(run.drift, abs(e - e0) / e0)
         local_last = min(last, run.hi - 1) - run.lo
-        found = scan_step(y_old, y_new, t_old, t_new, dense_factory,
-                          run.next_contact - run.lo, local_last, run.threshold, peak_fraction)
-        for peak in found:
-            k = peak.contact + run.lo
-            run.peaks[k - 1], run.times[k - 1] = peak.value, peak.time
-            run.stall = stall_factor * (peak.time - run.last_peak_time)
-            run.last_peak_time = peak.time
-            run.threshold = peak_fraction * peak.value
-            run.next_contact = k + 1
-            why = primary_pulse_lost(run.peaks, k, first, death_fraction, overtake_factor, run.times)
-            if why:
-                run.died_at = k
-                break
-        if run.died_at is not None:
-            run.reason = f"pulse died at contact {run.died_at} ({why})"
-        elif run.next_contact > last:
-            run.reason = "last contact peaked"
-        elif t_new - run.last_peak_time > run.stall:
-            nc = run.next_contact
-            after = f"after contact {nc - 1}" if nc > 1 else "before contact 1"
-            run.reason = (f"pulse died: stopped advancing {after} (no peak within {run.stall:.4g} time"
-                          f" units, t={t_new:.6g})")
-        elif t_new >= t_max:
-            run.reason = f"t_max reached (t={t_new:.6g}, next contact {run.next_contact})"
-        if run.reason:
+        track.record(scan_step(y_old, y_new, t_old, t_new, dense_factory, track.next_contact - run.lo,
+                               local_last, track.threshold, peak_fraction), offset=run.lo)
+        if track.check_progress(t_new, t_max, max_steps):
             run.action = "stop"
             return True
         if progress and _time.perf_counter() - run.wall_report > 2.0:
             run.wall_report = _time.perf_counter()
-            print(f"[dns-window] t={t_new:.4g} contact {run.next_contact - 1}/{last} "
+            print(f"[dns-window] t={t_new:.4g} contact {track.next_contact - 1}/{last} "
                   f"window [{run.lo + 1}, {run.hi}]", file=sys.stderr)
-        if needs_shift(run.next_contact - 1, run.next_contact, run.lo, run.hi, beads, rule):
+        if needs_shift(track.next_contact - 1, track.next_contact, run.lo, run.hi, beads, rule):
             run.action = "shift"
             return True
         return False
@@ -502,11 +498,11 @@ def simulate_windowed(
                 t, y, used, h = run_scipy(solver, on_step)
                 njev += int(getattr(solver, "njev", 0))
         except RuntimeError as err:
-            run.reason = str(err)
+            track.reason = str(err)
             break
         nfev += used
         if run.action == "stop" or not run.action:
-            run.reason = run.reason or f"t_max reached (t={t:.6g}, next contact {run.next_contact})"
+            track.reason = track.reason or f"t_max reached (t={t:.6g}, next contact {track.next_contact})"
             break
         shifts += 1
         if run.action == "extend":
@@ -515,8 +511,8 @@ def simulate_windowed(
             y = np.concatenate([y, np.zeros(2 * add)])
             run.hi += add
         else:  # shift: drop beads behind, add beads ahead
-            front = run.next_contact - 1
-            new_lo, new_hi = plan(front, run.next_contact, run.lo, run.hi, beads, rule)
+            front = track.next_contact - 1
+            new_lo, new_hi = plan(front, track.next_contact, run.lo, run.hi, beads, rule)
             e_before = window_energy(y, exponent, None if run.left is None else run.left(t))
             y_shifted = shift_state(y, run.lo, run.hi, new_lo, new_hi)
             if new_lo > run.lo:
@@ -527,16 +523,13 @@ def simulate_windowed(
         widest = max(widest, run.hi - run.lo)
 
     wall_s = _time.perf_counter() - wall0
-    alive = np.isfinite(run.peaks)
-    if run.died_at is not None:
-        alive[run.died_at - 1 :] = False
-    sel = slice(first - 1, last)
+    contacts_out, peaks, times, alive = track.outcome()
     return DNSResult(
-        contacts=np.arange(first, last + 1),
-        peaks=run.peaks[sel].copy(),
-        peak_times=run.times[sel].copy(),
-        alive=alive[sel].copy(),
-        stop_reason=run.reason,
+        contacts=contacts_out,
+        peaks=peaks,
+        peak_times=times,
+        alive=alive,
+        stop_reason=track.reason,
         method=method,
         rtol=float(rtol),
         atol=float(atol),
@@ -548,6 +541,8 @@ def simulate_windowed(
         exponent=exponent,
         velocity=velocity,
         t_end=float(t),
+        blew_up=track.blew_up,
+        steps=track.steps,
         mode=f"window/{engine}",
         window_beads=int(widest),
         window_shifts=int(shifts),
