@@ -2,3 +2,5 @@
 
 Never imports scipy (see DESIGN.md, layering).
 """
+
+from .provenance import __version__  # noqa: F401  (the package version, one source for both packages)

@@ -18,6 +18,7 @@ from .expression import symbol
 from .integrals import DEFAULT_DPS, F_NAMES, constants
 from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, longwave_law
 from .perturbation import Perturbation
+from .provenance import provenance
 from .profile import check_exponent, check_profile_kind, get_profile
 from .stationary import Stationary, StationaryError, stationary
 
@@ -48,6 +49,7 @@ class Derivation:
     A0: float | None = None
     i0: float = 0.0
     timings_s: dict = field(default_factory=dict)
+    sympy_seconds: float = 2.0  # wall-clock bound on sympy's closed-form law (decides kind implicit/quadrature)
 
 
 def derive_all(
@@ -123,6 +125,7 @@ def derive_all(
         A0=A0_value,
         i0=i0,
         timings_s=times,
+        sympy_seconds=sympy_seconds,
     )
 
 
@@ -174,6 +177,7 @@ def to_json(d: Derivation) -> dict:
                 {"param": x.param, "value": x.value, "A": x.A, "peak": x.peak, "kind": x.kind} for x in st.folds
             ]
     return {
+        "provenance": provenance(),
         "expression": pert.text,
         "R": str(pert.R),
         "eps": pert.eps,
@@ -182,6 +186,7 @@ def to_json(d: Derivation) -> dict:
         "profile": d.profile,
         "variant": d.variant,
         "dps": d.dps,
+        "sympy_seconds": d.sympy_seconds,
         "profile_accuracy": d.profile_accuracy,
         "S0": d.S0,
         **{k: d.constants[k] for k in F_NAMES},

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from .integrals import DEFAULT_DPS, F_NAMES, constants
 from .profile import check_exponent, check_profile_kind, exact_profile, pade_profile
+from .provenance import provenance
 
 
 def profile_report(n: float = 1.5, profile: str = "exact", dps: int | None = None) -> dict:
@@ -15,6 +16,7 @@ def profile_report(n: float = 1.5, profile: str = "exact", dps: int | None = Non
     consts = constants(F_NAMES, n=n, profile=profile, dps=dps)
     chosen = exact if profile == "exact" else pade
     return {
+        "provenance": provenance(),
         "n": n,
         "profile": profile,
         "S0": exact.S0,

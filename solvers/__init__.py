@@ -1,3 +1,3 @@
 """Numerical side of pulsemap: map iteration, laws, stationary shocks, DNS. numpy + scipy only."""
 
-__version__ = "0.1.0"
+from derive.provenance import __version__  # noqa: F401  (one source for the version)

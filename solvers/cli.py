@@ -203,6 +203,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Primary pulses in uncompressed granular chains with on-site perturbations "
         "(Starosvetsky's amplitude map, long-wave law, stationary shocks, checked by DNS).",
     )
+    from solvers import __version__
+
+    parser.add_argument("--version", action="version", version=f"pulsemap {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
 

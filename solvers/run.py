@@ -75,12 +75,20 @@ def make_force(scene: Scene, beads: int) -> OnSiteForce:
         k = int(np.argmax(np.abs(f0)))
         raise RunError(f"R(0, 0) = {f0[k] / max(eps[k], 1e-300):.6g} at bead {k + 1}: the chain would not start at rest")
     hint = float(max(kv.max(initial=0.0), math.sqrt(kx.max(initial=0.0))))
-    return OnSiteForce(
-        force=lambda x, v: mod.force(x, v, idx, eps, *args),
-        dforce_dx=lambda x, v: mod.force_dx(x, v, idx, eps, *args),
-        dforce_dv=lambda x, v: mod.force_dv(x, v, idx, eps, *args),
-        stiffness_hint=hint,
-    )
+
+    def on_beads(lo: int, hi: int) -> OnSiteForce:
+        """The force on beads lo..hi-1 (0-based) only: O(window) per call for the windowed DNS."""
+        i_w, e_w = idx[lo:hi], eps[lo:hi]
+        a_w = tuple(a[lo:hi] if isinstance(a, np.ndarray) else a for a in args)
+        return OnSiteForce(
+            force=lambda x, v: mod.force(x, v, i_w, e_w, *a_w),
+            dforce_dx=lambda x, v: mod.force_dx(x, v, i_w, e_w, *a_w),
+            dforce_dv=lambda x, v: mod.force_dv(x, v, i_w, e_w, *a_w),
+            stiffness_hint=hint,
+        )
+
+    full = on_beads(0, beads)
+    return OnSiteForce(full.force, full.dforce_dx, full.dforce_dv, hint, restrict=on_beads)
 
 
 STRONG_FRACTION = 0.1  # "strong" contacts: DNS peak at least this fraction of the seed peak
