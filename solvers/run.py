@@ -16,6 +16,7 @@ from typing import Sequence
 
 import numpy as np
 
+from derive.provenance import provenance
 from solvers import __version__
 from solvers.codeload import force_module, map_module
 from solvers.dns import OnSiteForce, chain_length_for, simulate
@@ -165,6 +166,7 @@ def run_scene(
     contacts = list(range(c0, c1 + 1))
     out: dict = {
         "pulsemap_version": __version__,
+        "provenance": provenance(),  # package and library versions (derive/provenance.py)
         "scene": scene.as_dict(),
         "choices": {"profile": choice.profile, "variant": choice.variant, "methods": list(methods)},
         "contacts": contacts,
@@ -197,7 +199,7 @@ def run_scene(
         dns_alive = [by_contact[c][1] for c in contacts]
         out["peaks"]["dns"] = dns_peaks
         out["dns"] = {
-            "method": res.method, "rtol": res.rtol, "atol": res.atol, "beads": res.beads,
+            "method": res.method, "rtol": res.rtol, "atol": res.atol, "beads": res.beads, "mode": res.mode,
             "stop_reason": res.stop_reason, "nfev": int(res.nfev),
             "alive": dns_alive,
             "live_contacts": [c for c, a in zip(contacts, dns_alive) if a],
