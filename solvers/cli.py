@@ -269,11 +269,35 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _protect_expressions(argv: list[str]) -> list[str]:
-    """Let an expression that starts with '-' (e.g. "-mu*v") pass as a positional argument."""
+def _option_strings(parser: argparse.ArgumentParser) -> set[str]:
+    """Every option string of the parser and its sub-commands (e.g. -h, --json)."""
+    found = set(parser._option_string_actions)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                found |= _option_strings(sub)
+    return found
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _protect_expressions(argv: list[str], options: set[str] = frozenset()) -> list[str]:
+    """Let an expression that starts with '-' (e.g. "-mu*v", "-v") pass as a positional argument.
+
+    A single-dash word that is no option of any command and no number is a value: a leading
+    space makes argparse take it as one (the expression parser skips the space).
+    """
     out = []
     for arg in argv:
-        if arg.startswith("-") and not arg.startswith("--") and any(c in arg for c in "*()^/+ "):
+        single_dash = arg.startswith("-") and not arg.startswith("--") and arg != "-"
+        if single_dash and (any(c in arg for c in "*()^/+ ")
+                            or (arg.split("=")[0] not in options and not _is_number(arg))):
             arg = " " + arg  # argparse treats it as a value; the parser skips the space
         out.append(arg)
     return out
@@ -282,7 +306,8 @@ def _protect_expressions(argv: list[str]) -> list[str]:
 def main(argv: Sequence[str] | None = None) -> int:
     try:
         parser = build_parser()
-        args = parser.parse_args(_protect_expressions(list(sys.argv[1:] if argv is None else argv)))
+        args = parser.parse_args(_protect_expressions(list(sys.argv[1:] if argv is None else argv),
+                                                      _option_strings(parser)))
         _check_outputs(args)
         func: Callable[[argparse.Namespace], int] = args.func
         return func(args)

@@ -348,3 +348,12 @@ def test_catalogue_size():
     assert total >= 30 and len(CLI) >= 10 and len(SCENES) >= 10 and len(API) >= 10
     for rows in (CLI, SUBPROCESS, SCENES, API):
         assert len({row[0] for row in rows}) == len(rows)  # every row has its own id
+
+
+@pytest.mark.parametrize("expr", ["-v", "-mu*v", "-(u - mu*v)"])
+def test_an_expression_starting_with_minus_is_not_an_option(expr, capsys):
+    """Not an error: R = -v is an expression, not an unknown option -v (no quoting tricks needed)."""
+    assert main(["derive", expr, "--param", "mu=1", "--eps", "0.05", "--sympy-seconds", "0"]
+                if "mu" in expr else ["derive", expr, "--eps", "0.05", "--sympy-seconds", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "R(u, v) = -" in out and "eps = 0.05" in out
