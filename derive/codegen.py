@@ -30,7 +30,7 @@ from .amplitude_map import A_I, A_NEXT, A_PREV, F_SYMBOLS, AmplitudeMap, check_v
 from .expansion import bead_symbol, expand
 from .expression import parse_expression, symbol
 from .integrals import F_NAMES, constants
-from .sources import ForceSource, GeneratedCodeError, MapSource, module_name, source_from_dict, verify_generated
+from .sources import BalanceSource, ForceSource, GeneratedCodeError, MapSource, module_name, source_from_dict, verify_generated
 from .longwave import A0 as SYM_A0
 from .longwave import I as SYM_I
 from .longwave import I0 as SYM_I0
@@ -53,6 +53,15 @@ def map_source(R_text: str, params, n, profile: str = "exact", variant: str = "p
 
 def force_source(R_text: str, params) -> ForceSource:
     return ForceSource.of(R_text, params)
+
+
+def balance_source(R_text: str, params, n, profile: str = "exact", model: str = "energy", site_dependent=(), dps: int | None = None) -> BalanceSource:
+    """The BalanceSource for R (energy- or momentum-balance model, derive/balance.py), validated."""
+    from .balance import check_model
+
+    check_profile_kind(profile)
+    check_model(model)
+    return BalanceSource.of(R_text, params, n, profile, model, site_dependent, dps)
 
 
 # ------------------------------------------------------------------------- printing
@@ -269,10 +278,128 @@ def generate_force(source: ForceSource) -> str:
     return _header(title, source.as_dict(), body) + body
 
 
+# ------------------------------------------------------------------- balance module
+def generate_balance(source: BalanceSource) -> str:
+    """The text of an energy- or momentum-balance module (derive/balance.py): map step and law.
+
+    Raises BalanceError when the model is undefined for R (e.g. momentum with a foundation term).
+    """
+    from .balance import A as SYM_A
+    from .balance import B as SYM_B
+    from .balance import balance_constants, balance_expand, balance_law
+
+    R = parse_expression(source.R, source.params)
+    n = sympy.Rational(source.n)
+    ex = balance_expand(R, n, source.model, source.site_dependent)
+    names = list(ex.wave_names) + list(ex.integrals())
+    consts = balance_constants(names, n=float(n), profile=source.profile, dps=source.dps)
+    values = {k: float(_const(c.value)) for k, c in consts.items()}
+    site = set(source.site_dependent)
+    args: list[str] = []
+    ren: dict[sympy.Symbol, str] = {SYM_A: "A", SYM_B: "B"}
+    for name in source.params:
+        if name in site:
+            sym = bead_symbol(name, 0)
+            if any(sym in t.coefficient.free_symbols for t in ex.terms):
+                ren[sym] = sym.name
+                args.append(sym.name)
+        else:
+            ren[symbol(name)] = name
+            args.append(name)
+    if any(symbol("i") in t.coefficient.free_symbols for t in ex.terms):
+        ren[symbol("i")] = "i"
+        args.append("i")
+    for k in ex.integrals():
+        ren[sympy.Symbol(k, real=True)] = k
+    sig = ", ".join(["eps"] + args)
+    kname = "E1" if source.model == "energy" else "p1"
+    lines = ["import numpy", ""]
+    lines.append(f"SOURCE = {json.dumps(source.as_dict(), sort_keys=True)}")
+    lines.append(f"MODEL = {source.model!r}")
+    lines.append(f"PARAMS = {tuple(args)!r}")
+    lines.append(f"Q = {_const(float(ex.Q))}  # the balanced quantity is K A^Q")
+    lines.append(f"N_EXPONENT = {_const(float(n))}")
+    lines.append("")
+    lines.append(f"# wave constants and profile integrals ({source.profile} profile, mpmath dps {source.dps}), {SIG_DIGITS} significant digits")
+    if source.model == "energy":
+        lines.append(f"K1 = {_const(values['K1'])}  # int X'^2/2: kinetic part of E_1")
+        lines.append(f"V1 = {_const(values['V1'])}  # int S^(n+1)/(n+1): contact part of E_1")
+        lines.append("E1 = K1 + V1  # E = E1 A^(n+1)")
+    else:
+        lines.append(f"p1 = {_const(values['p1'])}  # p = p1 A^(1+s)")
+    lines.append(f"K = {kname}")
+    for k in ex.integrals():
+        lines.append(f"{k} = {_const(values[k])}")
+    lines.append(f"S0 = {_const(get_profile(source.profile, float(n)).S0)}  # peak = A S(0), Eq. 32")
+    lines.append("")
+    rate = ex.rate(SYM_A)
+    what = "W(A) = eps int R x' dt" if source.model == "energy" else "J(A) = eps int R dt"
+    lines.append(f"def balance_rate(A, {sig}):")
+    lines.append(f'    """{what} for one bead (its parameters). Parameters: {sig}."""')
+    lines.append(f"    return eps * ({_code(rate, ren)})")
+    lines.append("")
+    lines.append(f"def balance_step(a_prev, {sig}):")
+    lines.append(
+        '    """(A_i, base): K A_i^Q = K a_prev^Q + rate(a_prev) at bead i; base = A_i^Q, <= 0 means the '
+        'pulse died (A_i is then 0)."""'
+    )
+    lines.append(f"    base = a_prev ** Q + balance_rate(a_prev, {sig}) / K")
+    lines.append("    return numpy.where(base > 0, numpy.abs(base) ** (1.0 / Q), 0.0), base")
+    lines.append("")
+    uniform = ex.uniform
+    lines.append(f"UNIFORM = {uniform!r}")
+    law = None
+    if uniform:
+        law = balance_law(ex, values, {}, 1.0, seconds=0)  # eps enters below explicitly
+    if law is not None and law.powers:
+        eps_s = sympy.Symbol("eps", real=True)
+        Ks = sympy.Symbol("K", real=True)
+        rhs = eps_s / Ks * sum((c * SYM_B**p for c, p in zip(law.symbolic_coefficients, law.powers)), sympy.Integer(0))
+        lines.append(f"LAW_KIND = {law.kind!r}")
+        lines.append(f"def law_rhs(B, {sig}):")
+        lines.append(f'    """dB/di = eps sum C_p B^p / K, B = A^Q. Parameters: {sig}."""')
+        lines.append(f"    return {_code(rhs, {**ren, eps_s: 'eps', Ks: 'K'})}")
+        lines.append("")
+        if len(law.powers) == 1:
+            (p,) = law.powers
+            rate_k = eps_s * law.symbolic_coefficients[0] / Ks
+            lines.append(f"LAW_POWER = {_const(float(p))}  # dB/di = k B^p")
+            lines.append(f"def law_closed(i, A0, i0, {sig}):")
+            lines.append(
+                f'    """Closed-form A(i) ({law.kind}). Returns (A, base): base <= 0 means the law has ended '
+                '(extinction for p < 1, blow-up for p > 1); A is then 0."""'
+            )
+            lines.append(f"    k = {_code(rate_k, {**ren, eps_s: 'eps', Ks: 'K'})}")
+            if law.kind == "exponential":
+                lines.append("    A = A0 * numpy.exp(k * (i - i0) / Q)")
+                lines.append("    return A, numpy.ones_like(numpy.asarray(A, dtype=float))")
+            else:
+                lines.append(f"    base = A0 ** (Q * {_const(float(1 - p))}) + {_const(float(1 - p))} * k * (i - i0)")
+                lines.append(f"    return numpy.where(base > 0, numpy.abs(base) ** ({_const(float(1 / (ex.Q * (1 - p))))}), 0.0), base")
+            lines.append("")
+    else:
+        lines.append("LAW_KIND = None")
+    body = "\n".join(lines).rstrip() + "\n"
+    title = (
+        f"{source.model.capitalize()}-balance model (derive/balance.py): map step and law for\n"
+        f"    R(u, v) = {source.R}\n"
+        f"    n = {source.n}, profile = {source.profile} (mpmath dps {source.dps})"
+    )
+    return _header(title, source.as_dict(), body) + body
+
+
 # ------------------------------------------------------------------------ write
-def write(source: MapSource | ForceSource, directory: Path | None = None) -> Path:
+def _generate(source) -> str:
+    if isinstance(source, MapSource):
+        return generate_map(source)
+    if isinstance(source, BalanceSource):
+        return generate_balance(source)
+    return generate_force(source)
+
+
+def write(source: MapSource | ForceSource | BalanceSource, directory: Path | None = None) -> Path:
     """Generate the module for ``source`` into ``directory`` (default: the cache)."""
-    text = generate_map(source) if isinstance(source, MapSource) else generate_force(source)
+    text = _generate(source)
     folder = Path(directory) if directory is not None else cache.cache_dir() / "generated"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / (module_name(source) + ".py")
@@ -286,4 +413,4 @@ def regenerate_text(path: Path) -> tuple[str, str]:
     """(current text, freshly generated text) of a generated file, for the regeneration test."""
     text = Path(path).read_text(encoding="utf-8")
     source = source_from_dict(verify(text))
-    return text, (generate_map(source) if isinstance(source, MapSource) else generate_force(source))
+    return text, _generate(source)

@@ -3,6 +3,8 @@
 ``derive_all`` runs the pipeline expression -> expansion -> integrals (only those that occur)
 -> map -> law -> stationary equation and returns a :class:`Derivation`; ``to_json``,
 ``to_text`` and ``to_latex`` render it. The JSON follows DESIGN.md ("derive" contract).
+``derive_model`` also offers the energy- and momentum-balance models (derive/balance.py); the
+renderers accept either kind of derivation and name the model.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from dataclasses import dataclass, field
 
 import sympy
 
+from . import balance
 from .amplitude_map import EPS, AmplitudeMap, check_variant, latex_names
 from .expansion import Expansion, expand
 from .expression import symbol
@@ -129,6 +132,25 @@ def derive_all(
     )
 
 
+#: The models ``derive_model`` offers: the paper's map (with its law and Eq. 41) and the balances.
+MODELS = ("map",) + balance.MODELS
+
+
+def derive_model(pert: Perturbation, model: str = "map", **kw) -> "Derivation | balance.BalanceDerivation":
+    """``derive_all`` for model "map"; ``balance.derive_balance`` for "energy" and "momentum".
+
+    Map-only options (variant, fold) are refused for a balance model rather than ignored.
+    """
+    if model == "map":
+        return derive_all(pert, **kw)
+    if model not in MODELS:
+        raise DerivationError(f"unknown model {model!r}: choose one of {', '.join(MODELS)}")
+    for option in ("variant", "fold"):
+        if kw.pop(option, None) is not None:
+            raise DerivationError(f"--{option} applies to the map only, not to the {model} balance: drop it or use --model map")
+    return balance.derive_balance(pert, model, **kw)
+
+
 # ------------------------------------------------------------------------- rendering
 def _law_data(d: Derivation) -> dict | None:
     law = d.longwave
@@ -161,6 +183,8 @@ def _law_data(d: Derivation) -> dict | None:
 
 def to_json(d: Derivation) -> dict:
     """The derivation as JSON-serialisable data (DESIGN.md "derive" contract)."""
+    if isinstance(d, balance.BalanceDerivation):
+        return balance.to_json(d)
     pert = d.perturbation
     st = d.stationary
     stationary_data = None
@@ -177,6 +201,7 @@ def to_json(d: Derivation) -> dict:
                 {"param": x.param, "value": x.value, "A": x.A, "peak": x.peak, "kind": x.kind} for x in st.folds
             ]
     return {
+        "model": "map",
         "provenance": provenance(),
         "expression": pert.text,
         "R": str(pert.R),
@@ -233,8 +258,11 @@ def _param_json(value):
 
 def to_text(d: Derivation) -> str:
     """A readable report of the derivation."""
+    if isinstance(d, balance.BalanceDerivation):
+        return balance.to_text(d)
     pert = d.perturbation
     lines = [
+        f"Model: map (paper Eq. 23, variant '{d.variant}'), long-wave law (Eq. 30), stationary shocks (Eq. 41)",
         f"R(u, v) = {pert.R}    eps = {pert.eps:g}    n = {d.n:g}    profile = {d.profile}    map variant = {d.variant}",
         f"S(0) = {d.S0:.12g}; constants with mpmath dps {d.dps} (profile accuracy {d.profile_accuracy:.1e})",
         "",
@@ -299,9 +327,11 @@ def to_text(d: Derivation) -> str:
 
 def to_latex(d: Derivation) -> str:
     """The map, the long-wave ODE and law, and Eq. 41 in LaTeX."""
+    if isinstance(d, balance.BalanceDerivation):
+        return balance.to_latex(d)
     names = latex_names(list(d.constants))
     lx = lambda e: sympy.latex(e, symbol_names=names)  # noqa: E731
-    out = [r"% pulsemap derivation: R = " + str(d.perturbation.R)]
+    out = [r"% pulsemap derivation, model: map (Eq. 23); R = " + str(d.perturbation.R)]
     for k, e in enumerate(d.amap.equations(), 1):
         out.append(rf"0 = {lx(e)} \tag{{23.{k}}}")
     if d.longwave is not None:
@@ -313,4 +343,4 @@ def to_latex(d: Derivation) -> str:
     return "\n".join(out)
 
 
-__all__ = ["Derivation", "DerivationError", "derive_all", "to_json", "to_text", "to_latex", "A0", "I", "I0", "EPS"]
+__all__ = ["Derivation", "DerivationError", "MODELS", "derive_all", "derive_model", "to_json", "to_text", "to_latex", "A0", "I", "I0", "EPS"]

@@ -10,10 +10,13 @@ import hashlib
 import json
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import Union
 
 GENERATOR_VERSION = 1
 #: Bump together with derive.integrals.METHOD_VERSION (checked by a test).
 INTEGRALS_METHOD = 1
+#: Bump together with derive.balance.BALANCE_METHOD (checked by a test).
+BALANCE_METHOD = 1
 VARIANTS = ("paper", "corrected", "1d")
 DEFAULT_DPS = {"exact": 16, "pade": 30}
 
@@ -82,19 +85,63 @@ class ForceSource:
         return {"kind": "force", "R": self.R, "params": list(self.params), "generator": GENERATOR_VERSION}
 
 
-def source_from_dict(d: dict) -> MapSource | ForceSource:
+@dataclass(frozen=True)
+class BalanceSource:
+    """Everything a generated energy- or momentum-balance module depends on (derive/balance.py)."""
+
+    R: str
+    params: tuple[str, ...]
+    site_dependent: tuple[str, ...]
+    n: str
+    profile: str
+    model: str  # "energy" or "momentum"
+    dps: int
+
+    @classmethod
+    def of(cls, R: str, params, n, profile: str = "exact", model: str = "energy", site_dependent=(), dps=None):
+        return cls(
+            R=normalize_expression(R),
+            params=tuple(sorted(params)),
+            site_dependent=tuple(sorted(site_dependent)),
+            n=exact_n(n),
+            profile=profile,
+            model=model,
+            dps=int(dps if dps is not None else DEFAULT_DPS.get(profile, 16)),
+        )
+
+    def as_dict(self) -> dict:
+        return {
+            "kind": "balance",
+            "R": self.R,
+            "params": list(self.params),
+            "site_dependent": list(self.site_dependent),
+            "n": self.n,
+            "profile": self.profile,
+            "model": self.model,
+            "dps": self.dps,
+            "balance_method": BALANCE_METHOD,
+            "generator": GENERATOR_VERSION,
+        }
+
+
+Source = Union[MapSource, ForceSource, BalanceSource]
+
+
+def source_from_dict(d: dict) -> Source:
     if d["kind"] == "map":
         return MapSource(d["R"], tuple(d["params"]), tuple(d["site_dependent"]), d["n"], d["profile"], d["variant"], int(d["dps"]))
+    if d["kind"] == "balance":
+        return BalanceSource(d["R"], tuple(d["params"]), tuple(d["site_dependent"]), d["n"], d["profile"], d["model"], int(d["dps"]))
     return ForceSource(d["R"], tuple(d["params"]))
 
 
-def source_hash(source: MapSource | ForceSource) -> str:
+def source_hash(source: Source) -> str:
     """The hash a generated module is looked up by (sha256 of its source, canonical JSON)."""
     return hashlib.sha256(json.dumps(source.as_dict(), sort_keys=True).encode()).hexdigest()
 
 
-def module_name(source: MapSource | ForceSource) -> str:
-    kind = "map" if isinstance(source, MapSource) else "force"
+def module_name(source: Source) -> str:
+    kind = {MapSource: "map", ForceSource: "force", BalanceSource: "balance"}[type(source)]
     return f"{kind}_{source_hash(source)[:16]}"
 
 

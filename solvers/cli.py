@@ -96,8 +96,8 @@ def cmd_profile(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------ derive
 def cmd_derive(args: argparse.Namespace) -> int:
-    """``pulsemap derive``: expansion, map (Eq. 23), long-wave law (Eq. 30), Eq. 41."""
-    from derive.derivation import derive_all, to_json, to_latex, to_text
+    """``pulsemap derive``: expansion, map (Eq. 23), long-wave law (Eq. 30), Eq. 41; or a balance model."""
+    from derive.derivation import derive_model, to_json, to_latex, to_text
     from derive.perturbation import check_all_used, make_perturbation, parse_cli_param
 
     params = {}
@@ -107,11 +107,12 @@ def cmd_derive(args: argparse.Namespace) -> int:
             raise UsageError(f"--param {name} given twice")
         params[name] = value
     pert = check_all_used(make_perturbation(args.expr, args.eps, params))
-    d = derive_all(
+    d = derive_model(
         pert,
+        args.model,
         n=args.n,
         profile=args.profile,
-        variant=args.variant,
+        variant=(args.variant or "paper") if args.model == "map" else args.variant,
         fold=args.fold,
         A0_value=args.A0,
         i0=args.i0,
@@ -159,11 +160,12 @@ def cmd_scenes(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------- table
 def cmd_table(args: argparse.Namespace) -> int:
-    """``pulsemap table``: map and law errors against the DNS for the paper's scenes."""
-    from solvers.table import markdown, table
+    """``pulsemap table``: every model's errors against the DNS for the paper's scenes, and the winners."""
+    from solvers.table import markdown, table, wins
 
-    rows = table(args.scenes or None, progress=not args.quiet)
+    rows = table(args.scenes or None, progress=not args.quiet, rows_file=args.rows, fresh=args.fresh)
     print(markdown(rows))
+    print("\nScenes won: " + ", ".join(f"{k} {v}" for k, v in wins(rows).items()))
     if args.json:
         write_json(args.json, {"rows": rows})
     return 0
@@ -187,6 +189,17 @@ def cmd_generate(args: argparse.Namespace) -> int:
             sources.append(codegen.map_source(pert.text, pert.used_parameters, scene.exponent,
                                               args.profile or scene.profile, args.variant or scene.variant,
                                               scene.perturbation.site_dependent))
+        for model in ("energy", "momentum"):  # tiny; the ranking table (pulsemap table) uses them
+            src = codegen.balance_source(pert.text, pert.used_parameters, scene.exponent,
+                                         args.profile or scene.profile, model, pert.site_dependent)
+            try:
+                codegen.generate_balance(src)
+            except ValueError as exc:  # the model is undefined for this R
+                if codegen.module_name(src) not in written:
+                    print(f"no {model}-balance module for {name}: {exc}")
+                    written.add(codegen.module_name(src))
+                continue
+            sources.append(src)
         for src in sources:
             key = codegen.module_name(src)
             if key not in written:
@@ -223,7 +236,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--eps", type=number, default=0.1, help="small parameter eps (default 0.1)")
     p.add_argument("--n", type=number, default=1.5, help="contact exponent n > 1 (default 1.5)")
     p.add_argument("--profile", default="exact", help="exact (default) or pade")
-    p.add_argument("--variant", default="paper", help="map variant: paper (default), corrected, 1d")
+    p.add_argument("--variant", default=None, help="map variant: paper (default), corrected, 1d")
+    p.add_argument("--model", default="map", choices=("map", "energy", "momentum"),
+                   help="map (default: the paper's map, long-wave law, Eq. 41), energy or momentum balance")
     p.add_argument("--fold", metavar="NAME", help="locate the saddle-node of Eq. 41 in parameter NAME")
     p.add_argument("--A0", type=number, default=None, help="initial amplitude for the law's singular index")
     p.add_argument("--i0", type=number, default=0.0, help="contact index of A0 (default 0)")
@@ -236,7 +251,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("run", help="run a scene: DNS, map and long-wave law side by side")
     p.add_argument("scene", metavar="SCENE", help="a TOML scene file or a built-in name (see 'pulsemap scenes')")
-    p.add_argument("--methods", help="comma list overriding the scene's methods (map,longwave,dns)")
+    p.add_argument("--methods", help="comma list overriding the scene's methods (map, longwave, energy-map, energy-law, "
+                        "momentum-map, momentum-law, dns)")
     p.add_argument("--profile", help="exact or pade (default: the scene's, else exact)")
     p.add_argument("--variant", help="map variant: paper, corrected, 1d (default: the scene's, else paper)")
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-' for stdout)")
@@ -255,9 +271,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--variant", help="paper, corrected or 1d (default: the scene's)")
     p.set_defaults(func=cmd_generate)
 
-    p = sub.add_parser("table", help="errors of map and long-wave law against the DNS for the paper's scenes")
+    p = sub.add_parser("table", help="ranking: every model's errors against the DNS for the paper's scenes")
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: all built-in scenes")
     p.add_argument("--json", metavar="OUT", help="write the rows as JSON")
+    p.add_argument("--rows", metavar="FILE.jsonl", default="pulsemap-table.jsonl",
+                   help="JSON-lines file each finished scene is appended to; a rerun skips the scenes "
+                        "already there (default: pulsemap-table.jsonl)")
+    p.add_argument("--fresh", action="store_true", help="ignore (and replace) the rows file: recompute every scene")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=cmd_table)
 

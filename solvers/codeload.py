@@ -12,7 +12,7 @@ from pathlib import Path
 from types import ModuleType
 
 from derive.cache import cache_dir
-from derive.sources import ForceSource, GeneratedCodeError, MapSource, module_name, verify_generated
+from derive.sources import BalanceSource, ForceSource, GeneratedCodeError, MapSource, module_name, verify_generated
 
 PACKAGE_DIR = Path(__file__).resolve().parent.parent / "generated"
 
@@ -67,3 +67,16 @@ def map_module(R_text: str, params, n: float, profile: str = "exact", variant: s
 def force_module(R_text: str, params) -> ModuleType:
     """The generated on-site force module for R, generating it if missing."""
     return _ensure(ForceSource.of(R_text, params))
+
+
+def balance_module(R_text: str, params, n: float, profile: str = "exact", model: str = "energy",
+                   site_dependent=()) -> ModuleType:
+    """The generated energy- or momentum-balance module for this source, generating it if missing.
+
+    Raises derive.balance.BalanceError (a ValueError) when the model is undefined for R.
+    """
+    if model not in ("energy", "momentum"):
+        raise ValueError(f"unknown balance model {model!r}: choose one of energy, momentum")
+    if profile not in ("exact", "pade"):
+        raise ValueError(f"unknown profile {profile!r}: choose one of exact, pade")
+    return _ensure(BalanceSource.of(R_text, params, n, profile, model, site_dependent))

@@ -12,19 +12,40 @@ import math
 import sys
 import time
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Sequence
 
 import numpy as np
 
 from derive.provenance import provenance
 from solvers import __version__
-from solvers.codeload import force_module, map_module
+from solvers.balance_eval import evaluate_balance_law, iterate_balance_map
+from solvers.codeload import balance_module, force_module, map_module
 from solvers.dns import OnSiteForce, chain_length_for, simulate
 from solvers.longwave_eval import evaluate_law
 from solvers.map_iteration import iterate_map
 from solvers.scene import METHODS, PROFILES, VARIANTS, Scene, SceneError, check_choice
 
 EPS_WARN = 0.3  # eps above this is outside the map's asymptotic assumption (eps << 1)
+
+#: Every reduced model run_scene offers (all methods but the DNS), in canonical order.
+MODELS: tuple[str, ...] = tuple(m for m in METHODS if m != "dns")
+#: The balance models (derive/balance.py): method -> (balanced quantity, form).
+BALANCE_METHODS = {
+    "energy-map": ("energy", "map"),
+    "energy-law": ("energy", "law"),
+    "momentum-map": ("momentum", "map"),
+    "momentum-law": ("momentum", "law"),
+}
+#: What each model is, for outputs that name it.
+MODEL_TITLES = {
+    "map": "amplitude map (paper Eq. 23)",
+    "longwave": "long-wave law (paper Eq. 30)",
+    "energy-map": "energy-balance map: E_1 A_i^(n+1) = E_1 A_(i-1)^(n+1) + W(A_(i-1))",
+    "energy-law": "energy-balance law: E_1 dA^(n+1)/di = W(A)",
+    "momentum-map": "momentum-balance map: p_1 A_i^(1+s) = p_1 A_(i-1)^(1+s) + J(A_(i-1))",
+    "momentum-law": "momentum-balance law: p_1 dA^(1+s)/di = J(A)",
+}
 FORCING_WARN = 0.3  # eps term of Eq. 23 above this fraction of the contact term: same assumption, per contact
 
 
@@ -104,11 +125,15 @@ def _errors(ref: list, alive: list, values: list, seed_peak: float | None = None
     out = _rel_errors(ref, alive, values)
     if seed_peak is not None:
         strong = [a and r is not None and r >= STRONG_FRACTION * seed_peak for r, a in zip(ref, alive)]
-        out["max_rel_strong"] = _rel_errors(ref, strong, values)["max_rel"]
+        strong_errors = _rel_errors(ref, strong, values)
+        out["max_rel_strong"] = strong_errors["max_rel"]
+        out["max_rel_strong_all"] = strong_errors.get("max_rel_all")
     return out
 
 
 def _rel_errors(ref: list, alive: list, values: list) -> dict:
+    """Max/RMS relative error where the model has a value; ``*_all``: over every live contact, a
+    model that has ended (no value) counting as predicting 0 (relative error 1), for rankings."""
     rel = []
     missing = 0
     for r, a, v in zip(ref, alive, values):
@@ -119,9 +144,13 @@ def _rel_errors(ref: list, alive: list, values: list) -> dict:
             continue
         rel.append(abs(v - r) / abs(r))
     if not rel:
-        return {"max_rel": None, "rms_rel": None, "compared": 0, "missing": missing}
+        out = {"max_rel": None, "rms_rel": None, "compared": 0, "missing": missing}
+        out.update(max_rel_all=1.0 if missing else None, rms_rel_all=1.0 if missing else None)
+        return out
     arr = np.array(rel)
-    return {"max_rel": float(arr.max()), "rms_rel": float(np.sqrt(np.mean(arr**2))), "compared": int(arr.size), "missing": missing}
+    full = np.concatenate([arr, np.ones(missing)])
+    return {"max_rel": float(arr.max()), "rms_rel": float(np.sqrt(np.mean(arr**2))), "compared": int(arr.size),
+            "missing": missing, "max_rel_all": float(full.max()), "rms_rel_all": float(np.sqrt(np.mean(full**2)))}
 
 
 def _clean(x) -> float | None:
@@ -170,13 +199,13 @@ def run_scene(
         "scene": scene.as_dict(),
         "choices": {"profile": choice.profile, "variant": choice.variant, "methods": list(methods)},
         "contacts": contacts,
-        "peaks": {"dns": None, "map": None, "longwave": None},
+        "peaks": {"dns": None, **{m: None for m in MODELS}},
         "errors": {},
         "timings_s": timings,
         "warnings": warnings,
     }
-    if pert.eps > EPS_WARN and ("map" in methods or "longwave" in methods):
-        warnings.append(f"eps = {pert.eps:g} is not small: the map and the law assume eps << 1")
+    if pert.eps > EPS_WARN and any(m in MODELS for m in methods):
+        warnings.append(f"eps = {pert.eps:g} is not small: the reduced models assume eps << 1")
 
     # ---------------------------------------------------------------- DNS
     dns_peaks = dns_alive = None
@@ -220,12 +249,26 @@ def run_scene(
         out["dns"] = {**reuse_dns["dns"], "reused": True}
         seed_peak = reuse_dns["dns"].get("seed_peak")
 
-    # ----------------------------------------------------------- map + law
+    # ----------------------------------------------------------- models
+    mod = None
+    balance: dict[str, ModuleType] = {}
     if "map" in methods or "longwave" in methods:
         t0 = time.perf_counter()
         mod = map_module(pert.text, pert.used_parameters, scene.exponent, choice.profile, choice.variant, site)
         timings["derive_map"] = time.perf_counter() - t0
-        S0 = float(mod.S0)
+    for quantity in dict.fromkeys(BALANCE_METHODS[m][0] for m in methods if m in BALANCE_METHODS):
+        t0 = time.perf_counter()
+        try:
+            balance[quantity] = balance_module(pert.text, pert.used_parameters, scene.exponent, choice.profile,
+                                               quantity, site)
+        except ValueError as exc:  # the model is undefined for this R (derive.balance.BalanceError)
+            for m in methods:
+                if BALANCE_METHODS.get(m, ("",))[0] == quantity:
+                    warnings.append(f"{m} refused: {exc}")
+                    out[m] = {"model": MODEL_TITLES[m], "refused": str(exc)}
+        timings[f"derive_{quantity}"] = time.perf_counter() - t0
+    if mod is not None or balance:
+        S0 = float(mod.S0 if mod is not None else next(iter(balance.values())).S0)
         if given_seed is not None:
             seed_peak, seed_from = float(given_seed), "given peak (--seed-peak)"
         elif seed_peak is not None:
@@ -240,13 +283,33 @@ def run_scene(
         seed_A = seed_peak / S0
         out["seed"] = {"contact": seed_contact, "peak": seed_peak, "A": seed_A, "from": seed_from}
         prm = _params(scene, scene.beads)
+        for m in methods:
+            if m not in BALANCE_METHODS or BALANCE_METHODS[m][0] not in balance:
+                continue
+            bmod = balance[BALANCE_METHODS[m][0]]
+            t0 = time.perf_counter()
+            if BALANCE_METHODS[m][1] == "map":
+                br = iterate_balance_map(bmod, seed_A, seed_contact, c1, float(pert.eps), prm)
+            elif not bmod.UNIFORM:
+                warnings.append(f"{m} skipped: the perturbation is site-dependent ("
+                                + ", ".join(site or ("i",)) + "): use the balance map")
+                continue
+            else:
+                br = evaluate_balance_law(bmod, seed_A, float(seed_contact), contacts, float(pert.eps), prm)
+            timings[m] = time.perf_counter() - t0
+            got = {int(c): (float(p) if p is not None else None) for c, p in zip(br.contacts, br.peaks)}
+            out["peaks"][m] = [_clean(got[c]) if got.get(c) is not None else None for c in contacts]
+            out[m] = {"model": MODEL_TITLES[m], "profile": br.profile, "status": br.status, "message": br.message,
+                      "ended_at": br.ended_at, "law_kind": br.law_kind, "generated": bmod.__name__}
+            if br.status != "ok":
+                warnings.append(f"{m}: {br.message}")
         if "map" in methods:
             t0 = time.perf_counter()
             mr = iterate_map(mod, seed_A, seed_contact, c1, float(pert.eps), prm)
             timings["map"] = time.perf_counter() - t0
             got = {int(c): float(p) for c, p in zip(mr.contacts, mr.peaks)}
             out["peaks"]["map"] = [got.get(c) for c in contacts]
-            out["map"] = {"variant": mr.variant, "profile": mr.profile, "status": mr.status,
+            out["map"] = {"model": MODEL_TITLES["map"], "variant": mr.variant, "profile": mr.profile, "status": mr.status,
                           "message": mr.message, "newton_fallbacks": mr.fallbacks,
                           "generated": mod.__name__}
             out["map"]["max_forcing_ratio"] = mr.max_forcing_ratio  # |eps term| / contact term (map_iteration)
@@ -265,27 +328,35 @@ def run_scene(
                 law = evaluate_law(mod, seed_A, float(seed_contact), contacts, float(pert.eps), prm)
                 timings["longwave"] = time.perf_counter() - t0
                 out["peaks"]["longwave"] = [_clean(p) for p in law.peaks]
-                out["longwave"] = {"kind": law.kind, "ended_at": law.ended_at, "ended": law.ended or None,
+                out["longwave"] = {"model": MODEL_TITLES["longwave"], "kind": law.kind, "ended_at": law.ended_at,
+                                   "ended": law.ended or None,
                                    "profile": choice.profile}
                 if law.ended:
                     warnings.append(f"long-wave law: {law.ended} at contact index {law.ended_at:.4g}")
 
     # ------------------------------------------------------------- errors
     if dns_peaks is not None:
-        for name in ("map", "longwave"):
+        for name in MODELS:
             if out["peaks"][name] is not None:
                 out["errors"][name] = _errors(dns_peaks, dns_alive, out["peaks"][name],
                                               out.get("seed", {}).get("peak"))
     return out
 
 
+def _columns(result: dict) -> list[str]:
+    """dns, map, longwave, then every other model that has peaks in this result."""
+    extra = [m for m in MODELS if m not in ("map", "longwave") and result["peaks"].get(m) is not None]
+    return ["dns", "map", "longwave"] + extra
+
+
 def to_csv(result: dict) -> str:
-    """One row per contact: contact, dns, map, longwave (empty where not computed)."""
-    lines = ["contact,dns,map,longwave,dns_alive"]
+    """One row per contact: contact, dns, map, longwave, other models run (empty where not computed)."""
+    cols = _columns(result)
+    lines = ["contact," + ",".join(cols) + ",dns_alive"]
     alive = (result.get("dns") or {}).get("alive") or [None] * len(result["contacts"])
     for k, c in enumerate(result["contacts"]):
         row = [str(c)]
-        for name in ("dns", "map", "longwave"):
+        for name in cols:
             vals = result["peaks"][name]
             row.append("" if vals is None or vals[k] is None else repr(vals[k]))
         row.append("" if alive[k] is None else str(bool(alive[k])).lower())
@@ -308,6 +379,11 @@ def to_text(result: dict) -> str:
     if "dns" in result:
         d = result["dns"]
         lines.append(f"  DNS: {d['method']} rtol {d['rtol']:g}, {d['beads']} beads, {d['stop_reason']}")
+    for name in MODELS:
+        if isinstance(result.get(name), dict):
+            info = result[name]
+            status = f" [{info['refused']}]" if "refused" in info else ""
+            lines.append(f"  {name}: {info.get('model', '')}{status}")
     for name, err in result["errors"].items():
         if err["max_rel"] is None:
             lines.append(f"  {name:8s} vs DNS: nothing to compare ({err['missing']} live contacts without a value)")
@@ -320,12 +396,12 @@ def to_text(result: dict) -> str:
             )
     t = result["timings_s"]
     lines.append("  time: " + ", ".join(f"{k} {v:.4g} s" for k, v in t.items()))
-    header = f"  {'contact':>7s} {'dns':>12s} {'map':>12s} {'longwave':>12s}"
-    lines.append(header)
+    cols = _columns(result)
+    lines.append(f"  {'contact':>7s} " + " ".join(f"{c:>12s}" for c in cols))
     step = max(1, len(result["contacts"]) // 12)
     for k in range(0, len(result["contacts"]), step):
         row = [f"  {result['contacts'][k]:7d}"]
-        for name in ("dns", "map", "longwave"):
+        for name in cols:
             vals = result["peaks"][name]
             row.append(f"{'-' if vals is None or vals[k] is None else format(vals[k], '.6g'):>12s}")
         lines.append(" ".join(row))
@@ -362,6 +438,10 @@ def plot(result: dict, path: str) -> None:
     x, y = series("longwave")
     if x:
         ax.plot(x, y, "b-", lw=1, label="long-wave law")
+    for name in _columns(result)[3:]:
+        x, y = series(name)
+        if x:
+            ax.plot(x, y, "--" if name.endswith("law") else ":", lw=1, label=name)
     ax.set_xlabel("contact i")
     ax.set_ylabel("primary pulse peak")
     ax.set_title(result["scene"]["name"])

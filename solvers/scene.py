@@ -63,8 +63,10 @@ __all__ = [
     "parse_scene",
 ]
 
-METHODS = ("map", "longwave", "dns")
-"""The ways a scene can be computed, in canonical order."""
+METHODS = ("map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "dns")
+"""The ways a scene can be computed, in canonical order (balance models: derive/balance.py)."""
+DEFAULT_METHODS = ("map", "longwave", "dns")
+"""What a scene without [output] methods computes."""
 PROFILES = ("exact", "pade")
 VARIANTS = ("paper", "corrected", "1d")
 DNS_METHODS = ("auto", "DOP853", "RK45", "Radau", "BDF", "LSODA")
@@ -278,7 +280,7 @@ def parse_scene(data: Mapping[str, Any], source: str) -> Scene:
             "first_perturbed": chain.get("first_perturbed", DEFAULT_FIRST_PERTURBED),
             "velocity": tables["excitation"]["velocity"],
             "contacts": output["contacts"],
-            "methods": output.get("methods", list(METHODS)),
+            "methods": output.get("methods", list(DEFAULT_METHODS)),
             "profile": tables["model"].get("profile", "exact"),
             "variant": tables["model"].get("variant", "paper"),
             "dns": _check_dns_table({**DNS_DEFAULTS, **tables["dns"]}),
@@ -614,7 +616,7 @@ def _check_consistency(scene: Scene) -> None:
                 f"[chain] first_perturbed = {scene.first_perturbed} is beyond a chain of {scene.beads} beads: "
                 "lower first_perturbed or raise beads"
             )
-    seeded = [m for m in ("map", "longwave") if m in scene.methods]
+    seeded = [m for m in METHODS if m != "dns" and m in scene.methods]
     if seeded and first < scene.first_perturbed:
         raise _Problem(
             f"[output] contacts start at {first}, before first_perturbed = {scene.first_perturbed}, but "

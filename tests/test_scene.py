@@ -99,7 +99,7 @@ def test_builtin_physics():
 def test_default_alias():
     scene = load_scene("default")
     assert scene == load_scene(DEFAULT_SCENE) and scene.name == "fig8-eps0.3"
-    assert scene.beads is None and scene.methods == METHODS
+    assert scene.beads is None and scene.methods == ("map", "longwave", "dns")
 
 
 def test_file_scene_and_defaults(tmp_path):
