@@ -317,6 +317,8 @@ API: list[tuple[str, Callable[[], object], Callable[[], type], list[str]]] = [
     ("scene override: unknown field", lambda: _scene().with_overrides(veloctiy=1.0), _scene_error,
      ["'veloctiy'", "did you mean 'velocity'"]),
     ("scene override: eps inf", lambda: _scene().with_overrides(eps=math.inf), _scene_error, ["eps", "not finite"]),
+    ("scene override: parameter not used", lambda: _scene().with_overrides(R="-v", params={"mu": 1.0}), _scene_error,
+     ["'mu'", "not used"]),
     ("run: unknown method", lambda: __import__("solvers.run").run.run_scene(_scene(), methods=["mpa"]),
      _run_error, ["'mpa'", "did you mean 'map'"]),
     ("run: seed peak nan", lambda: __import__("solvers.run").run.run_scene(_scene(), seed_peak=math.nan),
@@ -358,3 +360,10 @@ def test_an_expression_starting_with_minus_is_not_an_option(expr, capsys):
     out = capsys.readouterr().out
     R = {"-v": "-v", "-mu*v": "-mu*v", "-(u - mu*v)": "mu*v - u"}[expr]  # sympy's printing of R
     assert f"R(u, v) = {R} " in out and "eps = 0.05" in out
+
+
+def test_override_of_R_keeps_only_the_parameters_it_uses():
+    """Not an error: a new R without new params keeps the old values R uses and drops the rest."""
+    scene = _scene()
+    assert dict(scene.with_overrides(R="-v").perturbation.params) == {}
+    assert dict(scene.with_overrides(R="-2*mu*v").perturbation.params) == {"mu": 1.0}
