@@ -127,3 +127,28 @@ def baseline_script(
         contacts=np.arange(first, last + 1), peaks=peaks[sel], peak_times=when[sel],
         alive=np.isfinite(peaks[sel]), wall_time_s=wall, nfev=int(sol.nfev), method="RK45",
         rtol=float(rtol), atol=float(atol), dt_sample=float(dt_sample), beads=int(beads))
+
+
+def script_force(scene, beads: int) -> Callable[[int, float, float], float]:
+    """The scene's on-site force eps_i R_i(x, v) as baseline (a) calls it: one bead at a time.
+
+    A user would type R as a Python expression; this evaluates the scene's generated force
+    module on scalars (same arithmetic, per-bead parameter values picked by index), 0 before
+    first_perturbed.
+    """
+    from solvers.codeload import force_module
+
+    pert = scene.perturbation
+    mod = force_module(pert.text, pert.used_parameters)
+    per_bead = []
+    for i in range(1, beads + 1):
+        per_bead.append(tuple(float(pert.bead_values(name, beads)[i - 1]) if name in pert.site_dependent
+                              else float(pert.params[name]) for name in mod.PARAMS))
+    eps, first = float(pert.eps), int(scene.first_perturbed)
+
+    def force_py(i: int, x: float, v: float) -> float:
+        if i < first:
+            return 0.0
+        return float(mod.force(x, v, float(i), eps, *per_bead[i - 1]))
+
+    return force_py

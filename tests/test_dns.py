@@ -335,3 +335,65 @@ def test_long_chain_methods_agree(method):
     res = simulate(140, 1.5, 1.0, (1, 120), method=method)
     assert res.alive.all() and rel(res.peaks, ref.peaks) < 1e-6
     assert res.energy_drift < 1e-6
+
+
+# ----------------------------------------------------------------------------- blow-up guard (issue 8)
+
+
+def unstable(k: float, beads: int, velocity_term: bool = False, first: int = FIRST_PERTURBED) -> OnSiteForce:
+    """R = +k*u (unstable foundation) or R = +k*v (negative damping) from bead ``first``."""
+    mask = (np.arange(1, beads + 1) >= first).astype(float)
+    if velocity_term:
+        return OnSiteForce(lambda x, v: k * mask * v, lambda x, v: np.zeros(beads), lambda x, v: k * mask)
+    return OnSiteForce(lambda x, v: k * mask * x, lambda x, v: k * mask, lambda x, v: np.zeros(beads))
+
+
+@pytest.mark.parametrize("window", [None, "auto"])
+@pytest.mark.parametrize("velocity_term", [False, True], ids=["R=+k*u", "R=+k*v"])
+def test_blow_up_stops_with_reason_and_keeps_measured_peaks(window, velocity_term):
+    beads = chain_length_for(60)
+    force = unstable(200.0, beads, velocity_term)
+    res = simulate(beads, 1.5, 1.0, (1, 60), force, window=window)
+    clean = simulate(beads, 1.5, 1.0, (1, 15), window=window)
+    assert res.blew_up and res.stop_reason.startswith("blow-up")
+    assert "energy grew" in res.stop_reason or "non-finite" in res.stop_reason
+    # the precursor ahead of the pulse is amplified as soon as it reaches bead 16, so the run
+    # stops before the pulse gets there; the peaks measured before that are kept, unchanged
+    kept = int(res.alive.sum())
+    assert kept >= 5 and res.alive[:kept].all() and not res.alive[kept:].any()
+    assert np.isfinite(res.peaks[:kept]).all() and np.isnan(res.peaks[kept:]).all()
+    assert rel(res.peaks[:5], clean.peaks[:5]) < 1e-7
+    assert res.steps < 5000  # stopped promptly, not at the step budget or t_max
+
+
+def test_step_budget_bounds_a_run():
+    res = simulate(60, 1.5, 1.0, (1, 50), max_steps=40)
+    assert res.stop_reason.startswith("step budget of 40 steps")
+    assert res.steps == 40 and not res.blew_up
+    assert 0 < res.alive.sum() < 50 and np.isfinite(res.peaks[res.alive]).all()
+    win = simulate(60, 1.5, 1.0, (1, 50), max_steps=40, window="auto")
+    assert win.stop_reason.startswith("step budget")
+
+
+@pytest.mark.parametrize("bad", [0, -3, 2.5, True])
+def test_bad_step_budget(bad):
+    with pytest.raises(ValueError, match="max_steps"):
+        simulate(20, 1.5, 1.0, (1, 5), max_steps=bad)
+
+
+def test_run_output_of_an_unstable_scene_has_a_warning_and_no_nan(tmp_path):
+    import json
+
+    from solvers.run import run_scene
+    from solvers.scene import load_scene
+
+    path = tmp_path / "unstable.toml"
+    path.write_text('name = "unstable"\n[chain]\nexponent = 1.5\nfirst_perturbed = 16\n[excitation]\n'
+                    'velocity = 1.0\n[perturbation]\nR = "k*u"\neps = 0.1\n[perturbation.params]\nk = 100.0\n'
+                    '[output]\ncontacts = [16, 60]\nmethods = ["dns"]\n')
+    for window in (None, "auto"):
+        out = run_scene(load_scene(str(path)), dns_window=window)
+        assert out["dns"]["stop_reason"].startswith("blow-up")
+        assert any("blow-up" in w for w in out["warnings"])
+        json.dumps(out, allow_nan=False)  # raises on NaN/inf anywhere
+        assert all(p is None for p in out["peaks"]["dns"][5:])

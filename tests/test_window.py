@@ -138,3 +138,55 @@ def test_bad_window_arguments(window):
         resolve_rule(window, 1e-8)
     with pytest.raises(ValueError, match="window"):
         simulate(40, 1.5, 1.0, (1, 20), window=window)
+
+
+def test_quintic_step_locates_an_analytic_maximum():
+    """QuinticStep on x_1 = sin(t), x_2 = 0: delta_1 peaks at pi/2 with value 1."""
+    from solvers.peaks import QuinticStep
+
+    def state(t):
+        return np.array([np.sin(t), np.cos(t), 0.0, 0.0])
+
+    def accel(t):
+        return np.array([np.cos(t), -np.sin(t), 0.0, 0.0])
+
+    calls = []
+
+    def exact(t0, y0, f0, h):
+        calls.append(h)
+        return state(t0 + h)
+
+    t0, t1 = 1.3, 1.9
+    step = QuinticStep(t0, state(t0), accel(t0), t1, state(t1), accel(t1), exact)
+    t, value = step.maximum(1)
+    assert t == pytest.approx(np.pi / 2, abs=1e-9) and value == pytest.approx(1.0, abs=1e-14)
+    assert len(calls) == 1 and abs(calls[0]) <= (t1 - t0) / 2  # one re-step from the nearer end
+    assert np.allclose(step(1.5)[:2], state(1.5)[:2], atol=1e-5)  # the interpolant itself: ~h^6
+
+
+def test_exact_stepper_is_the_method_order():
+    """One DOP853 step of the window's scheme on y' = y: error ~h^9."""
+    from solvers.window import exact_stepper
+
+    step = exact_stepper(lambda t, y: y, "DOP853")
+    for h in (0.5, 0.25):
+        y = step(0.0, np.array([1.0]), np.array([1.0]), h)
+        assert abs(y[0] - np.exp(h)) < 3e-10 * (h / 0.5) ** 9
+    rk45 = exact_stepper(lambda t, y: y, "RK45")
+    assert abs(rk45(0.0, np.array([1.0]), np.array([1.0]), -0.1)[0] - np.exp(-0.1)) < 1e-8
+
+
+def test_scene_force_is_restricted_to_the_window():
+    """run.make_force gives restrict(): windowed scene DNS = full chain, O(window) force calls."""
+    from solvers.run import make_force
+    from solvers.scene import load_scene
+
+    scene = load_scene("fig8-eps0.1")
+    force = make_force(scene, 80)
+    part = force.restrict(20, 30)
+    x, v = np.linspace(0.1, 0.2, 80), np.linspace(-1.0, 1.0, 80)
+    assert np.allclose(part.force(x[20:30], v[20:30]), force.force(x, v)[20:30])
+    assert np.allclose(part.dforce_dv(x[20:30], v[20:30]), force.dforce_dv(x, v)[20:30])
+    full = simulate(80, 1.5, 1.0, (10, 60), force, **TIGHT)
+    win = simulate(80, 1.5, 1.0, (10, 60), force, **TIGHT, window="auto", window_accuracy=1e-8)
+    assert np.array_equal(full.alive, win.alive) and rel(win.peaks[win.alive], full.peaks[full.alive]) < 1e-8
