@@ -163,7 +163,7 @@ def cmd_table(args: argparse.Namespace) -> int:
     """``pulsemap table``: every model's errors against the DNS for the paper's scenes, and the winners."""
     from solvers.table import markdown, table, wins
 
-    rows = table(args.scenes or None, progress=not args.quiet, rows_file=args.rows, fresh=args.fresh)
+    rows = table(args.scenes or None, progress=not args.quiet, rows_file=args.rows, fresh=args.fresh, eps=args.eps)
     print(markdown(rows))
     print("\nScenes won: " + ", ".join(f"{k} {v}" for k, v in wins(rows).items()))
     if args.json:
@@ -278,6 +278,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="JSON-lines file each finished scene is appended to; a rerun skips the scenes "
                         "already there (default: pulsemap-table.jsonl)")
     p.add_argument("--fresh", action="store_true", help="ignore (and replace) the rows file: recompute every scene")
+    p.add_argument("--eps", type=number, default=None,
+                   help="run every scene at this eps instead of its own (which model is right as eps -> 0)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=cmd_table)
 

@@ -82,9 +82,14 @@ def winner(errors: dict) -> tuple[str | None, float | None, str | None, float | 
     return best[1], best[0], second[1], second[0]
 
 
-def scene_row(name: str, progress: bool = False, columns=COLUMNS) -> dict:
-    """Errors of every column for one scene (one DNS, reused by every model)."""
+def _scene(name: str, eps: float | None):
     scene = load_scene(name)
+    return scene if eps is None else scene.with_overrides(eps=eps)
+
+
+def scene_row(name: str, progress: bool = False, columns=COLUMNS, eps: float | None = None) -> dict:
+    """Errors of every column for one scene (one DNS, reused by every model); ``eps`` overrides the scene's."""
+    scene = _scene(name, eps)
     t0 = time.perf_counter()
     ref = run_scene(scene, methods=["dns"], progress=progress)
     row = {
@@ -116,7 +121,7 @@ def scene_row(name: str, progress: bool = False, columns=COLUMNS) -> dict:
 
 
 def read_rows(path: str | os.PathLike) -> dict[str, dict]:
-    """Finished rows of a JSON-lines file by scene name (the last row of a scene wins)."""
+    """Finished rows of a JSON-lines file by row key (scene, columns and version)."""
     p = Path(path)
     if not p.exists():
         return {}
@@ -133,7 +138,7 @@ def read_rows(path: str | os.PathLike) -> dict[str, dict]:
             except ValueError:
                 continue  # a line cut short by an interruption: that scene is recomputed
             if isinstance(row, dict) and "scene" in row and "key" in row:
-                rows[row["scene"]] = row
+                rows[row["key"]] = row
     return rows
 
 
@@ -146,24 +151,30 @@ def append_row(path: str | os.PathLike, row: dict) -> None:
 
 
 def table(names=None, progress: bool = False, rows_file: str | os.PathLike | None = None,
-          fresh: bool = False, columns=COLUMNS) -> list[dict]:
-    """Rows for ``names`` (default: every built-in scene), reusing finished rows of ``rows_file``."""
+          fresh: bool = False, columns=COLUMNS, eps: float | None = None) -> list[dict]:
+    """Rows for ``names`` (default: every built-in scene), reusing finished rows of ``rows_file``.
+
+    ``eps`` runs every scene at that eps instead of its own (e.g. to see which model is right as
+    eps -> 0); such rows have their own keys, so they never replace the paper-eps rows.
+    """
+    if eps is not None and not (isinstance(eps, (int, float)) and 0 < eps < float("inf")):
+        raise TableError(f"eps must be a finite number > 0, got {eps!r}")
     names = list(names or builtin_scenes())
-    scenes = {name: load_scene(name) for name in names}  # every name checked before any work
+    scenes = {name: _scene(name, eps) for name in names}  # every name checked before any work
     done = read_rows(rows_file) if (rows_file is not None and not fresh) else {}
     if rows_file is not None and fresh and Path(rows_file).exists():
         Path(rows_file).unlink()
     rows = []
     for name in names:
-        old = done.get(name)
-        if old is not None and old.get("key") == row_key(scenes[name].as_dict(), columns):
+        old = done.get(row_key(scenes[name].as_dict(), columns))
+        if old is not None and old.get("scene") == name:
             if progress:
                 print(f"table: {name} already done in {rows_file}", file=sys.stderr, flush=True)
             rows.append(old)
             continue
         if progress:
             print(f"table: {name} ...", file=sys.stderr, flush=True)
-        row = scene_row(name, columns=columns)
+        row = scene_row(name, columns=columns, eps=eps)
         if rows_file is not None:
             append_row(rows_file, row)
         rows.append(row)

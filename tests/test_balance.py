@@ -293,6 +293,36 @@ def test_run_refuses_momentum_for_a_foundation_and_skips_site_dependent_laws():
 
 
 # ------------------------------------------------------------------- runs and physics
+def test_scene_file_lists_balance_models(tmp_path):
+    text = """
+name = "damping-balance"
+[chain]
+exponent = 1.5
+first_perturbed = 16
+[excitation]
+velocity = 1.0
+[perturbation]
+R = "-mu*v"
+eps = 0.05
+[perturbation.params]
+mu = 1.0
+[output]
+contacts = [16, 30]
+methods = ["momentum-law", "energy-map", "dns"]
+"""
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    scene = load_scene(str(path))
+    assert scene.methods == ("energy-map", "momentum-law", "dns")
+    res = run_scene(scene)
+    assert res["peaks"]["energy-map"][0] is not None and res["peaks"]["momentum-law"][0] is not None
+    assert res["peaks"]["map"] is None and set(res["errors"]) == {"energy-map", "momentum-law"}
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace('"energy-map"', '"energy-mapp"'))
+    with pytest.raises(ValueError, match="energy-map"):
+        load_scene(str(bad))
+
+
 def test_run_names_every_model_and_measures_errors():
     scene = load_scene("fig8-eps0.1").with_overrides(contacts=(16, 40))
     res = run_scene(scene, methods=list(MODELS) + ["dns"])
@@ -325,6 +355,20 @@ def test_energy_law_converges_to_the_dns_as_eps_vanishes_for_damping():
         print(f"eps {eps}: energy-law max rel {errs[-1]:.2e}, map {res['errors']['map']['max_rel']:.2e}")
     assert errs[1] < 0.5 * errs[0] and errs[1] < 2e-3
     assert mom[1] == pytest.approx(9 / 5, rel=0.1)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["fig6-eps0.1", "fig7-eps0.1", "vdp-mu1-v2.3"])
+def test_energy_law_converges_to_the_dns_for_foundations_and_van_der_pol(name):
+    """As eps -> 0 the energy balance's error vanishes (first-order theory), the paper map's does not."""
+    errs, maps = [], []
+    for eps in (0.01, 0.003):
+        res = run_scene(load_scene(name).with_overrides(eps=eps, contacts=(16, 70)), methods=["dns", "energy-law", "map"])
+        errs.append(res["errors"]["energy-law"]["max_rel"])
+        maps.append(res["errors"]["map"]["max_rel"])
+    print(f"{name}: energy-law max rel {errs}, paper map {maps}")
+    assert errs[1] < 0.5 * errs[0] and errs[1] < 0.01
+    assert maps[1] > 2 * errs[1]
 
 
 # ------------------------------------------------------------------- generated code
@@ -388,9 +432,9 @@ def test_table_appends_rows_and_skips_finished_scenes(tmp_path, monkeypatch):
 
     calls = []
 
-    def fake_row(name, progress=False, columns=table_mod.COLUMNS):
+    def fake_row(name, progress=False, columns=table_mod.COLUMNS, eps=None):
         calls.append(name)
-        scene = load_scene(name)
+        scene = table_mod._scene(name, eps)
         return {"scene": name, "key": table_mod.row_key(scene.as_dict(), columns), "R": "x", "eps": 0.1, "v0": 1.0,
                 "live": 1, "errors": {}, "winner": {}}
 
@@ -412,6 +456,13 @@ def test_table_appends_rows_and_skips_finished_scenes(tmp_path, monkeypatch):
     assert calls == names + names[:1]
     table_mod.table(names[:1], rows_file=rows_file, fresh=True)
     assert calls == names + names[:1] * 2 and len(rows_file.read_text().splitlines()) == 1
+    # rows at another eps have their own keys: computed once, kept next to the paper-eps rows
+    table_mod.table(names[:1], rows_file=rows_file, eps=0.01)
+    table_mod.table(names[:1], rows_file=rows_file, eps=0.01)
+    table_mod.table(names[:1], rows_file=rows_file)
+    assert calls == names + names[:1] * 3 and len(rows_file.read_text().splitlines()) == 2
+    with pytest.raises(ValueError, match="eps"):
+        table_mod.table(names[:1], rows_file=rows_file, eps=-1.0)
 
 
 def test_cli_derive_model_and_refusal(tmp_path, capsys):
