@@ -339,7 +339,7 @@ def bifurcation(
         mine = [r for r in rows if r["v0"] == v0]
         entry = next((r["entry_peak"] for r in mine if r.get("entry_peak") is not None), None)
         t = {"v0": v0, "entry_peak": entry, "bracket": [a, b], "bisections": st["steps"],
-             "longest_chain": st["last"], "note": st["note"],
+             "longest_chain": st["last"], "note": st["note"], "probes": st["probes"],
              "threshold": None if (a is None or b is None) else 0.5 * (a + b),
              "uncertainty": None if (a is None or b is None) else 0.5 * (b - a), "predicted": {}, "minus_fold": {}}
         if b is not None and a is None:
@@ -450,13 +450,14 @@ def plot(report: dict, path: str) -> None:
     for prof, pred in report["prediction"].items():
         color, lw = styles.get(prof, ("k", 1.0))
         for want, ls in ((True, "-"), (False, "--")):
-            xs, ys = [], []
+            xs = [f["value"] for f in pred["folds"]]  # both branches start at the fold
+            ys = [f["peak"] for f in pred["folds"]]
             for b in pred["branches"]:
                 for r in b["roots"]:
                     if r["stable"] is want:
                         xs.append(b["value"])
                         ys.append(r["peak"])
-            if xs:
+            if len(xs) > len(pred["folds"]):
                 order = np.argsort(xs)
                 label = f"Eq. 41 {'stable' if want else 'unstable'} ({prof})"
                 ax.plot(np.array(xs)[order], np.array(ys)[order], ls=ls, color=color, lw=lw, label=label)
@@ -467,6 +468,7 @@ def plot(report: dict, path: str) -> None:
         markers = "s^Dv<>"
         for k, v0 in enumerate(dns["impulses"]):
             rows = [r for r in dns["points"] if r["v0"] == v0]
+            rows += [r for t in dns["thresholds"] if t["v0"] == v0 for r in t.get("probes", [])]
             xs = [r["value"] for r in rows if r["outcome"] == "settles"]
             ys = [r["amplitude"] for r in rows if r["outcome"] == "settles"]
             ax.plot(xs, ys, markers[k % 6], mfc="none", color=f"C{k}", label=f"DNS settles, v0 = {v0:g}")
