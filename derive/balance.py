@@ -535,7 +535,7 @@ def to_text(d: BalanceDerivation) -> str:
     lines += ["", f"Terms of the {what} (monomial -> coefficient x {integ} x A^power):"]
     for t in ex.terms:
         lines.append(f"    {str(t.monomial):14s} {str(t.coefficient):>14s} x {t.integral} (= {c[t.integral]:.12g}) x A^({t.power})")
-    lines += ["", f"Map (bead i takes contact i-1 to contact i):", f"  {map_equation(d)}", f"  {map_equation(d, numeric=True)}", ""]
+    lines += ["", "Map (bead i takes contact i-1 to contact i):", f"  {map_equation(d)}", f"  {map_equation(d, numeric=True)}", ""]
     law = d.law
     if law is None:
         lines.append(f"Law: not available ({d.law_note})")
