@@ -28,6 +28,7 @@ import math
 import os
 import socket
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -164,6 +165,19 @@ def _call(task: Callable[[dict], dict], params: dict) -> dict:
     return {"status": "ok", "result": result, "elapsed_s": time.perf_counter() - t0, **where}
 
 
+def _exit_with_parent(poll_s: float = 0.5) -> None:
+    """Process-pool initializer: the worker exits when its parent dies (e.g. a killed sweep),
+    instead of waiting forever for work that will never come."""
+    parent = os.getppid()
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(poll_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="pulsemap-parent-watch", daemon=True).start()
+
+
 def _record(key: str, params: dict, task_name: str, outcome: dict) -> dict:
     rec = {"format": FORMAT, "key": key, "task": task_name, "params": params, "status": outcome["status"]}
     if outcome["status"] == "ok":
@@ -292,7 +306,7 @@ def run_sweep(
                 finish(key, _call(task, todo[key]))
         else:
             if executor is None:
-                own = cf.ProcessPoolExecutor(max_workers=max_workers)
+                own = cf.ProcessPoolExecutor(max_workers=max_workers, initializer=_exit_with_parent)
                 kind = f"process pool ({max_workers or os.cpu_count()} workers)"
                 ex = own
             else:

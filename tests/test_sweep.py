@@ -141,10 +141,19 @@ def _lines(path):
     return [line for line in path.read_text().splitlines() if line.strip()] if path.exists() else []
 
 
+def _running(pid):
+    """True while process ``pid`` exists and is not a zombie (Linux /proc)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
 def test_sweep_killed_and_restarted_does_not_recompute_finished_points(tmp_path):
     out = tmp_path / "kill.jsonl"
     args = [sys.executable, "-m", "solvers.cli", "bifurcation", VDP, "--param", "mu", "--range", "2", "3",
-            "--points", "8", "--impulses", "2.3", "--contacts", "30", "--refine", "0", "--workers", "1",
+            "--points", "8", "--impulses", "2.3", "--contacts", "30", "--refine", "0", "--workers", "2",
             "--predict-points", "5", "--profiles", "exact", "--out", str(out)]
     env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
     proc = subprocess.Popen(args, cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
@@ -156,6 +165,13 @@ def test_sweep_killed_and_restarted_does_not_recompute_finished_points(tmp_path)
     assert proc.returncode == -signal.SIGKILL, proc.stderr.read().decode()[-2000:]
     first = _lines(out)
     assert 2 <= len(first) < 8, "the sweep finished before it could be killed"
+    workers = {json.loads(line)["pid"] for line in first}
+    assert proc.pid not in workers
+    if Path("/proc").is_dir():  # the pool's workers exit with their killed parent
+        deadline = time.monotonic() + 10
+        while any(_running(p) for p in workers) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not any(_running(p) for p in workers)
 
     done = subprocess.run(args, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
@@ -163,8 +179,8 @@ def test_sweep_killed_and_restarted_does_not_recompute_finished_points(tmp_path)
     final = _lines(out)
     assert len(final) == 8  # one record per point: none computed twice
     assert final[: len(first)] == first  # the first run's records, untouched (same pid, same times)
-    pids = {json.loads(line)["pid"] for line in final}
-    assert len(pids) == 2  # the killed run and the rerun
+    rerun = {json.loads(line)["pid"] for line in final[len(first):]}
+    assert rerun and not rerun & workers  # the rest was computed by the rerun's workers
 
     # the same records as an uninterrupted run
     from solvers.cli import main
