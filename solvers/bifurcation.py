@@ -346,6 +346,8 @@ def bifurcation(
             t["note"] = t["note"] or f"settles already at {name} = {b:g}: the threshold is below the range"
         if a is not None and b is None:
             t["note"] = t["note"] or f"decays up to {name} = {a:g}: the threshold is above the range (or the chain too short)"
+        if a is None and b is None:
+            t["note"] = t["note"] or "no grid value settled or decayed: lengthen the chain (--contacts)"
         for prof in profiles:
             pred = report["prediction"][prof]
             t["predicted"][prof] = None if entry is None else predicted_threshold(scene, name, pred, entry)

@@ -111,3 +111,14 @@ def test_cli_ensemble(tmp_path, capsys):
     assert "ensemble of 2 realisations" in capsys.readouterr().out
     assert main(["ensemble", "vdp-mu3-v2.3", "--realisations", "2", "--quiet"]) == 2
     assert "no random parameter" in capsys.readouterr().err
+
+
+def test_cli_on_a_dask_scheduler(capsys):
+    distributed = pytest.importorskip("distributed")
+    from solvers.cli import main
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        assert main(["ensemble", FIG13, "--realisations", "2", "--contacts", "16", "22", "--quiet",
+                     "--scheduler", cluster.scheduler_address]) == 0
+    assert "ensemble of 2 realisations" in capsys.readouterr().out

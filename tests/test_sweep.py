@@ -190,3 +190,15 @@ def test_sweep_killed_and_restarted_does_not_recompute_finished_points(tmp_path)
     got = {r["key"]: (r["params"], r["result"]) for r in map(json.loads, final)}
     want = {r["key"]: (r["params"], r["result"]) for r in map(json.loads, _lines(ref))}
     assert got == want
+
+
+def test_a_worker_runs_a_point_without_importing_sympy(tmp_path):
+    point = tmp_path / "p.json"
+    point.write_text(json.dumps(_vdp_points([3.0], last=20)[0]))
+    code = ("import json, sys; from solvers.points import dns_task; "
+            f"r = dns_task(json.load(open({str(point)!r}))); "
+            "print(len(r['peaks']), 'sympy' in sys.modules)")
+    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["6", "False"]
