@@ -7,8 +7,8 @@ mu spread over [1.8, 3], v0 = 2.3, a moving-window DNS to contact L, rtol 1e-8):
 the ``pulsemap bifurcation`` command runs. Each configuration runs the whole list of points
 without an output file (nothing skipped); the best wall time of R repeats is kept. Printed:
 points per second of each executor and the ratio 2 processes / serial, with the machine's CPU
-count and load average (other processes on a shared machine lower the ratio). The results of
-the two executors are checked to be identical.
+count and load average (other processes on a shared machine lower the ratio). Serial and pool
+runs alternate. The results of the two executors are checked to be identical.
 """
 
 from __future__ import annotations
@@ -43,13 +43,14 @@ def main() -> None:
     args = ap.parse_args()
     pts = points(args.points, args.contacts)
     run_sweep(dns_task, pts[:1], None, max_workers=1)  # warm up: imports, generated code
-    serial = min(timed(pts, max_workers=1)[0] for _ in range(args.repeats))
-    pool_times, results = [], None
-    for _ in range(args.repeats):
-        t, results = timed(pts, max_workers=2)
+    serial_times, pool_times, same = [], [], True
+    for _ in range(args.repeats):  # interleaved, so that a change of the machine's load hits both
+        t, ref = timed(pts, max_workers=1)
+        serial_times.append(t)
+        t, got = timed(pts, max_workers=2)
         pool_times.append(t)
-    pool = min(pool_times)
-    same = results == timed(pts, max_workers=1)[1]
+        same = same and got == ref
+    serial, pool = min(serial_times), min(pool_times)
     print(f"sweep of {len(pts)} DNS points (Van der Pol, contacts 15..{args.contacts}), best of {args.repeats}; "
           f"cpus {os.cpu_count()}, load average {os.getloadavg()[0]:.2f}")
     print(f"  serial (this process)  : {serial:7.2f} s  {len(pts) / serial:6.2f} points/s")
