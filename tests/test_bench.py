@@ -110,3 +110,12 @@ def test_cli_errors_are_one_line(argv, pattern):
     assert proc.returncode == 2
     assert proc.stderr.startswith("pulsemap: error:") and pattern in proc.stderr
     assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_plot_writes_a_png(tiny_report, tmp_path):
+    pytest.importorskip("matplotlib")
+    from solvers.bench import plot
+
+    out = tmp_path / "wp.png"
+    plot([tiny_report], str(out))
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5000
