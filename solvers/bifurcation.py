@@ -34,6 +34,7 @@ from typing import Any, Sequence
 import numpy as np
 from scipy.optimize import brentq
 
+from solvers.points import dns_task
 from solvers.sweep import SweepError, run_sweep
 
 PROFILES = ("exact", "pade")
@@ -191,6 +192,9 @@ def check_param(scene, name: str) -> None:
         raise BifurcationError(f"'{name}' is not a parameter of R = {pert.text} (parameters: {used}): choose one with --param")
     if name in pert.site_dependent:
         raise BifurcationError(f"parameter '{name}' varies along the chain: the bifurcation needs a scalar parameter")
+    if pert.site_dependent:
+        raise BifurcationError(f"parameter '{pert.site_dependent[0]}' varies along the chain: Eq. 41 needs a uniform "
+                               "chain, give it a single value")
 
 
 def base_chain(scene, name: str, last: int, rtol: float, window: "int | str | None" = "auto") -> dict:
@@ -268,6 +272,8 @@ def bifurcation(
     if refine < 0:
         raise BifurcationError(f"refine = {refine}: give a number of bisection steps >= 0")
     check_param(scene, name)
+    if not (math.isfinite(rtol) and 0 < rtol < 1):
+        raise BifurcationError(f"--rtol {rtol}: give a tolerance 0 < rtol < 1 (default 1e-8)")
     max_last = max_last or 4 * last
     if max_last < last:
         raise BifurcationError(f"max_last = {max_last} is below last = {last}")
@@ -287,7 +293,7 @@ def bifurcation(
     values = [float(v) for v in np.linspace(lo, hi, points)]
     grid = [probe(chain, name, val, v0, last) for v0 in impulses for val in values]
     sweeps = []
-    res = run_sweep(_dns_task(), grid, out, executor=executor, max_workers=max_workers, progress=progress,
+    res = run_sweep(dns_task, grid, out, executor=executor, max_workers=max_workers, progress=progress,
                     label="bifurcation")
     sweeps.append(res.summary())
     fp = scene.first_perturbed
@@ -310,7 +316,7 @@ def bifurcation(
         pending = dict(todo)
         while pending:
             batch = [probe(chain, name, mid, v0, state[v0]["last"]) for v0, mid in pending.items()]
-            res = run_sweep(_dns_task(), batch, out, executor=executor, max_workers=max_workers,
+            res = run_sweep(dns_task, batch, out, executor=executor, max_workers=max_workers,
                             progress=progress, label="bisection")
             sweeps.append(res.summary())
             again = {}
@@ -371,12 +377,6 @@ def bifurcation(
     }
     report["sweeps"] = sweeps
     return report
-
-
-def _dns_task():
-    from solvers.points import dns_task
-
-    return dns_task
 
 
 def default_impulses(scene, folds: list[dict]) -> list[float]:
