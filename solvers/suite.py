@@ -7,7 +7,9 @@ its fold; an unstable foundation for the blow-up guard; a non-stiff yardstick). 
 the long-wave law; then a second DNS at 100x tighter rtol with the other kind of method
 (implicit if the first was explicit and vice versa) gives the DNS error. Reported: method
 chosen, DNS time, DNS error, the map's error against the DNS, the stop reason, warnings, and a
-status. A run that returns a non-finite number anywhere, or ends without a stop reason, FAILs.
+status. A run that returns a non-finite number anywhere, or ends without a stop reason, FAILs;
+one whose map or long-wave law misses the DNS by more than 50 % while the run output warned
+about nothing of the kind is SILENT (outside the models' range without saying so).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from typing import Callable, Sequence
 
 STIFF_SCENE, YARDSTICK = "damp-100", "nonstiff"
 STIFF_RATIO_TARGET = 5.0
+SILENT_ERROR = 0.5  # a model this far off the DNS (max relative error) must have been warned about
 
 
 class SuiteError(ValueError):
@@ -62,6 +65,18 @@ def max_rel(values: Sequence[float | None], ref: Sequence[float | None]) -> tupl
         elif v is not None:
             rel.append(abs(v / r - 1.0))
     return (max(rel) if rel else None), odd
+
+
+def silent_model_errors(row: dict) -> list[str]:
+    """Models off the DNS by more than SILENT_ERROR while run output warned about none of it."""
+    warned = " ".join(row.get("warnings", [])).lower()
+    out = []
+    for key, model, words in (("map_error", "map", ("map", "eps", "reduced models")),
+                              ("longwave_error", "long-wave law", ("long-wave", "eps", "reduced models"))):
+        err = row.get(key)
+        if err is not None and err > SILENT_ERROR and not any(w in warned for w in words):
+            out.append(f"{model} off the DNS by {100 * err:.0f} % (max rel) and nothing in the run output warned")
+    return out
 
 
 def other_method(method: str) -> str:
@@ -116,6 +131,8 @@ def run_case(ref: str, *, check: bool = True, repeats: int = 1) -> dict:
         row.update(status="FAIL", message="the DNS ended without a stop reason")
     elif "blow-up" in row["stop_reason"]:
         row.update(status="stopped", message=row["stop_reason"])
+    elif silent_model_errors(row):
+        row.update(status="SILENT", message="; ".join(silent_model_errors(row)))
     else:
         row.update(status="ok" if not row["warnings"] else "ok, warned",
                    message="; ".join(row["warnings"]) if row["warnings"] else "")
@@ -162,7 +179,7 @@ def to_text(report: dict) -> str:
     for r in report["cases"]:
         for w in r.get("warnings", []):
             lines.append(f"{r['scene']}: warning: {w}")
-        if r["status"] in ("FAIL", "stopped"):
+        if r["status"] in ("FAIL", "stopped", "SILENT"):
             lines.append(f"{r['scene']}: {r['status']}: {r['message']}")
     s = report["stiff_ratio"]
     if s["ratio"] is not None:
