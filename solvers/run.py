@@ -47,6 +47,8 @@ MODEL_TITLES = {
     "momentum-law": "momentum-balance law: p_1 dA^(1+s)/di = J(A)",
 }
 FORCING_WARN = 0.3  # eps term of Eq. 23 above this fraction of the contact term: same assumption, per contact
+DRIFT_WARN = 0.05  # the 'paper' map's own drift at eps = 0 over the contacts run (ERRATA item 5)
+WIDTH_WARN = 0.01  # f7/f1: the delta_{i+2} integral Eq. 9 drops, relative to the contact term f1
 
 
 class RunError(ValueError):
@@ -153,6 +155,21 @@ def _rel_errors(ref: list, alive: list, values: list) -> dict:
             "missing": missing, "max_rel_all": float(full.max()), "rms_rel_all": float(np.sqrt(np.mean(full**2)))}
 
 
+def _eps0_drift(mod, seed_A: float, seed_contact: int, last: int, prm: dict) -> float | None:
+    """Relative change of A over the contacts run when eps = 0 (exactly 0 for 'corrected' and '1d')."""
+    free = iterate_map(mod, seed_A, seed_contact, last, 0.0, prm)
+    return float(free.A[-1] / seed_A - 1.0) if free.status == "ok" and len(free.A) else None
+
+
+def _width_warning(mod) -> str | None:
+    """Eq. 9 assumes delta_{i+2} = 0 while contact i is compressed: false for a wide pulse (n near 1)."""
+    ratio = float(mod.f7) / float(mod.f1)
+    if ratio <= WIDTH_WARN:
+        return None
+    return (f"the pulse spans more than two contacts at n = {float(mod.N_EXPONENT):g} (f7/f1 = {ratio:.3g} > "
+            f"{WIDTH_WARN:g}): Eq. 9's assumption delta_(i+2) = 0 fails and the reduced models lose accuracy")
+
+
 def _clean(x) -> float | None:
     return None if x is None or not math.isfinite(x) else float(x)
 
@@ -256,6 +273,9 @@ def run_scene(
         t0 = time.perf_counter()
         mod = map_module(pert.text, pert.used_parameters, scene.exponent, choice.profile, choice.variant, site)
         timings["derive_map"] = time.perf_counter() - t0
+        wide = _width_warning(mod)
+        if wide is not None:
+            warnings.append(wide)
     for quantity in dict.fromkeys(BALANCE_METHODS[m][0] for m in methods if m in BALANCE_METHODS):
         t0 = time.perf_counter()
         try:
@@ -315,6 +335,12 @@ def run_scene(
             out["map"]["max_forcing_ratio"] = mr.max_forcing_ratio  # |eps term| / contact term (map_iteration)
             if mr.status != "ok":
                 warnings.append(f"map: {mr.message}")
+            if mr.variant == "paper":
+                drift = _eps0_drift(mod, seed_A, seed_contact, c1, prm)
+                out["map"]["eps0_drift"] = drift
+                if drift is not None and abs(drift) > DRIFT_WARN:
+                    warnings.append(f"map: the 'paper' variant drifts by {100 * drift:+.3g} % over contacts "
+                                    f"{seed_contact + 1}..{c1} even at eps = 0 (ERRATA item 5): use --variant corrected or 1d")
             if mr.max_forcing_ratio is not None and mr.max_forcing_ratio > FORCING_WARN:
                 k = int(np.argmax(mr.forcing_ratio > FORCING_WARN))
                 warnings.append(f"map: at contact {int(mr.contacts[k])} the eps term of Eq. 23 exceeds "

@@ -111,3 +111,31 @@ def test_no_warning_inside_the_assumptions(tmp_path):
     data = json.loads(out.read_text())
     assert data["warnings"] == []
     assert data["map"]["status"] == "ok" and 0 < data["map"]["max_forcing_ratio"] < 0.3
+
+
+def _map_run(n: float, variant: str, last: int = 60) -> dict:
+    from solvers.run import run_scene
+    from solvers.scene import load_scene
+
+    scene = load_scene("fig8-eps0.1").with_overrides(exponent=n, contacts=(16, last), methods=("map",))
+    return run_scene(scene, variant=variant, seed_peak=0.5)
+
+
+def test_paper_drift_warning_matches_the_closed_form():
+    """At n = 1.1 the literal map shrinks A by (1 + f7/(2 f1))^(-1/P) per contact at eps = 0."""
+    res = _map_run(1.1, "paper")
+    mod = map_module("-mu*v", ("mu",), 1.1, "exact", "paper")
+    per_contact = (1 + mod.f7 / (2 * mod.f1)) ** (-1 / mod.P)
+    expected = per_contact ** (60 - 15) - 1
+    assert res["map"]["eps0_drift"] == pytest.approx(expected, rel=1e-6)
+    assert any("drifts by" in w and "ERRATA item 5" in w for w in res["warnings"])
+    assert any("spans more than two contacts" in w for w in res["warnings"])
+
+
+def test_drift_free_variants_and_narrow_pulse_do_not_warn():
+    corrected = _map_run(1.1, "corrected")
+    assert "eps0_drift" not in corrected["map"]
+    assert not any("drifts by" in w for w in corrected["warnings"])
+    narrow = _map_run(1.5, "paper")
+    assert abs(narrow["map"]["eps0_drift"]) < 0.01  # 1.2 % per 100 contacts at n = 3/2
+    assert not any("spans more than two contacts" in w or "drifts by" in w for w in narrow["warnings"])
