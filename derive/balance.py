@@ -44,7 +44,7 @@ from . import cache
 from .expansion import bead_symbol, exact_exponent
 from .expression import symbol
 from .integrals import DEFAULT_DPS, Constant, _scalar_funcs
-from .longwave import A0, I, I0
+from .longwave import A0, I, I0, law_lines
 from .perturbation import Perturbation
 from .profile import check_exponent, check_profile_kind, exact_profile, get_profile
 from .timebox import bounded
@@ -540,23 +540,8 @@ def to_text(d: BalanceDerivation) -> str:
     if law is None:
         lines.append(f"Law: not available ({d.law_note})")
     else:
-        lines.append(f"Law, B = A^({law.Q}):")
-        lines.append(f"  {law.ode()}")
-        lines.append(f"  {law.ode(symbolic=False)}")
-        if law.law is not None:
-            lines.append(f"Amplitude law ({law.kind}), k = eps*C/{kname} = {law.rate():.12g}:")
-            lines.append(f"  A(i) = {law.law}")
-        elif law.implicit is not None:
-            lines.append("Amplitude law (integrated in closed form, implicit):")
-            lines.append(f"  i(A) = {law.implicit}")
-        elif law.kind == "constant":
-            lines.append("Amplitude law: A constant (no work on the wave)")
-        else:
-            lines.append("Amplitude law: by numerical quadrature (no closed form within the time bound)")
-        if d.A0 is not None:
-            index, what_ = law.singular_index(d.A0, d.i0)
-            where = f"at contact index {index:.6g}" if index is not None else ""
-            lines.append(f"  from A0 = {d.A0:g} at i0 = {d.i0:g}: {what_} {where}".rstrip())
+        lines += law_lines(law, f"Law, B = A^({law.Q}):", kname, d.A0, d.i0,
+                           constant_reason="no work on the wave")
     return "\n".join(lines)
 
 

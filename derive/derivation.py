@@ -19,7 +19,7 @@ from .amplitude_map import EPS, AmplitudeMap, check_variant, latex_names
 from .expansion import Expansion, expand
 from .expression import symbol
 from .integrals import DEFAULT_DPS, F_NAMES, constants
-from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, longwave_law
+from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, law_lines, longwave_law
 from .perturbation import Perturbation
 from .provenance import provenance
 from .profile import check_exponent, check_profile_kind, get_profile
@@ -283,24 +283,8 @@ def to_text(d: Derivation) -> str:
         lines.append(f"    = {en}")
     lines.append("")
     if d.longwave is not None:
-        law = d.longwave
-        lines.append(f"Long-wave ODE (Eq. 30), B = A^({law.P}):")
-        lines.append(f"  {law.ode()}")
-        lines.append(f"  {law.ode(symbolic=False)}")
-        if law.law is not None:
-            lines.append(f"Amplitude law ({law.kind}), k = eps*C/(f1 - f3) = {law.rate():.12g}:")
-            lines.append(f"  A(i) = {law.law}")
-        elif law.implicit is not None:
-            lines.append("Amplitude law (Eq. 31a integrated in closed form, implicit):")
-            lines.append(f"  i(A) = {law.implicit}")
-        elif law.kind == "constant":
-            lines.append("Amplitude law: A constant (no forcing of contact i)")
-        else:
-            lines.append("Amplitude law: Eq. 31a by numerical quadrature (no closed form within the time bound)")
-        if d.A0 is not None:
-            index, what = law.singular_index(d.A0, d.i0)
-            where = f"at contact index {index:.6g}" if index is not None else ""
-            lines.append(f"  from A0 = {d.A0:g} at i0 = {d.i0:g}: {what} {where}".rstrip())
+        lines += law_lines(d.longwave, f"Long-wave ODE (Eq. 30), B = A^({d.longwave.P}):", "(f1 - f3)",
+                           d.A0, d.i0, cite="Eq. 31a ")
     else:
         lines.append(f"Long-wave law: not available ({d.longwave_note})")
     lines.append("")

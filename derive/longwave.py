@@ -173,3 +173,29 @@ def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> Longwa
         implicit = sympy.Float(f13 / eps, 17) * (G.xreplace({B: A**P}) - G.xreplace({B: A0**P})) + I0
         kind = "implicit"
     return LongwaveLaw(P, powers, coeffs, symb, f13, eps, kind, None, implicit)
+
+
+def law_lines(law, heading: str, rate_name: str, a0: float | None, i0: float,
+              cite: str = "", constant_reason: str = "no forcing of contact i") -> list[str]:
+    """Text lines of a law (Eq. 30 or a balance law): its ODE, symbolic and numeric, the amplitude law
+    (closed form, implicit, constant or by quadrature) and, given A0, its singular index.
+
+    ``law`` is a LongwaveLaw or a balance.BalanceLaw; ``rate_name`` names k's denominator ("(f1 - f3)");
+    ``cite`` prefixes the integral's name ("Eq. 31a ").
+    """
+    lines = [heading, f"  {law.ode()}", f"  {law.ode(symbolic=False)}"]
+    if law.law is not None:
+        lines.append(f"Amplitude law ({law.kind}), k = eps*C/{rate_name} = {law.rate():.12g}:")
+        lines.append(f"  A(i) = {law.law}")
+    elif law.implicit is not None:
+        lines.append(f"Amplitude law ({cite}integrated in closed form, implicit):")
+        lines.append(f"  i(A) = {law.implicit}")
+    elif law.kind == "constant":
+        lines.append(f"Amplitude law: A constant ({constant_reason})")
+    else:
+        lines.append(f"Amplitude law: {cite}by numerical quadrature (no closed form within the time bound)")
+    if a0 is not None:
+        index, what = law.singular_index(a0, i0)
+        where = f"at contact index {index:.6g}" if index is not None else ""
+        lines.append(f"  from A0 = {a0:g} at i0 = {i0:g}: {what} {where}".rstrip())
+    return lines
