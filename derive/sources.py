@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from fractions import Fraction
-from typing import Union
+from typing import ClassVar, Union
 
 GENERATOR_VERSION = 1
 #: Bump together with derive.integrals.METHOD_VERSION (checked by a test).
@@ -32,42 +32,63 @@ def exact_n(n) -> str:
 
 
 @dataclass(frozen=True)
-class MapSource:
-    """Everything a generated map module depends on."""
+class _ExpandedSource:
+    """The fields a map or balance module shares: R, its parameters, n and the profile.
+
+    A subclass adds its own fields (variant or model, then dps) and names its KIND and METHOD.
+    """
 
     R: str  # normalized expression text
     params: tuple[str, ...]  # parameter names of R, sorted
     site_dependent: tuple[str, ...]
     n: str  # exact rational, e.g. "3/2"
     profile: str
-    variant: str
-    dps: int
 
-    @classmethod
-    def of(cls, R: str, params, n, profile: str = "exact", variant: str = "paper", site_dependent=(), dps=None):
-        return cls(
+    KIND: ClassVar[str]
+    METHOD: ClassVar[tuple[str, int]]  # the method version the hash includes
+
+    @staticmethod
+    def _normalized(R: str, params, n, profile: str, site_dependent, dps) -> dict:
+        """The shared fields and dps, normalized (the keyword arguments of ``of``)."""
+        return dict(
             R=normalize_expression(R),
             params=tuple(sorted(params)),
             site_dependent=tuple(sorted(site_dependent)),
             n=exact_n(n),
             profile=profile,
-            variant=variant,
             dps=int(dps if dps is not None else DEFAULT_DPS.get(profile, 16)),
         )
 
+    @classmethod
+    def from_dict(cls, d: dict):
+        """The source of ``as_dict``'s output."""
+        values = {f.name: d[f.name] for f in fields(cls)}
+        return cls(**{**values, "params": tuple(values["params"]), "site_dependent": tuple(values["site_dependent"]),
+                      "dps": int(values["dps"])})
+
     def as_dict(self) -> dict:
-        return {
-            "kind": "map",
-            "R": self.R,
-            "params": list(self.params),
-            "site_dependent": list(self.site_dependent),
-            "n": self.n,
-            "profile": self.profile,
-            "variant": self.variant,
-            "dps": self.dps,
-            "integrals_method": INTEGRALS_METHOD,
-            "generator": GENERATOR_VERSION,
-        }
+        d = {"kind": self.KIND}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            d[f.name] = list(value) if isinstance(value, tuple) else value
+        d[self.METHOD[0]] = self.METHOD[1]
+        d["generator"] = GENERATOR_VERSION
+        return d
+
+
+@dataclass(frozen=True)
+class MapSource(_ExpandedSource):
+    """Everything a generated map module depends on."""
+
+    variant: str
+    dps: int
+
+    KIND: ClassVar[str] = "map"
+    METHOD: ClassVar[tuple[str, int]] = ("integrals_method", INTEGRALS_METHOD)
+
+    @classmethod
+    def of(cls, R: str, params, n, profile: str = "exact", variant: str = "paper", site_dependent=(), dps=None):
+        return cls(variant=variant, **cls._normalized(R, params, n, profile, site_dependent, dps))
 
 
 @dataclass(frozen=True)
@@ -86,42 +107,18 @@ class ForceSource:
 
 
 @dataclass(frozen=True)
-class BalanceSource:
+class BalanceSource(_ExpandedSource):
     """Everything a generated energy- or momentum-balance module depends on (derive/balance.py)."""
 
-    R: str
-    params: tuple[str, ...]
-    site_dependent: tuple[str, ...]
-    n: str
-    profile: str
     model: str  # "energy" or "momentum"
     dps: int
 
+    KIND: ClassVar[str] = "balance"
+    METHOD: ClassVar[tuple[str, int]] = ("balance_method", BALANCE_METHOD)
+
     @classmethod
     def of(cls, R: str, params, n, profile: str = "exact", model: str = "energy", site_dependent=(), dps=None):
-        return cls(
-            R=normalize_expression(R),
-            params=tuple(sorted(params)),
-            site_dependent=tuple(sorted(site_dependent)),
-            n=exact_n(n),
-            profile=profile,
-            model=model,
-            dps=int(dps if dps is not None else DEFAULT_DPS.get(profile, 16)),
-        )
-
-    def as_dict(self) -> dict:
-        return {
-            "kind": "balance",
-            "R": self.R,
-            "params": list(self.params),
-            "site_dependent": list(self.site_dependent),
-            "n": self.n,
-            "profile": self.profile,
-            "model": self.model,
-            "dps": self.dps,
-            "balance_method": BALANCE_METHOD,
-            "generator": GENERATOR_VERSION,
-        }
+        return cls(model=model, **cls._normalized(R, params, n, profile, site_dependent, dps))
 
 
 Source = Union[MapSource, ForceSource, BalanceSource]
@@ -129,9 +126,9 @@ Source = Union[MapSource, ForceSource, BalanceSource]
 
 def source_from_dict(d: dict) -> Source:
     if d["kind"] == "map":
-        return MapSource(d["R"], tuple(d["params"]), tuple(d["site_dependent"]), d["n"], d["profile"], d["variant"], int(d["dps"]))
+        return MapSource.from_dict(d)
     if d["kind"] == "balance":
-        return BalanceSource(d["R"], tuple(d["params"]), tuple(d["site_dependent"]), d["n"], d["profile"], d["model"], int(d["dps"]))
+        return BalanceSource.from_dict(d)
     return ForceSource(d["R"], tuple(d["params"]))
 
 
