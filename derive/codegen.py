@@ -93,6 +93,45 @@ def _header(title: str, source: dict, body: str) -> str:
     )
 
 
+def _start(source) -> list[str]:
+    """The first lines of every generated module: the numpy import and its SOURCE."""
+    return ["import numpy", "", f"SOURCE = {json.dumps(source.as_dict(), sort_keys=True)}"]
+
+
+def _title(what: str, source, tail: str = "") -> str:
+    """A map or balance module's title: what it holds, then R, n, profile and dps (``tail`` appended)."""
+    return (
+        f"{what} for\n"
+        f"    R(u, v) = {source.R}\n"
+        f"    n = {source.n}, profile = {source.profile} (mpmath dps {source.dps}){tail}"
+    )
+
+
+def _module(lines: list[str], title: str, source) -> str:
+    """The module text: its header (title, source and hashes) and ``lines`` as the body."""
+    body = "\n".join(lines).rstrip() + "\n"
+    return _header(title, source.as_dict(), body) + body
+
+
+def _param_args(source, terms, offsets: tuple[int, ...]) -> tuple[list[str], dict[sympy.Symbol, str]]:
+    """Argument names of the generated functions and their symbol renaming: a uniform parameter by
+    name, a site-dependent one at each bead offset the expansion ``terms`` use."""
+    site = set(source.site_dependent)
+    args: list[str] = []
+    ren: dict[sympy.Symbol, str] = {}
+    for name in source.params:
+        if name in site:
+            for off in offsets:
+                sym = bead_symbol(name, off)
+                if any(sym in t.coefficient.free_symbols for t in terms):
+                    ren[sym] = sym.name
+                    args.append(sym.name)
+        else:
+            ren[symbol(name)] = name
+            args.append(name)
+    return args, ren
+
+
 def verify(text: str) -> dict:
     """Check a generated file's content hash; return its source dict."""
     return verify_generated(text)
@@ -132,18 +171,9 @@ def generate_map(source: MapSource) -> str:
     amap = AmplitudeMap(n, source.variant, ex, values, {})
     site = set(source.site_dependent)
     # argument names: uniform params by name; site-dependent ones at beads i and i+1
-    args: list[str] = []
+    args, param_names = _param_args(source, ex.terms, (0, 1, 2))
     ren: dict[sympy.Symbol, str] = {A_PREV: "a_prev", A_I: "a_i", A_NEXT: "a_next", sympy.Symbol("epsilon", positive=True): "eps"}
-    for name in source.params:
-        if name in site:
-            for off in (0, 1, 2):
-                sym = bead_symbol(name, off)
-                if any(sym in t.coefficient.free_symbols for t in ex.terms):
-                    ren[sym] = sym.name
-                    args.append(sym.name)
-        else:
-            ren[symbol(name)] = name
-            args.append(name)
+    ren.update(param_names)
     if symbol("i") in ex.g1.free_symbols or symbol("i") in ex.g2.free_symbols:
         ren[symbol("i")] = "i"
         args.append("i")
@@ -153,8 +183,7 @@ def generate_map(source: MapSource) -> str:
         ren[integral_symbol(k)] = k
     sig = ", ".join(["eps"] + args)
     eqs = amap.equations(numeric=False)
-    lines = ["import numpy", ""]
-    lines.append(f"SOURCE = {json.dumps(source.as_dict(), sort_keys=True)}")
+    lines = _start(source)
     lines.append(f"VARIANT = {source.variant!r}")
     lines.append(f"PARAMS = {tuple(args)!r}")
     lines.append(f"P = {_const(float((n + 1) / 2))}  # contact power (n + 1)/2")
@@ -244,13 +273,8 @@ def generate_map(source: MapSource) -> str:
         lines.append("")
     else:
         lines.append("LAW_KIND = None")
-    body = "\n".join(lines).rstrip() + "\n"
-    title = (
-        f"Amplitude map (Eq. 23, {source.variant} variant), long-wave law (Eq. 30), Eq. 41 for\n"
-        f"    R(u, v) = {source.R}\n"
-        f"    n = {source.n}, profile = {source.profile} (mpmath dps {source.dps}), variant = {source.variant}"
-    )
-    return _header(title, source.as_dict(), body) + body
+    what = f"Amplitude map (Eq. 23, {source.variant} variant), long-wave law (Eq. 30), Eq. 41"
+    return _module(lines, _title(what, source, f", variant = {source.variant}"), source)
 
 
 # -------------------------------------------------------------------- force module
@@ -260,8 +284,7 @@ def generate_force(source: ForceSource) -> str:
     u, v = symbol("u"), symbol("v")
     ren = {u: "x", v: "v", symbol("i"): "i", **{symbol(p): p for p in source.params}}
     sig = ", ".join(["x", "v", "i", "eps"] + list(source.params))
-    lines = ["import numpy", ""]
-    lines.append(f"SOURCE = {json.dumps(source.as_dict(), sort_keys=True)}")
+    lines = _start(source)
     lines.append(f"PARAMS = {tuple(source.params)!r}")
     lines.append("")
     for fname, expr, doc in (
@@ -273,9 +296,7 @@ def generate_force(source: ForceSource) -> str:
         lines.append(f'    """{doc}; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""')
         lines.append(f"    return eps * ({_code(expr, ren)}) + 0.0 * x")
         lines.append("")
-    body = "\n".join(lines).rstrip() + "\n"
-    title = f"On-site force of the DNS (Eq. 1) for R(u, v) = {source.R}"
-    return _header(title, source.as_dict(), body) + body
+    return _module(lines, f"On-site force of the DNS (Eq. 1) for R(u, v) = {source.R}", source)
 
 
 # ------------------------------------------------------------------- balance module
@@ -294,18 +315,8 @@ def generate_balance(source: BalanceSource) -> str:
     names = list(ex.wave_names) + list(ex.integrals())
     consts = balance_constants(names, n=float(n), profile=source.profile, dps=source.dps)
     values = {k: float(_const(c.value)) for k, c in consts.items()}
-    site = set(source.site_dependent)
-    args: list[str] = []
-    ren: dict[sympy.Symbol, str] = {SYM_A: "A", SYM_B: "B"}
-    for name in source.params:
-        if name in site:
-            sym = bead_symbol(name, 0)
-            if any(sym in t.coefficient.free_symbols for t in ex.terms):
-                ren[sym] = sym.name
-                args.append(sym.name)
-        else:
-            ren[symbol(name)] = name
-            args.append(name)
+    args, param_names = _param_args(source, ex.terms, (0,))
+    ren: dict[sympy.Symbol, str] = {SYM_A: "A", SYM_B: "B", **param_names}
     if any(symbol("i") in t.coefficient.free_symbols for t in ex.terms):
         ren[symbol("i")] = "i"
         args.append("i")
@@ -313,8 +324,7 @@ def generate_balance(source: BalanceSource) -> str:
         ren[sympy.Symbol(k, real=True)] = k
     sig = ", ".join(["eps"] + args)
     kname = "E1" if source.model == "energy" else "p1"
-    lines = ["import numpy", ""]
-    lines.append(f"SOURCE = {json.dumps(source.as_dict(), sort_keys=True)}")
+    lines = _start(source)
     lines.append(f"MODEL = {source.model!r}")
     lines.append(f"PARAMS = {tuple(args)!r}")
     lines.append(f"Q = {_const(float(ex.Q))}  # the balanced quantity is K A^Q")
@@ -379,13 +389,7 @@ def generate_balance(source: BalanceSource) -> str:
             lines.append("")
     else:
         lines.append("LAW_KIND = None")
-    body = "\n".join(lines).rstrip() + "\n"
-    title = (
-        f"{source.model.capitalize()}-balance model (derive/balance.py): map step and law for\n"
-        f"    R(u, v) = {source.R}\n"
-        f"    n = {source.n}, profile = {source.profile} (mpmath dps {source.dps})"
-    )
-    return _header(title, source.as_dict(), body) + body
+    return _module(lines, _title(f"{source.model.capitalize()}-balance model (derive/balance.py): map step and law", source), source)
 
 
 # ------------------------------------------------------------------------ write
