@@ -15,9 +15,9 @@ from types import ModuleType
 from typing import Mapping
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
-from solvers.map_iteration import contact_params
+from solvers.longwave_eval import integrate_law, law_values
+from solvers.map_iteration import check_seed, contact_params
 
 
 class BalanceEvalError(ValueError):
@@ -40,11 +40,6 @@ class BalanceRun:
     profile: str
 
 
-def _check_seed(seed_A: float) -> None:
-    if not (isinstance(seed_A, (int, float)) and math.isfinite(seed_A) and seed_A > 0):
-        raise BalanceEvalError(f"the seed amplitude must be a finite number > 0, got {seed_A!r}")
-
-
 def iterate_balance_map(
     module: ModuleType,
     seed_A: float,
@@ -55,9 +50,7 @@ def iterate_balance_map(
     death_fraction: float = 1e-6,
 ) -> BalanceRun:
     """K A_i^Q = K A_{i-1}^Q + rate(A_{i-1}) (bead i) from A_{seed_contact} = seed_A to ``last_contact``."""
-    _check_seed(seed_A)
-    if last_contact <= seed_contact:
-        raise BalanceEvalError(f"last contact {last_contact} must come after the seed contact {seed_contact}")
+    check_seed(seed_A, BalanceEvalError, seed_contact=seed_contact, last_contact=last_contact)
     contacts = np.arange(seed_contact + 1, last_contact + 1)
     amps: list = []
     a = float(seed_A)
@@ -88,7 +81,7 @@ def iterate_balance_map(
 
 def evaluate_balance_law(module: ModuleType, A0: float, i0: float, contacts, eps: float, params) -> BalanceRun:
     """A(i) from K dB/di = eps sum C_p B^p, B = A^Q, at ``contacts`` from A(i0) = A0."""
-    _check_seed(A0)
+    check_seed(A0, BalanceEvalError)
     if not getattr(module, "UNIFORM", False) or module.LAW_KIND is None:
         raise BalanceEvalError(
             f"the {module.MODEL}-balance law needs a uniform perturbation: use the {module.MODEL}-balance map"
@@ -114,29 +107,11 @@ def evaluate_balance_law(module: ModuleType, A0: float, i0: float, contacts, eps
                           [v * S0 if v is not None else None for v in vals],
                           status if ended_at is not None and ended_at <= contacts.max(initial=i0) else "ok",
                           msg, ended_at, module.LAW_KIND, module.SOURCE["profile"])
-    B0 = A0**Q
-
-    def rhs(i, y):
-        return [module.law_rhs(max(y[0], 0.0), eps, *args)]
-
-    def die(i, y):
-        return y[0] - 1e-12 * B0
-
-    def blow(i, y):
-        return y[0] - 1e12 * B0
-
-    die.terminal = blow.terminal = True
-    end = float(contacts.max()) if contacts.size else i0
-    sol = solve_ivp(rhs, (i0, max(end, i0 + 1e-9)), [B0], method="LSODA", rtol=1e-11, atol=1e-14 * B0,
-                    dense_output=True, events=(die, blow))
-    stop = float(sol.t[-1])
-    ended_at, status = None, "ok"
-    if sol.status == 1:
-        ended_at = stop
-        status = "extinction" if sol.t_events[0].size else "blow-up"
-    elif sol.status < 0:
+    sol, ended_at, ended = integrate_law(lambda B: module.law_rhs(B, eps, *args), A0**Q, i0, contacts)
+    if sol.status < 0:
         raise BalanceEvalError(f"the {module.MODEL}-balance law could not be integrated: {sol.message}")
-    vals = [max(float(sol.sol(c)[0]), 0.0) ** (1.0 / Q) if c <= stop + 1e-12 else None for c in contacts]
+    status = ended or "ok"
+    vals = law_values(sol, contacts, Q)
     msg = f"{status} at contact index {ended_at:.6g}" if ended_at is not None else "ODE solved (LSODA, rtol 1e-11)"
     return BalanceRun(module.MODEL, "law", contacts.astype(int), vals, [v * S0 if v is not None else None for v in vals],
                       status, msg, ended_at, "quadrature", module.SOURCE["profile"])

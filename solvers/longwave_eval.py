@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from types import ModuleType
+from typing import Callable
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -58,8 +59,19 @@ def evaluate_law(module: ModuleType, A0: float, i0: float, contacts, eps: float,
                       module.LAW_KIND, ended_at, ended)
     # several powers: integrate dB/di
     P = module.P
-    B0 = A0**P
-    rhs = lambda i, y: [module.longwave_rhs(max(y[0], 0.0), eps, *args)]  # noqa: E731
+    sol, ended_at, ended = integrate_law(lambda B: module.longwave_rhs(B, eps, *args), A0**P, i0, contacts)
+    vals = law_values(sol, contacts, P)
+    return LawRun(contacts.astype(int), vals, [v * S0 if v is not None else None for v in vals],
+                  "quadrature", ended_at, ended)
+
+
+def integrate_law(rhs: Callable[[float], float], B0: float, i0: float, contacts: np.ndarray):
+    """Solve dB/di = rhs(B) (B clipped at 0) from B(i0) = B0 past the last contact with LSODA (the
+    quadrature of Eq. 31a, or of a balance law), stopping where B falls to 1e-12 B0 or grows to 1e12 B0.
+
+    Returns (solution, ended_at, ended): where the law ended (None if it did not) and how
+    ("extinction", "blow-up" or "").
+    """
 
     def die(i, y):
         return y[0] - 1e-12 * B0
@@ -69,22 +81,19 @@ def evaluate_law(module: ModuleType, A0: float, i0: float, contacts, eps: float,
 
     die.terminal = blow.terminal = True
     end = float(contacts.max()) if contacts.size else i0
-    sol = solve_ivp(rhs, (i0, max(end, i0 + 1e-9)), [B0], method="LSODA", rtol=1e-11, atol=1e-14 * B0,
-                    dense_output=True, events=(die, blow))
-    stop = sol.t[-1]
+    sol = solve_ivp(lambda i, y: [rhs(max(y[0], 0.0))], (i0, max(end, i0 + 1e-9)), [B0], method="LSODA",
+                    rtol=1e-11, atol=1e-14 * B0, dense_output=True, events=(die, blow))
     ended_at, ended = None, ""
     if sol.status == 1:
-        ended_at = float(stop)
+        ended_at = float(sol.t[-1])
         ended = "extinction" if sol.t_events[0].size else "blow-up"
-    vals = []
-    for c in contacts:
-        if c <= stop + 1e-12:
-            b = float(sol.sol(c)[0])
-            vals.append(max(b, 0.0) ** (1.0 / P))
-        else:
-            vals.append(None)
-    return LawRun(contacts.astype(int), vals, [v * S0 if v is not None else None for v in vals],
-                  "quadrature", ended_at, ended)
+    return sol, ended_at, ended
+
+
+def law_values(sol, contacts: np.ndarray, power: float) -> list:
+    """A = B^(1/power) of ``integrate_law``'s solution at each contact; None past where it stopped."""
+    stop = float(sol.t[-1])
+    return [max(float(sol.sol(c)[0]), 0.0) ** (1.0 / power) if c <= stop + 1e-12 else None for c in contacts]
 
 
 def law_values_are_finite(run: LawRun) -> bool:

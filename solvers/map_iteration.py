@@ -173,6 +173,16 @@ def step(module, a_prev: float, eps: float, args: tuple, guess: tuple[float, ...
     return _fallback(module, a_prev, eps, args, two), True
 
 
+def check_seed(seed_A: float, error: type[ValueError], name: str = "the seed amplitude",
+               seed_contact: int | None = None, last_contact: int | None = None) -> None:
+    """Raise ``error`` unless ``seed_A`` is a finite number > 0 and ``last_contact`` (if given) comes
+    after ``seed_contact``."""
+    if not (isinstance(seed_A, (int, float)) and math.isfinite(seed_A) and seed_A > 0):
+        raise error(f"{name} must be a finite number > 0, got {seed_A!r}")
+    if seed_contact is not None and last_contact is not None and last_contact <= seed_contact:
+        raise error(f"last contact {last_contact} must come after the seed contact {seed_contact}")
+
+
 def iterate_map(
     module: ModuleType,
     seed_A: float,
@@ -183,12 +193,7 @@ def iterate_map(
     death_fraction: float = 1e-6,
 ) -> MapRun:
     """Iterate Eq. 23 from A_{seed_contact} = seed_A through contact ``last_contact``."""
-    if not (isinstance(seed_A, (int, float)) and math.isfinite(seed_A) and seed_A > 0):
-        raise MapIterationError(f"the map's seed amplitude must be a finite number > 0, got {seed_A!r}")
-    if last_contact <= seed_contact:
-        raise MapIterationError(
-            f"last contact {last_contact} must come after the seed contact {seed_contact}"
-        )
+    check_seed(seed_A, MapIterationError, "the map's seed amplitude", seed_contact, last_contact)
     contacts, amps, ratios = [], [], []
     a_prev = float(seed_A)
     guess = None
