@@ -1,7 +1,9 @@
-"""Shared test set-up: an isolated cache directory per test session."""
+"""Shared test set-up: an isolated cache directory per test session; small scene files."""
 
+import json
 import os
 import tempfile
+from pathlib import Path
 
 import pytest
 
@@ -17,3 +19,23 @@ def _isolated_cache():
         os.environ.pop("PULSEMAP_CACHE_DIR", None)
     else:
         os.environ["PULSEMAP_CACHE_DIR"] = old
+
+
+def scene_toml(name: str = "scene", *, beads: int | None = None, eps: float = 0.1, contacts: tuple[int, int] = (16, 30),
+               methods: tuple[str, ...] = ("map", "longwave", "dns")) -> str:
+    """The text of a small scene file: n = 1.5, beads 1..15 unperturbed, v0 = 1, R = -mu*v with mu = 1.
+
+    One key a line; ``eps`` stands on line 10 with ``beads`` given, on line 9 without.
+    """
+    lines = [f'name = "{name}"', "[chain]"] + ([f"beads = {beads}"] if beads is not None else [])
+    lines += ["exponent = 1.5", "first_perturbed = 16", "[excitation]", "velocity = 1.0", "[perturbation]",
+              'R = "-mu*v"', f"eps = {eps}", "[perturbation.params]", "mu = 1.0", "[output]",
+              f"contacts = [{contacts[0]}, {contacts[1]}]", f"methods = {json.dumps(list(methods))}"]
+    return "\n".join(lines) + "\n"
+
+
+def write_scene(directory: Path, text: str, name: str = "scene.toml") -> Path:
+    """Write a scene file's ``text`` as ``directory/name``; its path."""
+    path = Path(directory) / name
+    path.write_text(text, encoding="utf-8")
+    return path

@@ -23,6 +23,7 @@ from typing import Callable
 
 import pytest
 
+from conftest import scene_toml, write_scene
 from solvers.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -131,23 +132,7 @@ def test_subprocess(argv, needles, tmp_path):
 
 # --------------------------------------------------------------------------- scene files
 
-BASE = """\
-name = "catalogue"
-[chain]
-beads = 60
-exponent = 1.5
-first_perturbed = 16
-[excitation]
-velocity = 1.0
-[perturbation]
-R = "-mu*v"
-eps = 0.1
-[perturbation.params]
-mu = 1.0
-[output]
-contacts = [16, 50]
-methods = ["map", "dns"]
-"""
+BASE = scene_toml("catalogue", beads=60, contacts=(16, 50), methods=("map", "dns"))
 
 
 def edit(old: str, new: str) -> str:
@@ -200,8 +185,7 @@ SCENES = [
 def test_scene_file(text, needles, tmp_path, capsys):
     from solvers.scene import SceneError, load_scene
 
-    path = tmp_path / "scene.toml"
-    path.write_text(text, encoding="utf-8")
+    path = write_scene(tmp_path, text)
     with pytest.raises(SceneError) as info:
         load_scene(str(path))
     message = str(info.value)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import sympy
 
+from conftest import scene_toml, write_scene
 from derive import codegen
 from derive.balance import (
     BALANCE_METHOD,
@@ -294,31 +295,14 @@ def test_run_refuses_momentum_for_a_foundation_and_skips_site_dependent_laws():
 
 # ------------------------------------------------------------------- runs and physics
 def test_scene_file_lists_balance_models(tmp_path):
-    text = """
-name = "damping-balance"
-[chain]
-exponent = 1.5
-first_perturbed = 16
-[excitation]
-velocity = 1.0
-[perturbation]
-R = "-mu*v"
-eps = 0.05
-[perturbation.params]
-mu = 1.0
-[output]
-contacts = [16, 30]
-methods = ["momentum-law", "energy-map", "dns"]
-"""
-    path = tmp_path / "s.toml"
-    path.write_text(text)
+    text = scene_toml("damping-balance", eps=0.05, methods=("momentum-law", "energy-map", "dns"))
+    path = write_scene(tmp_path, text, "s.toml")
     scene = load_scene(str(path))
     assert scene.methods == ("energy-map", "momentum-law", "dns")
     res = run_scene(scene)
     assert res["peaks"]["energy-map"][0] is not None and res["peaks"]["momentum-law"][0] is not None
     assert res["peaks"]["map"] is None and set(res["errors"]) == {"energy-map", "momentum-law"}
-    bad = tmp_path / "bad.toml"
-    bad.write_text(text.replace('"energy-map"', '"energy-mapp"'))
+    bad = write_scene(tmp_path, text.replace('"energy-map"', '"energy-mapp"'), "bad.toml")
     with pytest.raises(ValueError, match="energy-map"):
         load_scene(str(bad))
 

@@ -8,24 +8,11 @@ import sys
 
 import pytest
 
+from conftest import scene_toml
 from solvers.bench import Ladder, Point, bench_scene, cost_at, peak_error, to_csv, to_text
 from solvers.scene import load_scene
 
-SCENE_TOML = """name = "tiny"
-[chain]
-exponent = 1.5
-first_perturbed = 16
-[excitation]
-velocity = 1.0
-[perturbation]
-R = "-mu*v"
-eps = 0.1
-[perturbation.params]
-mu = 1.0
-[output]
-contacts = [16, 30]
-methods = ["map", "longwave", "dns"]
-"""
+SCENE_TOML = scene_toml("tiny")
 
 
 def line(errors_times, kind="dns"):

@@ -5,11 +5,11 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from conftest import scene_toml, write_scene
 from solvers.scene import (
     DEFAULT_SCENE,
     METHODS,
@@ -29,29 +29,7 @@ EXPECTED_BUILTINS = sorted(
     + [f"fig13-seed{s}" for s in (1, 2, 3, 4)]
 )
 
-GOOD = """\
-name = "damping-eps0.3"
-[chain]
-beads = 140
-exponent = 1.5
-first_perturbed = 16
-[excitation]
-velocity = 1.0
-[perturbation]
-R = "-mu*v"
-eps = 0.3
-[perturbation.params]
-mu = 1.0
-[output]
-contacts = [16, 120]
-methods = ["map", "longwave", "dns"]
-"""
-
-
-def write(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
-    path = tmp_path / name
-    path.write_text(text, encoding="utf-8")
-    return path
+GOOD = scene_toml("damping-eps0.3", beads=140, eps=0.3, contacts=(16, 120))
 
 
 def edit(old: str, new: str) -> str:
@@ -103,7 +81,7 @@ def test_default_alias():
 
 
 def test_file_scene_and_defaults(tmp_path):
-    path = write(
+    path = write_scene(
         tmp_path,
         '[excitation]\nvelocity = 2\n[perturbation]\nR = "-k*u"\neps = 1\n'
         '[perturbation.params]\nk = "1 + 0.01*i"\n[output]\ncontacts = [20, 30]\nmethods = ["dns", "map"]\n',
@@ -123,7 +101,7 @@ def test_file_scene_and_defaults(tmp_path):
 
 def test_model_and_dns_tables(tmp_path):
     text = GOOD + '[model]\nprofile = "pade"\nvariant = "1d"\n[dns]\nrtol = 1e-8\nmethod = "Radau"\n'
-    scene = load_scene(str(write(tmp_path, text)))
+    scene = load_scene(str(write_scene(tmp_path, text)))
     assert (scene.profile, scene.variant) == ("pade", "1d")
     assert dict(scene.dns) == {"rtol": 1e-8, "atol": 1e-12, "method": "Radau"}
 
@@ -210,7 +188,7 @@ def test_bad_scene(tmp_path, label, text, needles):
         path = tmp_path / "scene.toml"
         path.write_bytes(GOOD.replace("damping", "d\xe9mping").encode("latin-1"))
     else:
-        path = write(tmp_path, text)
+        path = write_scene(tmp_path, text)
     with pytest.raises(SceneError) as info:
         load_scene(str(path))
     message = str(info.value)
@@ -257,7 +235,7 @@ def test_scene_is_never_executed(tmp_path):
     ):
         text = edit('R = "-mu*v"', f"R = {json.dumps(R)}")
         with pytest.raises(SceneError) as info:
-            load_scene(str(write(tmp_path, text)))
+            load_scene(str(write_scene(tmp_path, text)))
         assert "\n" not in str(info.value)
     assert not marker.exists()
 
