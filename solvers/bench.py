@@ -410,13 +410,9 @@ def to_csv(reports: list[dict]) -> str:
 
 def plot(reports: list[dict], path: str) -> None:
     """Log-log error against time, one panel per scene (matplotlib, optional)."""
-    try:
-        import matplotlib
+    from solvers.plotting import pyplot
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise BenchError("--plot needs matplotlib: pip install 'pulsemap[plot]'") from None
+    plt = pyplot(BenchError)
     fig, axes = plt.subplots(1, len(reports), figsize=(6.5 * len(reports), 4.8), squeeze=False)
     styles = {"dns": "o-", "baseline-b": "s--", "baseline-a": "^:", "model": "x"}
     for ax, r in zip(axes[0], reports):

@@ -37,6 +37,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     from solvers.bench import BenchError, Ladder, plot, quick_ladder, run_bench, to_csv, to_text
     from solvers.cli import UsageError, write_json
+    from solvers.plotting import pyplot
 
     if args.repeats is not None and args.repeats < 1:
         raise UsageError(f"--repeats must be >= 1, got {args.repeats}")
@@ -46,10 +47,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     ladder = replace(ladder, repeats=args.repeats or ladder.repeats, target=args.target,
                      baselines=not args.no_baselines, models=not args.no_models)
     if args.plot:
-        try:
-            import matplotlib  # noqa: F401
-        except ImportError:
-            raise BenchError("--plot needs matplotlib: pip install 'pulsemap[plot]'") from None
+        pyplot(BenchError)  # fail before the runs, not after
     log = (lambda s: print(s, file=sys.stderr, flush=True)) if sys.stderr.isatty() else (lambda s: None)
     reports = run_bench(args.scenes, ladder, log)
     print(to_text(reports))

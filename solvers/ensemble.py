@@ -153,13 +153,9 @@ def _pct(x) -> str:
 
 def plot(report: dict, path: str) -> None:
     """Mean and spread (one standard deviation) of the DNS and map peaks per contact (Fig. 13)."""
-    try:
-        import matplotlib
+    from solvers.plotting import pyplot
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise EnsembleError("--plot needs matplotlib: pip install 'pulsemap[plot]'") from None
+    plt = pyplot(EnsembleError)
     st = report["statistics"]
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for key, color, label in (("dns", "k", "DNS"), ("map", "tab:red", "map")):

@@ -438,13 +438,9 @@ def to_text(result: dict) -> str:
 
 def plot(result: dict, path: str) -> None:
     """The paper's style: DNS as +, map as dots, long-wave law as a line (matplotlib, optional)."""
-    try:
-        import matplotlib
+    from solvers.plotting import pyplot
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise RunError("--plot needs matplotlib: pip install 'pulsemap[plot]'") from None
+    plt = pyplot(RunError)
     c = result["contacts"]
     fig, ax = plt.subplots(figsize=(6, 4))
 
