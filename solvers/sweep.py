@@ -35,6 +35,8 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any, Callable, Iterable, Mapping, Sequence, TextIO
 
+from solvers.records import open_for_append, read_keyed, write_record
+
 __all__ = [
     "SweepError",
     "SweepResult",
@@ -134,22 +136,7 @@ def read_records(path: str | Path) -> dict[str, dict]:
 
     A line that is not complete JSON (the sweep was killed while writing it) is ignored.
     """
-    out: dict[str, dict] = {}
-    p = Path(path)
-    if not p.exists():
-        return out
-    with p.open(encoding="utf-8") as fh:
-        for line in fh:
-            line = line.strip()
-            if not line:
-                continue
-            try:
-                rec = json.loads(line)
-            except json.JSONDecodeError:
-                continue
-            if isinstance(rec, dict) and isinstance(rec.get("key"), str):
-                out[rec["key"]] = rec
-    return out
+    return read_keyed(path)
 
 
 def _call(task: Callable[[dict], dict], params: dict) -> dict:
@@ -187,19 +174,6 @@ def _record(key: str, params: dict, task_name: str, outcome: dict) -> dict:
     rec.update({k: outcome[k] for k in ("elapsed_s", "host", "pid") if k in outcome})
     rec["finished_unix"] = time.time()
     return rec
-
-
-def _open_for_append(path: Path) -> TextIO:
-    """Open ``path`` for appending; end a line cut short by a killed run first."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if path.exists() and path.stat().st_size > 0:
-        with path.open("rb") as fh:
-            fh.seek(-1, os.SEEK_END)
-            cut = fh.read(1) != b"\n"
-        if cut:
-            with path.open("a", encoding="utf-8") as fh:
-                fh.write("\n")
-    return path.open("a", encoding="utf-8")
 
 
 # ----------------------------------------------------------------------------- the sweep
@@ -283,7 +257,7 @@ def run_sweep(
         print(f"[{label}] {len(order)} points: {skipped} already recorded"
               f"{' in ' + str(path) if path is not None and skipped else ''}, {len(pending)} to run", file=err)
 
-    fh = _open_for_append(path) if path is not None and pending else None
+    fh = open_for_append(path) if path is not None and pending else None
     computed = 0
 
     def finish(key: str, outcome: dict) -> None:
@@ -292,8 +266,7 @@ def run_sweep(
         records[key] = rec
         computed += 1
         if fh is not None:
-            fh.write(json.dumps(rec, separators=(",", ":")) + "\n")
-            fh.flush()
+            write_record(fh, rec)
         if progress:
             what = "ok" if rec["status"] == "ok" else "FAILED: " + rec["error"]
             print(f"[{label}] {computed}/{len(pending)} key {key} ({rec.get('elapsed_s', 0):.2f} s) {what}", file=err)

@@ -22,6 +22,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from solvers.records import append_record, read_keyed
 from solvers.run import run_scene
 from solvers.scene import builtin_scenes, load_scene
 
@@ -122,32 +123,14 @@ def scene_row(name: str, progress: bool = False, columns=COLUMNS, eps: float | N
 
 def read_rows(path: str | os.PathLike) -> dict[str, dict]:
     """Finished rows of a JSON-lines file by row key (scene, columns and version)."""
-    p = Path(path)
-    if not p.exists():
-        return {}
-    if p.is_dir():
+    if Path(path).is_dir():
         raise TableError(f"rows file {path} is a directory: give a file name (e.g. {DEFAULT_ROWS_FILE})")
-    rows = {}
-    with open(p, encoding="utf-8") as fh:
-        for line in fh:
-            line = line.strip()
-            if not line:
-                continue
-            try:
-                row = json.loads(line)
-            except ValueError:
-                continue  # a line cut short by an interruption: that scene is recomputed
-            if isinstance(row, dict) and "scene" in row and "key" in row:
-                rows[row["key"]] = row
-    return rows
+    return read_keyed(path, required=("scene",))
 
 
 def append_row(path: str | os.PathLike, row: dict) -> None:
-    """Append one row to the JSON-lines file and flush it to disk."""
-    with open(path, "a", encoding="utf-8") as fh:
-        fh.write(json.dumps(row) + "\n")
-        fh.flush()
-        os.fsync(fh.fileno())
+    """Append one row to the JSON-lines file (ending a line cut short first) and flush it to disk."""
+    append_record(path, row, sync=True)
 
 
 def table(names=None, progress: bool = False, rows_file: str | os.PathLike | None = None,
