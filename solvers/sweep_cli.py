@@ -10,26 +10,27 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
+from typing import Callable
 
 
-def _workers(text: str) -> int:
-    try:
-        w = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of workers, got {text!r}") from None
-    if w < 1:
-        raise argparse.ArgumentTypeError(f"--workers must be >= 1, got {w}")
-    return w
+def _int_at_least(low: int, expected: str = "an integer", option: str | None = None) -> Callable[[str], int]:
+    """An argparse type: an integer >= ``low`` (``option`` names the option in the error when too low)."""
+
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
+        if n < low:
+            raise argparse.ArgumentTypeError(
+                f"{option} must be >= {low}, got {n}" if option else f"expected {expected} >= {low}, got {n}")
+        return n
+
+    return parse
 
 
-def _positive_int(text: str) -> int:
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if n < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {n}")
-    return n
+_workers = _int_at_least(1, "a number of workers", "--workers")
+_positive_int = _int_at_least(0)
 
 
 def _floats(text: str) -> list[float]:
@@ -79,10 +80,22 @@ def _add_sweep_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
+def _report(args: argparse.Namespace, report: dict, to_text, plot) -> int:
+    """Print the report, and write its --json and --plot."""
+    from solvers.cli import write_json
+
+    print(to_text(report))
+    if args.json:
+        write_json(args.json, report)
+    if args.plot:
+        plot(report, args.plot)
+    return 0
+
+
 def cmd_bifurcation(args: argparse.Namespace) -> int:
     """``pulsemap bifurcation``: Eq. 41 branches and fold vs the DNS, thresholds."""
     from solvers.bifurcation import bifurcation, plot, to_text
-    from solvers.cli import UsageError, write_json
+    from solvers.cli import UsageError
     from solvers.scene import load_scene
 
     scene = load_scene(args.scene)
@@ -98,17 +111,11 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
             max_last=args.max_contacts, refine=args.refine, rtol=args.rtol, predict_points=args.predict_points,
             profiles=profiles, variant=args.variant, out=args.out, executor=ex, max_workers=workers,
             progress=not args.quiet, dns=not args.no_dns)
-    print(to_text(report))
-    if args.json:
-        write_json(args.json, report)
-    if args.plot:
-        plot(report, args.plot)
-    return 0
+    return _report(args, report, to_text, plot)
 
 
 def cmd_ensemble(args: argparse.Namespace) -> int:
     """``pulsemap ensemble``: M random realisations, map and DNS of each, statistics per contact."""
-    from solvers.cli import write_json
     from solvers.ensemble import ensemble, plot, to_text
     from solvers.scene import load_scene
 
@@ -119,12 +126,7 @@ def cmd_ensemble(args: argparse.Namespace) -> int:
         report = ensemble(scene, args.realisations, args.seed, profile=args.profile, variant=args.variant,
                           out=args.out, executor=ex, max_workers=workers, progress=not args.quiet,
                           retry_failed=args.retry_failed)
-    print(to_text(report))
-    if args.json:
-        write_json(args.json, report)
-    if args.plot:
-        plot(report, args.plot)
-    return 0
+    return _report(args, report, to_text, plot)
 
 
 def register(sub) -> None:
