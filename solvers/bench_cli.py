@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 
 def register(sub) -> None:
@@ -36,7 +35,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from solvers.bench import BenchError, Ladder, plot, quick_ladder, run_bench, to_csv, to_text
-    from solvers.cli import UsageError, write_json
+    from solvers.cli import UsageError, progress_log, write_json
     from solvers.plotting import pyplot
 
     if args.repeats is not None and args.repeats < 1:
@@ -48,7 +47,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
                      baselines=not args.no_baselines, models=not args.no_models)
     if args.plot:
         pyplot(BenchError)  # fail before the runs, not after
-    log = (lambda s: print(s, file=sys.stderr, flush=True)) if sys.stderr.isatty() else (lambda s: None)
+    log = progress_log()
     reports = run_bench(args.scenes, ladder, log)
     print(to_text(reports))
     if args.csv:

@@ -80,6 +80,13 @@ def write_json(path: str, payload: dict) -> None:
         fh.write("\n")
 
 
+def progress_log() -> Callable[[str], None]:
+    """Progress lines to stderr when it is a terminal; otherwise a no-op."""
+    if sys.stderr.isatty():
+        return lambda s: print(s, file=sys.stderr, flush=True)
+    return lambda s: None
+
+
 # ----------------------------------------------------------------------------- profile
 def cmd_profile(args: argparse.Namespace) -> int:
     """``pulsemap profile``: S(0), half width, Pade q's, f1..f7, Eq. 4 residual."""

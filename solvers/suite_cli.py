@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 
 def register(sub) -> None:
@@ -26,7 +25,7 @@ def register(sub) -> None:
 
 
 def cmd_suite(args: argparse.Namespace) -> int:
-    from solvers.cli import UsageError, write_json
+    from solvers.cli import UsageError, progress_log, write_json
     from solvers.suite import run_suite, suite_scenes, to_text
 
     if args.list:
@@ -34,7 +33,7 @@ def cmd_suite(args: argparse.Namespace) -> int:
         return 0
     if args.repeats < 1:
         raise UsageError(f"--repeats must be >= 1, got {args.repeats}")
-    log = (lambda s: print(s, file=sys.stderr, flush=True)) if sys.stderr.isatty() else (lambda s: None)
+    log = progress_log()
     report = run_suite(args.scenes, check=not args.no_check, repeats=args.repeats, log=log)
     print(to_text(report))
     if args.json:
