@@ -44,7 +44,7 @@ from . import cache
 from .expansion import bead_symbol, exact_exponent
 from .expression import symbol
 from .integrals import DEFAULT_DPS, Constant, _scalar_funcs
-from .longwave import A0, I, I0, law_lines
+from .longwave import A0, I, I0, law_data, law_lines
 from .perturbation import Perturbation
 from .profile import check_exponent, check_profile_kind, exact_profile, get_profile
 from .timebox import bounded
@@ -466,25 +466,7 @@ def map_equation(d: BalanceDerivation, numeric: bool = False) -> sympy.Eq:
 def to_json(d: BalanceDerivation) -> dict:
     """The balance derivation as JSON-serialisable data; ``model`` names it."""
     law = d.law
-    law_data = None
-    if law is not None:
-        law_data = {
-            "kind": law.kind,
-            "ode": str(law.ode()),
-            "ode_numeric": str(law.ode(symbolic=False)),
-            "B": f"A**({law.Q})",
-            "terms": [{"power_of_B": str(p), "coefficient": str(cs), "value": c}
-                      for p, c, cs in zip(law.powers, law.coefficients, law.symbolic_coefficients)],
-            "K": law.K,
-            "eps": law.eps,
-            "law": str(law.law) if law.law is not None else None,
-            "law_numeric": str(law.numeric_law()) if law.law is not None else None,
-            "rate_k": law.rate() if len(law.powers) == 1 else None,
-            "implicit_i_of_A": str(law.implicit) if law.implicit is not None else None,
-        }
-        if d.A0 is not None:
-            index, what = law.singular_index(d.A0, d.i0)
-            law_data.update(A0=d.A0, i0=d.i0, singular_index=index, singular_kind=what)
+    law_json = law_data(law, law.Q, ("K", law.K), d.A0, d.i0) if law is not None else None
     c = d.constants
     wave = ({"E1": d.K, "K1": c["K1"], "V1": c["V1"], "kinetic_fraction": c["K1"] / d.K} if d.model == "energy"
             else {"p1": c["p1"]})
@@ -508,7 +490,7 @@ def to_json(d: BalanceDerivation) -> dict:
                   for t in d.expansion.terms],
         "site_dependent": list(d.expansion.site_dependent),
         "map": {"equation": str(map_equation(d)), "equation_numeric": str(map_equation(d, numeric=True))},
-        "law": law_data,
+        "law": law_json,
         "law_note": d.law_note or None,
         "timings_s": {k: round(v, 6) for k, v in d.timings_s.items()},
     }

@@ -19,7 +19,7 @@ from .amplitude_map import EPS, AmplitudeMap, check_variant, latex_names
 from .expansion import Expansion, expand
 from .expression import symbol
 from .integrals import DEFAULT_DPS, F_NAMES, constants
-from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, law_lines, longwave_law
+from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, law_data, law_lines, longwave_law
 from .perturbation import Perturbation
 from .provenance import provenance
 from .profile import check_exponent, check_profile_kind, get_profile
@@ -156,29 +156,7 @@ def _law_data(d: Derivation) -> dict | None:
     law = d.longwave
     if law is None:
         return None
-    out = {
-        "kind": law.kind,
-        "ode": str(law.ode()),
-        "ode_numeric": str(law.ode(symbolic=False)),
-        "B": f"A**({law.P})",
-        "terms": [
-            {"power_of_B": str(p), "coefficient": str(cs), "value": c}
-            for p, c, cs in zip(law.powers, law.coefficients, law.symbolic_coefficients)
-        ],
-        "f1_minus_f3": law.f1_minus_f3,
-        "eps": law.eps,
-        "law": str(law.law) if law.law is not None else None,
-        "law_numeric": str(law.numeric_law()) if law.law is not None else None,
-        "rate_k": law.rate() if len(law.powers) == 1 else None,
-        "implicit_i_of_A": str(law.implicit) if law.implicit is not None else None,
-    }
-    if d.A0 is not None:
-        index, what = law.singular_index(d.A0, d.i0)
-        out["A0"] = d.A0
-        out["i0"] = d.i0
-        out["singular_index"] = index
-        out["singular_kind"] = what
-    return out
+    return law_data(law, law.P, ("f1_minus_f3", law.f1_minus_f3), d.A0, d.i0)
 
 
 def to_json(d: Derivation) -> dict:

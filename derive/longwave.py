@@ -199,3 +199,29 @@ def law_lines(law, heading: str, rate_name: str, a0: float | None, i0: float,
         where = f"at contact index {index:.6g}" if index is not None else ""
         lines.append(f"  from A0 = {a0:g} at i0 = {i0:g}: {what} {where}".rstrip())
     return lines
+
+
+def law_data(law, exponent, scale: tuple[str, float], a0: float | None, i0: float) -> dict:
+    """JSON data of a law (Eq. 30 or a balance law): ODE, terms, closed form and, given A0, the
+    singular index. ``exponent`` is B's power of A; ``scale`` names and gives the left-hand factor
+    (("f1_minus_f3", ...) or ("K", ...))."""
+    out = {
+        "kind": law.kind,
+        "ode": str(law.ode()),
+        "ode_numeric": str(law.ode(symbolic=False)),
+        "B": f"A**({exponent})",
+        "terms": [
+            {"power_of_B": str(p), "coefficient": str(cs), "value": c}
+            for p, c, cs in zip(law.powers, law.coefficients, law.symbolic_coefficients)
+        ],
+        scale[0]: scale[1],
+        "eps": law.eps,
+        "law": str(law.law) if law.law is not None else None,
+        "law_numeric": str(law.numeric_law()) if law.law is not None else None,
+        "rate_k": law.rate() if len(law.powers) == 1 else None,
+        "implicit_i_of_A": str(law.implicit) if law.implicit is not None else None,
+    }
+    if a0 is not None:
+        index, what = law.singular_index(a0, i0)
+        out.update(A0=a0, i0=i0, singular_index=index, singular_kind=what)
+    return out
