@@ -294,7 +294,9 @@ class BalanceLaw:
         return sympy.Eq(K * Bf.diff(I), e * sum((c * Bf**p for c, p in zip(cs, self.powers)), sympy.Integer(0)))
 
     def rate(self) -> float:
-        """k = eps C / K for a single power."""
+        """k = eps C / K for a single power (0 when R does no work / gives no impulse)."""
+        if not self.coefficients:
+            return 0.0
         return self.eps * self.coefficients[0] / self.K
 
     def numeric_law(self) -> sympy.Expr | None:

@@ -59,7 +59,9 @@ class LongwaveLaw:
         return sympy.Eq(lhs * Bf.diff(I), rhs)
 
     def rate(self) -> float:
-        """k = eps C / (f1 - f3) for a single power."""
+        """k = eps C / (f1 - f3) for a single power (0 when no term forces the contact)."""
+        if not self.coefficients:
+            return 0.0
         return self.eps * self.coefficients[0] / self.f1_minus_f3
 
     def numeric_law(self) -> sympy.Expr | None:
@@ -184,14 +186,14 @@ def law_lines(law, heading: str, rate_name: str, a0: float | None, i0: float,
     ``cite`` prefixes the integral's name ("Eq. 31a ").
     """
     lines = [heading, f"  {law.ode()}", f"  {law.ode(symbolic=False)}"]
-    if law.law is not None:
+    if law.kind == "constant":
+        lines.append(f"Amplitude law: A constant ({constant_reason})")
+    elif law.law is not None:
         lines.append(f"Amplitude law ({law.kind}), k = eps*C/{rate_name} = {law.rate():.12g}:")
         lines.append(f"  A(i) = {law.law}")
     elif law.implicit is not None:
         lines.append(f"Amplitude law ({cite}integrated in closed form, implicit):")
         lines.append(f"  i(A) = {law.implicit}")
-    elif law.kind == "constant":
-        lines.append(f"Amplitude law: A constant ({constant_reason})")
     else:
         lines.append(f"Amplitude law: {cite}by numerical quadrature (no closed form within the time bound)")
     if a0 is not None:

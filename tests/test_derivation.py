@@ -270,3 +270,18 @@ def test_only_the_integrals_that_occur_are_computed():
 def test_non_polynomial_or_offset_r_is_refused(text, match):
     with pytest.raises(ExpansionError, match=match):
         expand(parse_expression(text), 1.5)
+
+
+@pytest.mark.parametrize("model", ["map", "energy", "momentum"])
+def test_zero_perturbation_gives_a_constant_law(model, capsys):
+    """R = 0*u: no term forces the wave, so every model's law is A = A_0 (text and JSON, no crash)."""
+    import json
+
+    from solvers.cli import main
+
+    assert main(["derive", "0*u", "--model", model, "--json", "-"]) == 0
+    out = capsys.readouterr().out
+    assert "A constant" in out
+    data = json.loads(out[out.index("\n{") + 1:])
+    law = data.get("law") or data.get("longwave")
+    assert law["kind"] == "constant" and law["law"] == "A_0"

@@ -35,7 +35,7 @@ import sympy
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from derive.expression import ExpressionError, parse_expression, symbol
+from derive.expression import parse_expression, symbol
 from derive.perturbation import PerturbationError, make_perturbation
 
 U, V, I, MU = (symbol(name) for name in ("u", "v", "i", "mu"))

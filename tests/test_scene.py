@@ -12,7 +12,6 @@ import pytest
 from conftest import scene_toml, write_scene
 from solvers.scene import (
     DEFAULT_SCENE,
-    METHODS,
     Scene,
     SceneError,
     builtin_scene_path,
