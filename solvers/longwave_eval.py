@@ -52,8 +52,9 @@ def evaluate_law(module: ModuleType, A0: float, i0: float, contacts, eps: float,
             b0 = float(module.longwave_law(np.array([i0]), A0, i0, eps, *args)[1][0])
             b1 = float(module.longwave_law(np.array([i0 + 1.0]), A0, i0, eps, *args)[1][0])
             ended_at = i0 + b0 / (b0 - b1)
-            expo_positive = float(module.longwave_law(np.array([i0 + 1.0]), 2.0, i0, 0.0, *args)[0][0]) > 1.0
-            ended = "extinction" if expo_positive else "blow-up"
+            # before the end the law is monotone: falling towards it is extinction, rising blow-up
+            mid = float(module.longwave_law(np.array([(i0 + ended_at) / 2]), A0, i0, eps, *args)[0][0])
+            ended = "extinction" if mid < A0 else "blow-up"
         vals = [float(a) if good else None for a, good in zip(A, ok)]
         return LawRun(contacts.astype(int), vals, [v * S0 if v is not None else None for v in vals],
                       module.LAW_KIND, ended_at, ended)

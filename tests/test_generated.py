@@ -174,3 +174,24 @@ def test_site_dependent_map_uses_per_bead_values():
     assert r1.A == pytest.approx(r2.A, rel=1e-13)
     assert not np.allclose(run.A[: len(r1.A)], r1.A[: len(run.A)])
     assert all(math.isfinite(a) for a in run.A)
+
+
+@pytest.mark.parametrize("text, name, eps", [("beta*u^3", "beta", 0.3), ("-c*v", "c", 0.3)])
+def test_closed_form_longwave_law_ends_as_the_derivation_says(text, name, eps):
+    """The generated closed-form law (Eq. 30) ends where, and as (extinction / blow-up), the symbolic
+    law's singular index says; the amplitudes before the end move the same way."""
+    from derive.longwave import longwave_law
+
+    from solvers.longwave_eval import evaluate_law
+
+    mod = map_module(text, [name], 1.5, "exact", "paper")
+    R = parse_expression(text, [name])
+    ex = expand(R, 1.5)
+    consts = {k: float(getattr(mod, k)) for k in ["f1", "f2", "f3", "f4", "f5", "f6", "f7"] + list(ex.integrals())}
+    law = longwave_law(AmplitudeMap(ex.n, "paper", ex, consts, {symbol(name): 1}), eps)
+    index, what = law.singular_index(1.0, 0.0)
+    run = evaluate_law(mod, 1.0, 0.0, np.arange(1, 200), eps, {name: 1.0})
+    assert index is not None and run.ended_at == pytest.approx(index, rel=1e-9)
+    assert what.startswith(run.ended)
+    values = [a for a in run.A if a is not None]
+    assert (values[-1] > values[0]) == (run.ended == "blow-up")
