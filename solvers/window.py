@@ -99,10 +99,13 @@ def rule_for_accuracy(accuracy: float) -> WindowRule:
     return WindowRule(behind=4 + 4 * ((digits + 1) // 2))
 
 
+MIN_WIDTH = 17  # the narrowest width whose rule keeps behind >= 2 (10 ahead, chunk 4, 1 for the front)
+
+
 def rule_for_width(width: int) -> WindowRule:
     """Window rule with ``width`` integrated beads at most (ahead 10, chunk ~ width/4)."""
-    if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 16:
-        raise ValueError(f"window width must be an integer >= 16, got {width!r}; or use window='auto'")
+    if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < MIN_WIDTH:
+        raise ValueError(f"window width must be an integer >= {MIN_WIDTH}, got {width!r}; or use window='auto'")
     chunk = max(1, int(width) // 4)
     ahead = 10
     return WindowRule(behind=int(width) - ahead - chunk - 1, ahead=ahead, chunk=chunk)

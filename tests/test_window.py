@@ -7,6 +7,7 @@ import pytest
 
 from solvers.dns import OnSiteForce, simulate
 from solvers.window import (
+    MIN_WIDTH,
     WindowRule,
     make_window_rhs,
     needs_shift,
@@ -132,7 +133,14 @@ def test_window_pieces():
     assert rule_for_accuracy(1e-8).behind == 20 and rule_for_accuracy(1e-4).behind == 12
 
 
-@pytest.mark.parametrize("window", ["big", 3, WindowRule(behind=1), WindowRule(boundary="wall")])
+def test_smallest_width_named_in_the_message_is_accepted():
+    with pytest.raises(ValueError, match=f">= {MIN_WIDTH}"):
+        resolve_rule(MIN_WIDTH - 1, 1e-8)
+    rule = resolve_rule(MIN_WIDTH, 1e-8)
+    assert rule.width == MIN_WIDTH and rule.behind >= 2
+
+
+@pytest.mark.parametrize("window", ["big", 3, 16, WindowRule(behind=1), WindowRule(boundary="wall")])
 def test_bad_window_arguments(window):
     with pytest.raises(ValueError, match="window"):
         resolve_rule(window, 1e-8)
