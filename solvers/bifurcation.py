@@ -262,9 +262,12 @@ def bifurcation(
     executor=None,
     max_workers: int | None = None,
     progress: bool = False,
+    retry_failed: bool = False,
     dns: bool = True,
 ) -> dict:
-    """Predicted stationary branches and fold; DNS outcomes, stationary amplitudes and thresholds."""
+    """Predicted stationary branches and fold; DNS outcomes, stationary amplitudes and thresholds.
+
+    ``retry_failed`` reruns the points ``out`` holds with an error (solvers.sweep.run_sweep)."""
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise BifurcationError(f"--range {lo} {hi}: give two finite numbers A < B")
     if points < 2 or predict_points < 3:
@@ -294,7 +297,7 @@ def bifurcation(
     grid = [probe(chain, name, val, v0, last) for v0 in impulses for val in values]
     sweeps = []
     res = run_sweep(dns_task, grid, out, executor=executor, max_workers=max_workers, progress=progress,
-                    label="bifurcation")
+                    retry_failed=retry_failed, label="bifurcation")
     sweeps.append(res.summary())
     fp = scene.first_perturbed
     rows = [_summary(r, name, fp, settle_window, settle_tol) for r in res.records]
@@ -317,7 +320,7 @@ def bifurcation(
         while pending:
             batch = [probe(chain, name, mid, v0, state[v0]["last"]) for v0, mid in pending.items()]
             res = run_sweep(dns_task, batch, out, executor=executor, max_workers=max_workers,
-                            progress=progress, label="bisection")
+                            progress=progress, retry_failed=retry_failed, label="bisection")
             sweeps.append(res.summary())
             again = {}
             for v0, rec in zip(pending, res.records):

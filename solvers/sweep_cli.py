@@ -110,7 +110,7 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
             scene, args.param, lo, hi, points=args.points, impulses=impulses, last=args.contacts,
             max_last=args.max_contacts, refine=args.refine, rtol=args.rtol, predict_points=args.predict_points,
             profiles=profiles, variant=args.variant, out=args.out, executor=ex, max_workers=workers,
-            progress=not args.quiet, dns=not args.no_dns)
+            progress=not args.quiet, retry_failed=args.retry_failed, dns=not args.no_dns)
     return _report(args, report, to_text, plot)
 
 

@@ -115,6 +115,34 @@ def test_dns_outcomes_on_a_short_chain(tmp_path):
     assert t["minus_fold"]["exact"] == pytest.approx(2.0 - rep["prediction"]["exact"]["folds"][0]["value"])
 
 
+def test_cli_bifurcation_retry_failed_reruns_recorded_errors(tmp_path):
+    """A point recorded with an error stays failed on a rerun, and is run again with --retry-failed."""
+    from solvers.cli import main
+    from solvers.records import read_keyed
+
+    out, rep_path = tmp_path / "b.jsonl", tmp_path / "rep.json"
+    argv = ["bifurcation", VDP_SCENE, "--param", "mu", "--range", "1", "3", "--points", "2", "--impulses", "2.3",
+            "--contacts", "110", "--refine", "0", "--predict-points", "5", "--profiles", "exact", "--workers", "1",
+            "--quiet", "--out", str(out), "--json", str(rep_path)]
+    assert main(argv) == 0
+    recs = [json.loads(line) for line in out.read_text().splitlines()]
+    assert len(recs) == 2 and all(r["status"] == "ok" for r in recs)
+    low = min(recs, key=lambda r: r["params"]["params"]["mu"])
+    bad = {**{k: v for k, v in low.items() if k != "result"}, "status": "error", "error": "RuntimeError: injected"}
+    with out.open("a") as fh:
+        fh.write(json.dumps(bad) + "\n")
+    assert read_keyed(out)[low["key"]]["status"] == "error"
+
+    def outcomes():
+        rep = json.loads(rep_path.read_text())
+        return rep["sweeps"][0]["computed"], {r["value"]: r["outcome"] for r in rep["dns"]["points"]}
+
+    assert main(argv) == 0
+    assert outcomes() == (0, {1.0: "failed", 3.0: "settles"})
+    assert main(argv + ["--retry-failed"]) == 0
+    assert outcomes() == (1, {1.0: "decays", 3.0: "settles"})
+
+
 @pytest.mark.slow
 def test_dns_stationary_amplitude_at_mu3_equals_the_stable_root():
     """Both impulses settle on one amplitude, within 0.5 % of Eq. 41's stable root (both profiles),
