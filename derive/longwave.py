@@ -127,10 +127,6 @@ class LongwaveLaw:
         return i0 + span, "extinction (A -> 0)" if f0 < 0 else "blow-up (A -> inf)"
 
 
-def _integrate(expr, var):
-    return sympy.integrate(expr, var)
-
-
 def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> LongwaveLaw:
     """Form Eq. 30 from the map's first equation and solve it (closed form where possible)."""
     if amap.expansion.site_dependent or sympy.Symbol("i", real=True) in amap.expansion.R.free_symbols:
@@ -149,17 +145,14 @@ def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> Longwa
         return LongwaveLaw(P, (), (), (), f13, eps, "constant", A0 + 0 * I, None)
     if len(terms) == 1:
         p = powers[0]
-        # separation of variables: int B^-p dB = k (i - i0), with sympy
+        # separation of variables: int B^-p dB = k (i - i0)
         k = sympy.Symbol("k", real=True)
-        G = sympy.integrate(B**-p, B)
         if p == 1:
-            # G = log(B): B = B0 exp(k (i - i0))
+            # log(B): B = B0 exp(k (i - i0))
             law_B = B0 * sympy.exp(k * (I - I0))
             kind = "exponential"
         else:
-            # G(B) = B^(1-p)/(1-p): B^(1-p) = B0^(1-p) + (1-p) k (i - i0)
-            lhs = sympy.expand(G * (1 - p))  # = B^(1-p)
-            assert lhs == B ** (1 - p), lhs
+            # B^(1-p)/(1-p): B^(1-p) = B0^(1-p) + (1-p) k (i - i0)
             law_B = (B0 ** (1 - p) + (1 - p) * k * (I - I0)) ** (1 / (1 - p))
             kind = "power law"
         law_A = sympy.powsimp(sympy.powdenest(law_B.xreplace({B0: A0**P}) ** (1 / P), force=True), force=True)
@@ -168,7 +161,7 @@ def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> Longwa
     if any(c is None for c in coeffs):
         return LongwaveLaw(P, powers, coeffs, symb, f13, eps, "quadrature", None, None)
     F = sum((sympy.nsimplify(c, rational=False) * B**p for c, p in zip(coeffs, powers)), sympy.Integer(0))
-    G = bounded(_integrate, (1 / F, B), seconds)
+    G = bounded(sympy.integrate, (1 / F, B), seconds)
     implicit = None
     kind = "quadrature"
     if G is not None and not G.has(sympy.Integral):

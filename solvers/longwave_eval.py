@@ -8,7 +8,6 @@ the result says where and why the law ended, never a NaN.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Callable
@@ -95,7 +94,3 @@ def law_values(sol, contacts: np.ndarray, power: float) -> list:
     """A = B^(1/power) of ``integrate_law``'s solution at each contact; None past where it stopped."""
     stop = float(sol.t[-1])
     return [max(float(sol.sol(c)[0]), 0.0) ** (1.0 / power) if c <= stop + 1e-12 else None for c in contacts]
-
-
-def law_values_are_finite(run: LawRun) -> bool:
-    return all(v is None or math.isfinite(v) for v in run.A)
