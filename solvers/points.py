@@ -101,7 +101,9 @@ def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | No
     """eps_i R_i(x_i, v_i) (zero before first_perturbed) from a generated force module, Eq. 1.
 
     ``restrict(lo, hi)`` gives the same force on beads lo..hi-1, so a moving-window DNS pays
-    for its window only.
+    for its window only. Only ``chain["beads"]``, ``["first_perturbed"]`` and ``["eps"]`` are read
+    (and ``["params"]`` when ``values`` is not given). A force that cannot be evaluated at rest, or
+    is not finite there, is a SweepError.
     """
     beads = int(chain["beads"])
     values = bead_params(chain) if values is None else values
@@ -109,9 +111,12 @@ def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | No
     eps = np.where(idx >= int(chain["first_perturbed"]), float(chain["eps"]), 0.0)
     full = tuple(values[name] if np.ndim(values[name]) else float(values[name]) for name in module.PARAMS)
     zeros = np.zeros(beads)
-    with np.errstate(all="ignore"):
-        kx = np.abs(np.asarray(module.force_dx(zeros, zeros, idx, eps, *full), dtype=float))
-        kv = np.abs(np.asarray(module.force_dv(zeros, zeros, idx, eps, *full), dtype=float))
+    try:
+        with np.errstate(all="ignore"):
+            kx = np.abs(np.asarray(module.force_dx(zeros, zeros, idx, eps, *full), dtype=float))
+            kv = np.abs(np.asarray(module.force_dv(zeros, zeros, idx, eps, *full), dtype=float))
+    except (ValueError, ZeroDivisionError, FloatingPointError) as exc:
+        raise SweepError(f"the on-site force cannot be evaluated at rest: {exc}") from None
     if not (np.all(np.isfinite(kx)) and np.all(np.isfinite(kv))):
         raise SweepError("the on-site force is undefined at rest (non-finite value): check R and its parameters")
     hint = float(max(kv.max(initial=0.0), math.sqrt(kx.max(initial=0.0))))

@@ -24,7 +24,9 @@ from solvers.codeload import balance_module, force_module, map_module
 from solvers.dns import OnSiteForce, chain_length_for, simulate
 from solvers.longwave_eval import evaluate_law
 from solvers.map_iteration import contact_params, eps0_ratio, iterate_map
+from solvers.points import chain_force
 from solvers.scene import METHODS, PROFILES, VARIANTS, Scene, SceneError, check_choice
+from solvers.sweep import SweepError
 
 EPS_WARN = 0.3  # eps above this is outside the map's asymptotic assumption (eps << 1)
 
@@ -78,41 +80,28 @@ def _params(scene: Scene, beads: int | None) -> dict:
 
 
 def make_force(scene: Scene, beads: int) -> OnSiteForce:
-    """eps_i R_i(x_i, v_i) for the DNS from the generated force module (zero before first_perturbed)."""
+    """eps_i R_i(x_i, v_i) for the DNS from the generated force module (zero before first_perturbed):
+    points.chain_force, refused unless R(0, 0) = 0 on every bead (the chain starts at rest)."""
     pert = scene.perturbation
     mod = force_module(pert.text, pert.used_parameters)
-    idx = np.arange(1, beads + 1, dtype=float)
-    eps = np.where(idx >= scene.first_perturbed, float(pert.eps), 0.0)
-    prm = _params(scene, beads)
-    args = tuple(prm[name] for name in mod.PARAMS)
+    chain = {"beads": beads, "first_perturbed": scene.first_perturbed, "eps": float(pert.eps)}
+    values = _params(scene, beads)
     zeros = np.zeros(beads)
     try:
+        force = chain_force(mod, chain, values)
         with np.errstate(all="ignore"):
-            kx = np.abs(np.asarray(mod.force_dx(zeros, zeros, idx, eps, *args), dtype=float))
-            kv = np.abs(np.asarray(mod.force_dv(zeros, zeros, idx, eps, *args), dtype=float))
-            f0 = np.asarray(mod.force(zeros, zeros, idx, eps, *args), dtype=float)
+            f0 = np.asarray(force.force(zeros, zeros), dtype=float)
+    except SweepError as exc:
+        raise RunError(str(exc)) from None
     except (ValueError, ZeroDivisionError, FloatingPointError) as exc:
         raise RunError(f"the on-site force cannot be evaluated at rest: {exc}") from None
-    if not (np.all(np.isfinite(kx)) and np.all(np.isfinite(kv)) and np.all(np.isfinite(f0))):
+    if not np.all(np.isfinite(f0)):
         raise RunError("the on-site force is undefined at rest (non-finite value): check R and its parameters")
     if np.any(np.abs(f0) > 1e-12):
         k = int(np.argmax(np.abs(f0)))
-        raise RunError(f"R(0, 0) = {f0[k] / max(eps[k], 1e-300):.6g} at bead {k + 1}: the chain would not start at rest")
-    hint = float(max(kv.max(initial=0.0), math.sqrt(kx.max(initial=0.0))))
-
-    def on_beads(lo: int, hi: int) -> OnSiteForce:
-        """The force on beads lo..hi-1 (0-based) only: O(window) per call for the windowed DNS."""
-        i_w, e_w = idx[lo:hi], eps[lo:hi]
-        a_w = tuple(a[lo:hi] if isinstance(a, np.ndarray) else a for a in args)
-        return OnSiteForce(
-            force=lambda x, v: mod.force(x, v, i_w, e_w, *a_w),
-            dforce_dx=lambda x, v: mod.force_dx(x, v, i_w, e_w, *a_w),
-            dforce_dv=lambda x, v: mod.force_dv(x, v, i_w, e_w, *a_w),
-            stiffness_hint=hint,
-        )
-
-    full = on_beads(0, beads)
-    return OnSiteForce(full.force, full.dforce_dx, full.dforce_dv, hint, restrict=on_beads)
+        eps_k = float(pert.eps) if k + 1 >= scene.first_perturbed else 0.0
+        raise RunError(f"R(0, 0) = {f0[k] / max(eps_k, 1e-300):.6g} at bead {k + 1}: the chain would not start at rest")
+    return force
 
 
 STRONG_FRACTION = 0.1  # "strong" contacts: DNS peak at least this fraction of the seed peak
