@@ -17,10 +17,9 @@ import sympy
 from . import balance
 from .amplitude_map import EPS, AmplitudeMap, check_variant, latex_names
 from .expansion import Expansion, expand
-from .expression import symbol
 from .integrals import DEFAULT_DPS, F_NAMES, constants
 from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, law_data, law_lines, longwave_law
-from .perturbation import Perturbation
+from .perturbation import Perturbation, param_data
 from .provenance import provenance
 from .profile import check_exponent, check_profile_kind, get_profile
 from .stationary import Stationary, StationaryError, stationary
@@ -85,7 +84,7 @@ def derive_all(
     times["integrals"] = time.perf_counter() - t1
 
     t2 = time.perf_counter()
-    scalars = {symbol(k): sympy.Rational(repr(float(v))) for k, v in pert.params.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    scalars = pert.scalar_values()
     amap = AmplitudeMap(ex.n, variant, ex, values, scalars)
     law, law_note = None, ""
     try:
@@ -184,7 +183,7 @@ def to_json(d: Derivation) -> dict:
         "expression": pert.text,
         "R": str(pert.R),
         "eps": pert.eps,
-        "params": {k: _param_json(v) for k, v in pert.params.items()},
+        "params": {k: param_data(v) for k, v in pert.params.items()},
         "n": d.n,
         "profile": d.profile,
         "variant": d.variant,
@@ -220,18 +219,6 @@ def to_json(d: Derivation) -> dict:
         "stationary_note": d.stationary_note or None,
         "timings_s": {k: round(v, 6) for k, v in d.timings_s.items()},
     }
-
-
-def _param_json(value):
-    if isinstance(value, (int, float, str)):
-        return value
-    if isinstance(value, tuple):
-        return list(value)
-    if hasattr(value, "text"):
-        return value.text
-    if hasattr(value, "seed"):
-        return {"uniform": [value.low, value.high], "seed": value.seed}
-    return repr(value)
 
 
 def to_text(d: Derivation) -> str:

@@ -131,11 +131,11 @@ class Perturbation:
                 f"R = {self.text} is not uniform along the chain ({self._why_not_uniform()}): "
                 "use bead_values(name, beads) for per-bead values"
             )
-        return {
-            symbol(name): _exact(value)
-            for name, value in self.params.items()
-            if _is_scalar(value)
-        }
+        return self.scalar_values()
+
+    def scalar_values(self) -> dict[sympy.Symbol, sympy.Rational]:
+        """Exact values of the parameters that are scalars (per-bead ones left out), for substitution."""
+        return {symbol(name): _exact(value) for name, value in self.params.items() if _is_scalar(value)}
 
     def bead_values(self, name: str, beads: int) -> np.ndarray:
         """Values of parameter ``name`` for beads 1..beads, shape (beads,), float64."""
@@ -245,6 +245,17 @@ def parse_param_value(name: str, raw: object) -> ParamValue:
     raise PerturbationError(
         f"parameter '{name}' has a value of unsupported type {type(raw).__name__}: give {_VALUE_FORMS}"
     )
+
+
+def param_data(value: ParamValue) -> object:
+    """A ParamValue back in the form a scene file gives it (the inverse of ``parse_param_value``)."""
+    if isinstance(value, RandomDraw):
+        return {value.distribution: [value.low, value.high], "seed": value.seed}
+    if isinstance(value, IndexExpression):
+        return value.text
+    if isinstance(value, tuple):
+        return list(value)
+    return value
 
 
 def parse_cli_param(text: str) -> tuple[str, ParamValue]:
@@ -549,11 +560,7 @@ def _check_rest_symbolic(perturbation: Perturbation) -> None:
             f"R(0,0) is undefined for R = {perturbation.text} ({at_rest}): the chain starts at rest, "
             "so R must be finite and zero at u = v = 0"
         )
-    scalars = {
-        symbol(name): _exact(value)
-        for name, value in perturbation.params.items()
-        if _is_scalar(value)
-    }
+    scalars = perturbation.scalar_values()
     if perturbation.R.subs(scalars).has(sympy.zoo, sympy.oo, -sympy.oo, sympy.nan):
         raise PerturbationError(
             f"R = {perturbation.text} is undefined with the given parameter values "
