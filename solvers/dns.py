@@ -149,24 +149,56 @@ def initial_state(beads: int, velocity: float) -> Array:
 
 # ----------------------------------------------------------------------------- Eq. 1
 
+Boundary = Callable[[float], float]
 
-def make_rhs(beads: int, exponent: float, force: OnSiteForce | None) -> Callable[[float, Array], Array]:
-    """Vectorised right-hand side of Eq. 1 on the interleaved state."""
+
+def power_into(d: Array, exponent: float) -> None:
+    """d <- d**n in place for d >= 0 (n = 1.5, 2, 3 by products and sqrt: cheaper than pow)."""
+    if exponent == 1.5:
+        np.multiply(d, np.sqrt(d), out=d)
+    elif exponent == 2.0:
+        np.multiply(d, d, out=d)
+    elif exponent == 3.0:
+        np.multiply(d, d * d, out=d)
+    else:
+        np.power(d, exponent, out=d)
+
+
+def make_rhs(
+    beads: int,
+    exponent: float,
+    force: OnSiteForce | None,
+    left: Boundary | None = None,
+    wall: bool = False,
+) -> Callable[[float, Array], Array]:
+    """Vectorised right-hand side of Eq. 1 on ``beads`` consecutive beads (interleaved state).
+
+    The whole chain by default (free ends). For a moving window (solvers/window.py):
+    ``left`` is the displacement of a prescribed bead before the first one (None: free end);
+    ``wall``: the bead after the last one is at rest at x = 0 (False: free end).
+    The positions sit in one padded array with the boundary beads (a free end is a copy of
+    its neighbour: no compression), so the contact forces are one difference and the
+    accelerations another (few numpy calls: call overhead dominates on a small window).
+    """
     n = float(exponent)
     on_site = None if force is None else force.force
+    xe = np.zeros(beads + 2)  # xe[0]: left boundary bead, xe[-1]: the bead after the last
+    d = np.empty(beads + 1)  # d[j]: force of contact j (0: left boundary, beads: wall)
+    inner = xe[1:-1]
 
     def rhs(t: float, y: Array) -> Array:
-        x = y[0::2]
-        v = y[1::2]
-        f = np.maximum(x[:-1] - x[1:], 0.0) ** n
-        a = np.zeros(beads)
-        a[:-1] -= f
-        a[1:] += f
+        out = np.empty(2 * beads)
+        out[0::2] = y[1::2]
+        inner[:] = y[0::2]
+        xe[0] = left(t) if left is not None else xe[1]
+        xe[-1] = 0.0 if wall else xe[-2]
+        np.subtract(xe[:-1], xe[1:], out=d)
+        np.maximum(d, 0.0, out=d)
+        power_into(d, n)
+        a = out[1::2]
+        np.subtract(d[:-1], d[1:], out=a)
         if on_site is not None:
-            a += on_site(x, v)
-        out = np.empty_like(y)
-        out[0::2] = v
-        out[1::2] = a
+            a += on_site(inner, y[1::2])
         return out
 
     return rhs
@@ -196,23 +228,33 @@ def _band_diagonals(
     return lower3, lower1, main, upper1
 
 
-def make_sparse_jacobian(
-    beads: int, exponent: float, force: OnSiteForce | None
-) -> Callable[[float, Array], sparse.csc_matrix]:
-    """Analytic sparse Jacobian of Eq. 1 (needs dF/dx, dF/dv when a force is given)."""
+def make_jacobians(
+    beads: int,
+    exponent: float,
+    force: OnSiteForce | None,
+    left: Boundary | None = None,
+    wall: bool = False,
+) -> tuple[Callable[[float, Array], sparse.csc_matrix], Callable[[float, Array], Array]]:
+    """Analytic banded Jacobian of ``make_rhs`` (same arguments; dF/dx, dF/dv needed with a
+    force): (sparse for BDF/Radau, packed for LSODA with lband=3, uband=1)."""
+    n = float(exponent)
 
-    def jac(t: float, y: Array) -> sparse.csc_matrix:
-        diags = _band_diagonals(beads, exponent, y[0::2], y[1::2], force)
-        return sparse.diags(diags, (-3, -1, 0, 1), shape=(2 * beads, 2 * beads), format="csc")
+    def diagonals(t: float, y: Array):
+        x, v = y[0::2], y[1::2]
+        lower3, lower1, main, upper1 = _band_diagonals(beads, n, x, v, force)
+        if left is not None:
+            d = left(t) - x[0]
+            if d > 0.0:
+                lower1[0] -= n * d ** (n - 1.0)
+        if wall and x[-1] > 0.0:
+            lower1[2 * (beads - 1)] -= n * x[-1] ** (n - 1.0)
+        return lower3, lower1, main, upper1
 
-    return jac
+    def sparse_jac(t: float, y: Array) -> sparse.csc_matrix:
+        return sparse.diags(diagonals(t, y), (-3, -1, 0, 1), shape=(2 * beads, 2 * beads), format="csc")
 
-
-def make_packed_jacobian(beads: int, exponent: float, force: OnSiteForce | None) -> Callable[[float, Array], Array]:
-    """Analytic Jacobian in LSODA's packed banded format (lband=3, uband=1)."""
-
-    def jac(t: float, y: Array) -> Array:
-        lower3, lower1, main, upper1 = _band_diagonals(beads, exponent, y[0::2], y[1::2], force)
+    def packed_jac(t: float, y: Array) -> Array:
+        lower3, lower1, main, upper1 = diagonals(t, y)
         packed = np.zeros((5, 2 * beads))
         packed[0, 1:] = upper1
         packed[1, :] = main
@@ -220,7 +262,7 @@ def make_packed_jacobian(beads: int, exponent: float, force: OnSiteForce | None)
         packed[4, :-3] = lower3
         return packed
 
-    return jac
+    return sparse_jac, packed_jac
 
 
 def band_pattern(beads: int) -> sparse.csc_matrix:
@@ -239,19 +281,31 @@ def make_solver(
     t_max: float,
     rtol: float,
     atol: float,
+    *,
+    t0: float = 0.0,
+    first_step: float | None = None,
+    left: Boundary | None = None,
+    wall: bool = False,
 ) -> _integrate.OdeSolver:
-    """The scipy OdeSolver for ``method`` with the best Jacobian information available."""
-    rhs = make_rhs(beads, exponent, force)
-    analytic = force is None or force.has_jacobian
+    """The scipy OdeSolver for ``method`` with the best Jacobian information available.
+
+    ``left``, ``wall`` as in make_rhs; a moving window restarts the solver at ``t0`` with the
+    previous step size as ``first_step``.
+    """
+    rhs = make_rhs(beads, exponent, force, left, wall)
     cls = getattr(_integrate, method)
+    kw = dict(rtol=rtol, atol=atol)
+    if first_step is not None:
+        kw["first_step"] = min(first_step, t_max - t0)
     if method in EXPLICIT_METHODS:
-        return cls(rhs, 0.0, y0, t_max, rtol=rtol, atol=atol)
+        return cls(rhs, t0, y0, t_max, **kw)
+    analytic = force is None or force.has_jacobian
+    sparse_jac, packed_jac = make_jacobians(beads, exponent, force, left, wall)
     if method == "LSODA":
-        jac = make_packed_jacobian(beads, exponent, force) if analytic else None
-        return cls(rhs, 0.0, y0, t_max, rtol=rtol, atol=atol, jac=jac, lband=3, uband=1)
+        return cls(rhs, t0, y0, t_max, jac=packed_jac if analytic else None, lband=3, uband=1, **kw)
     if analytic:
-        return cls(rhs, 0.0, y0, t_max, rtol=rtol, atol=atol, jac=make_sparse_jacobian(beads, exponent, force))
-    return cls(rhs, 0.0, y0, t_max, rtol=rtol, atol=atol, jac_sparsity=band_pattern(beads))
+        return cls(rhs, t0, y0, t_max, jac=sparse_jac, **kw)
+    return cls(rhs, t0, y0, t_max, jac_sparsity=band_pattern(beads), **kw)
 
 
 # ----------------------------------------------------------------------------- validation

@@ -158,111 +158,6 @@ def coast(x_b: float, v_b: float, t_b: float) -> Callable[[float], float]:
     return lambda t: x_b + v_b * (t - t_b)
 
 
-def power_into(d: Array, exponent: float) -> None:
-    """d <- d**n in place for d >= 0 (n = 1.5, 2, 3 by products and sqrt: cheaper than pow)."""
-    if exponent == 1.5:
-        np.multiply(d, np.sqrt(d), out=d)
-    elif exponent == 2.0:
-        np.multiply(d, d, out=d)
-    elif exponent == 3.0:
-        np.multiply(d, d * d, out=d)
-    else:
-        np.power(d, exponent, out=d)
-
-
-def make_window_rhs(
-    width: int,
-    exponent: float,
-    force_w,
-    left: Callable[[float], float] | None,
-    wall: bool,
-) -> Callable[[float, Array], Array]:
-    """Eq. 1 on ``width`` consecutive beads (interleaved state).
-
-    ``left``: displacement of the prescribed bead before the window (None: free end);
-    ``wall``: the bead after the window is at rest at x = 0 (False: free end of the chain).
-    The positions sit in one padded array with the boundary beads (a free end is a copy of
-    its neighbour: no compression), so the contact forces are one difference and the
-    accelerations another (few numpy calls: the window is small, call overhead dominates).
-    """
-    n = float(exponent)
-    on_site = None if force_w is None else force_w.force
-    xe = np.zeros(width + 2)  # xe[0]: left boundary bead, xe[-1]: the bead after the window
-    d = np.empty(width + 1)  # d[j]: force of contact j (0: left boundary, width: wall)
-    inner = xe[1:-1]
-
-    def rhs(t: float, y: Array) -> Array:
-        out = np.empty(2 * width)
-        out[0::2] = y[1::2]
-        inner[:] = y[0::2]
-        xe[0] = left(t) if left is not None else xe[1]
-        xe[-1] = 0.0 if wall else xe[-2]
-        np.subtract(xe[:-1], xe[1:], out=d)
-        np.maximum(d, 0.0, out=d)
-        power_into(d, n)
-        a = out[1::2]
-        np.subtract(d[:-1], d[1:], out=a)
-        if on_site is not None:
-            a += on_site(inner, y[1::2])
-        return out
-
-    return rhs
-
-
-def make_window_jacobians(width: int, exponent: float, force_w, left, wall: bool):
-    """Analytic banded Jacobian of the window RHS: (sparse for BDF/Radau, packed for LSODA)."""
-    from scipy import sparse
-
-    from solvers.dns import _band_diagonals
-
-    n = float(exponent)
-
-    def diagonals(t: float, y: Array):
-        x, v = y[0::2], y[1::2]
-        lower3, lower1, main, upper1 = _band_diagonals(width, n, x, v, force_w)
-        if left is not None:
-            d = left(t) - x[0]
-            if d > 0.0:
-                lower1[0] -= n * d ** (n - 1.0)
-        if wall and x[-1] > 0.0:
-            lower1[2 * (width - 1)] -= n * x[-1] ** (n - 1.0)
-        return lower3, lower1, main, upper1
-
-    def sparse_jac(t: float, y: Array):
-        return sparse.diags(diagonals(t, y), (-3, -1, 0, 1), shape=(2 * width, 2 * width), format="csc")
-
-    def packed_jac(t: float, y: Array) -> Array:
-        lower3, lower1, main, upper1 = diagonals(t, y)
-        packed = np.zeros((5, 2 * width))
-        packed[0, 1:] = upper1
-        packed[1, :] = main
-        packed[2, :-1] = lower1
-        packed[4, :-3] = lower3
-        return packed
-
-    return sparse_jac, packed_jac
-
-
-def make_window_solver(method, width, exponent, force_w, left, wall, t0, y0, t_max, rtol, atol, first_step):
-    """scipy OdeSolver on the window, restarted with the previous step size."""
-    from solvers.dns import EXPLICIT_METHODS, band_pattern
-
-    rhs = make_window_rhs(width, exponent, force_w, left, wall)
-    cls = getattr(_integrate, method)
-    kw = dict(rtol=rtol, atol=atol)
-    if first_step is not None:
-        kw["first_step"] = min(first_step, t_max - t0)
-    if method in EXPLICIT_METHODS:
-        return cls(rhs, t0, y0, t_max, **kw)
-    analytic = force_w is None or force_w.has_jacobian
-    sparse_jac, packed_jac = make_window_jacobians(width, exponent, force_w, left, wall)
-    if method == "LSODA":
-        return cls(rhs, t0, y0, t_max, jac=packed_jac if analytic else None, lband=3, uband=1, **kw)
-    if analytic:
-        return cls(rhs, t0, y0, t_max, jac=sparse_jac, **kw)
-    return cls(rhs, t0, y0, t_max, jac_sparsity=band_pattern(width), **kw)
-
-
 def window_energy(y: Array, exponent: float, left_x: float | None) -> float:
     """Energy of Eq. 1 in the window, with the contact to the prescribed left bead."""
     from solvers.dns import energy
@@ -438,7 +333,7 @@ def simulate_windowed(
     scipy OdeSolver classes, needed for RK23 and the implicit methods) or "auto" (fortran when
     the method has a Fortran code).
     """
-    from solvers.dns import ENERGY_BLOWUP, DNSResult, velocity_scale
+    from solvers.dns import ENERGY_BLOWUP, DNSResult, make_rhs, make_solver, velocity_scale
 
     first, last = int(contacts[0]), int(contacts[1])
     if engine == "auto":
@@ -493,11 +388,11 @@ def simulate_windowed(
         run.action, run.redo = "", None
         try:
             if engine == "fortran":
-                rhs = make_window_rhs(width, exponent, force_w, run.left, wall)
+                rhs = make_rhs(width, exponent, force_w, run.left, wall)
                 t, y, used, h = run_fortran(FORTRAN_CODES[method], rhs, t, y, t_max, rtol, atol, h, on_step)
             else:
-                solver = make_window_solver(method, width, exponent, force_w, run.left, wall,
-                                            t, y, t_max, rtol, atol, h)
+                solver = make_solver(method, width, exponent, force_w, y, t_max, rtol, atol,
+                                     t0=t, first_step=h, left=run.left, wall=wall)
                 t, y, used, h = run_scipy(solver, on_step)
                 njev += int(getattr(solver, "njev", 0))
         except RuntimeError as err:

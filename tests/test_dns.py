@@ -12,9 +12,8 @@ from solvers.dns import (
     chain_length_for,
     choose_method,
     energy,
-    make_packed_jacobian,
+    make_jacobians,
     make_rhs,
-    make_sparse_jacobian,
     simulate,
 )
 from solvers.peaks import scan_step
@@ -236,7 +235,9 @@ def test_rhs_matches_eq1_on_three_beads():
     assert np.allclose(out[1::2], [-(0.2**1.5), 0.2**1.5, 0.0])  # contact 2 is open
 
 
-def test_jacobians_match_finite_differences():
+@pytest.mark.parametrize("window", [False, True])
+def test_jacobians_match_finite_differences(window):
+    """Whole chain, and a window: prescribed left bead compressing bead 1, last bead against the wall."""
     rng = np.random.default_rng(1)
     beads = 9
     f = OnSiteForce(
@@ -245,13 +246,18 @@ def test_jacobians_match_finite_differences():
         dforce_dv=lambda x, v: -0.7 * np.ones_like(v),
     )
     y = rng.normal(scale=0.5, size=2 * beads)
-    rhs = make_rhs(beads, 1.5, f)
+    bounds = {}
+    if window:
+        y[0], y[-2] = -0.2, 0.4
+        bounds = dict(left=lambda t: 0.9, wall=True)
+    rhs = make_rhs(beads, 1.5, f, **bounds)
     h = 1e-7
     fd = np.column_stack([(rhs(0, y + h * e) - rhs(0, y - h * e)) / (2 * h) for e in np.eye(2 * beads)])
-    sp = make_sparse_jacobian(beads, 1.5, f)(0.0, y).toarray()
+    sparse_jac, packed_jac = make_jacobians(beads, 1.5, f, **bounds)
+    sp = sparse_jac(0.0, y).toarray()
     assert np.allclose(sp, fd, atol=1e-6)
     assert np.all((band_pattern(beads).toarray() != 0) | (fd == 0))
-    packed = make_packed_jacobian(beads, 1.5, f)(0.0, y)
+    packed = packed_jac(0.0, y)
     unpacked = np.zeros_like(fd)
     for i in range(2 * beads):
         for j in range(max(0, i - 3), min(2 * beads, i + 2)):

@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from solvers.dns import OnSiteForce, simulate
+from solvers.dns import OnSiteForce, make_rhs, simulate
 from solvers.window import (
     MIN_WIDTH,
     WindowRule,
-    make_window_rhs,
     needs_shift,
     plan,
     resolve_rule,
@@ -119,7 +118,7 @@ def test_free_boundary_is_worse_than_coast_on_a_dying_pulse():
 
 
 def test_window_pieces():
-    rhs = make_window_rhs(3, 1.5, None, lambda t: 0.5, True)
+    rhs = make_rhs(3, 1.5, None, left=lambda t: 0.5, wall=True)
     y = np.array([0.1, 0.0, 0.3, 0.0, 0.2, 0.0])  # x = 0.1, 0.3, 0.2
     a = rhs(0.0, y)[1::2]
     assert np.allclose(a, [0.4**1.5, -(0.1**1.5), 0.1**1.5 - 0.2**1.5])
