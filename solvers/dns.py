@@ -418,7 +418,7 @@ def simulate(
     chosen = choose_method(force, velocity, exponent) if method == "auto" else method
     t_limit = default_t_max(last, velocity, exponent) if t_max is None else float(t_max)
     if window is not None:
-        from solvers.window import resolve_rule, simulate_windowed
+        from solvers.window import resolve_rule, simulate_windowed  # window imports this module
 
         return simulate_windowed(
             beads, exponent, velocity, (first, last), force, rule=resolve_rule(window, window_accuracy),

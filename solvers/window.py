@@ -34,6 +34,7 @@ from typing import Callable
 import numpy as np
 import scipy.integrate as _integrate
 
+from solvers.dns import ENERGY_BLOWUP, DNSResult, energy, make_rhs, make_solver, velocity_scale
 from solvers.peaks import PeakTracker, QuinticStep, scan_step
 
 Array = np.ndarray
@@ -160,8 +161,6 @@ def coast(x_b: float, v_b: float, t_b: float) -> Callable[[float], float]:
 
 def window_energy(y: Array, exponent: float, left_x: float | None) -> float:
     """Energy of Eq. 1 in the window, with the contact to the prescribed left bead."""
-    from solvers.dns import energy
-
     x, v = y[0::2], y[1::2]
     e = energy(x, v, exponent)
     if left_x is not None and left_x > x[0]:
@@ -333,8 +332,6 @@ def simulate_windowed(
     scipy OdeSolver classes, needed for RK23 and the implicit methods) or "auto" (fortran when
     the method has a Fortran code).
     """
-    from solvers.dns import ENERGY_BLOWUP, DNSResult, make_rhs, make_solver, velocity_scale
-
     first, last = int(contacts[0]), int(contacts[1])
     if engine == "auto":
         engine = "fortran" if method in FORTRAN_CODES else "scipy"
