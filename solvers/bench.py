@@ -107,12 +107,6 @@ def peak_error(peaks: Sequence[float | None], ref: Sequence[float | None]) -> tu
     return (max(rel) if rel else None), missing
 
 
-def as_list(contacts: Sequence[int], res) -> list[float | None]:
-    """A DNSResult/BaselineResult's peaks on ``contacts`` (None where not alive)."""
-    by = {int(c): (float(p) if a else None) for c, p, a in zip(res.contacts, res.peaks, res.alive)}
-    return [by.get(int(c)) for c in contacts]
-
-
 def cost_at(points: Sequence[Point], target: float) -> tuple[float | None, str]:
     """Time a line needs for max error ``target`` (see the module docstring for how)."""
     pts = sorted((p for p in points if p.error is not None and p.missing == 0), key=lambda p: -(p.rtol or 0.0))
@@ -155,6 +149,7 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
                log: Callable[[str], None]) -> list[Point]:
     """The DNS of the scene over the tolerance ladder for each method (window or full chain)."""
     from solvers.dns import chain_length_for, simulate
+    from solvers.points import on_contacts
     from solvers.run import make_force
 
     beads = scene.beads or chain_length_for(scene.contacts[1])
@@ -170,7 +165,7 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
                 return res, res.wall_time_s
 
             res, best = best_of(run, ladder.repeats)
-            err, missing = peak_error(as_list(contacts, res), ref)
+            err, missing = peak_error(on_contacts(contacts, res.contacts, res.peaks, res.alive), ref)
             point = Point(kind, f"{mode} {method}", f"rtol {rtol:g}", rtol, err, missing, best, int(res.nfev),
                           "" if missing == 0 else res.stop_reason)
             log(f"  {kind:10s} {point.line:14s} {point.setting:11s} err {fmt(err)} missing {missing:3d} "
@@ -189,6 +184,7 @@ def script_points(scene, contacts: list[int], ref: list, ladder: Ladder,
     """
     from solvers.baselines import baseline_script, script_force
     from solvers.dns import chain_length_for, contact_rate, simulate
+    from solvers.points import on_contacts
     from solvers.run import make_force
 
     beads = scene.beads or chain_length_for(scene.contacts[1])
@@ -213,7 +209,7 @@ def script_points(scene, contacts: list[int], ref: list, ladder: Ladder,
             return res, res.wall_time_s
 
         res, best = best_of(run, min(ladder.repeats, 2))
-        err, missing = peak_error(as_list(contacts, res), ref)
+        err, missing = peak_error(on_contacts(contacts, res.contacts, res.peaks, res.alive), ref)
         point = Point("baseline-a", "script RK45", setting, rtol, err, missing, best, int(res.nfev))
         log(f"  baseline-a {point.line:14s} {setting:11s} err {fmt(err)} missing {missing:3d} time {best:8.4f} s")
         out.append(point)

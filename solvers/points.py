@@ -9,15 +9,16 @@ they load the generated modules by name, check their hash, and never import symp
 
 from __future__ import annotations
 
+import itertools
 import math
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
 from solvers.dns import OnSiteForce, chain_length_for, simulate
 from solvers.sweep import SweepError, generated_ref, load_generated
 
-__all__ = ["bead_params", "chain_force", "dns_map_task", "dns_task", "plain_chain", "random_params"]
+__all__ = ["bead_params", "chain_force", "dns_map_task", "dns_task", "on_contacts", "plain_chain", "random_params"]
 
 
 # ----------------------------------------------------------------------------- parent side
@@ -135,8 +136,13 @@ def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | No
     return build(0, beads)
 
 
-def _clean(x: float) -> float | None:
-    return float(x) if math.isfinite(x) else None
+def on_contacts(contacts: Sequence[int], at: Sequence[int], values: Sequence[float | None],
+                alive: Sequence[bool] | None = None) -> list[float | None]:
+    """``values`` given at contacts ``at`` (a DNS, a baseline or a model run) on ``contacts``:
+    None where there is no value, it is not finite, or ``alive`` (a DNS's live flags) is False."""
+    flags = itertools.repeat(True) if alive is None else alive
+    got = {int(c): float(v) for c, v, a in zip(at, values, flags) if a and v is not None and math.isfinite(v)}
+    return [got.get(int(c)) for c in contacts]
 
 
 def _dns(chain: Mapping[str, Any], values: Mapping[str, Any]) -> dict:
@@ -147,8 +153,7 @@ def _dns(chain: Mapping[str, Any], values: Mapping[str, Any]) -> dict:
     res = simulate(int(chain["beads"]), float(chain["exponent"]), float(chain["velocity"]), (first, last), force,
                    method=opts.get("method", "auto"), rtol=float(opts["rtol"]), atol=float(opts["atol"]), **kw)
     contacts = list(range(first, last + 1))
-    by_contact = {int(c): (float(p), bool(a)) for c, p, a in zip(res.contacts, res.peaks, res.alive)}
-    peaks = [_clean(by_contact[c][0]) if by_contact[c][1] else None for c in contacts]
+    peaks = on_contacts(contacts, res.contacts, res.peaks, res.alive)
     live = [c for c, p in zip(contacts, peaks) if p is not None]
     return {
         "contacts": contacts,
@@ -183,8 +188,7 @@ def dns_map_task(chain: Mapping[str, Any]) -> dict:
         raise SweepError(f"the DNS has no live pulse at the seed contact {seed_contact}: nothing to seed the map with")
     mod = load_generated(chain["map"])
     run = iterate_map(mod, seed_peak / float(mod.S0), seed_contact, contacts[-1], float(chain["eps"]), values)
-    got = {int(c): float(p) for c, p in zip(run.contacts, run.peaks)}
-    out["map_peaks"] = [got.get(c) for c in contacts]
+    out["map_peaks"] = on_contacts(contacts, run.contacts, run.peaks)
     out["map_status"] = run.status
     out["map_variant"] = run.variant
     out["map_profile"] = run.profile

@@ -24,7 +24,7 @@ from solvers.codeload import balance_module, force_module, map_module
 from solvers.dns import OnSiteForce, chain_length_for, simulate
 from solvers.longwave_eval import evaluate_law
 from solvers.map_iteration import contact_params, eps0_ratio, iterate_map
-from solvers.points import chain_force
+from solvers.points import chain_force, on_contacts
 from solvers.scene import METHODS, PROFILES, VARIANTS, Scene, SceneError, check_choice
 from solvers.sweep import SweepError
 
@@ -159,10 +159,6 @@ def _width_warning(mod) -> str | None:
             f"{WIDTH_WARN:g}): Eq. 9's assumption delta_(i+2) = 0 fails and the reduced models lose accuracy")
 
 
-def _clean(x) -> float | None:
-    return None if x is None or not math.isfinite(x) else float(x)
-
-
 def run_scene(
     scene: Scene,
     *,
@@ -229,9 +225,8 @@ def run_scene(
             **({"window": dns_window} if dns_window is not None else {}),
         )
         timings["dns"] = time.perf_counter() - t0
-        by_contact = {int(c): (float(p), bool(a)) for c, p, a in zip(res.contacts, res.peaks, res.alive)}
-        dns_peaks = [_clean(by_contact[c][0]) if by_contact[c][1] else None for c in contacts]
-        dns_alive = [by_contact[c][1] for c in contacts]
+        dns_peaks = on_contacts(contacts, res.contacts, res.peaks, res.alive)
+        dns_alive = [p is not None for p in dns_peaks]
         out["peaks"]["dns"] = dns_peaks
         out["dns"] = {
             "method": res.method, "rtol": res.rtol, "atol": res.atol, "beads": res.beads, "mode": res.mode,
@@ -242,8 +237,9 @@ def run_scene(
         if not all(dns_alive):
             dead = [c for c, a in zip(contacts, dns_alive) if not a]
             warnings.append(f"DNS: no live primary pulse at contacts {dead[0]}..{dead[-1]} ({res.stop_reason})")
-        if seed_contact >= 1 and by_contact.get(seed_contact, (None, False))[1]:
-            seed_peak = by_contact[seed_contact][0]
+        dns_seed = on_contacts([seed_contact], res.contacts, res.peaks, res.alive)[0]
+        if dns_seed is not None:
+            seed_peak = dns_seed
             out["dns"]["seed_peak"] = seed_peak  # peak at first_perturbed - 1, seeds map and law
 
     if reuse_dns is not None and "dns" not in methods:
@@ -306,8 +302,7 @@ def run_scene(
             else:
                 br = evaluate_balance_law(bmod, seed_A, float(seed_contact), contacts, float(pert.eps), prm)
             timings[m] = time.perf_counter() - t0
-            got = {int(c): (float(p) if p is not None else None) for c, p in zip(br.contacts, br.peaks)}
-            out["peaks"][m] = [_clean(got[c]) if got.get(c) is not None else None for c in contacts]
+            out["peaks"][m] = on_contacts(contacts, br.contacts, br.peaks)
             out[m] = {"model": MODEL_TITLES[m], "profile": br.profile, "status": br.status, "message": br.message,
                       "ended_at": br.ended_at, "law_kind": br.law_kind, "generated": bmod.__name__}
             if br.status != "ok":
@@ -316,8 +311,7 @@ def run_scene(
             t0 = time.perf_counter()
             mr = iterate_map(mod, seed_A, seed_contact, c1, float(pert.eps), prm)
             timings["map"] = time.perf_counter() - t0
-            got = {int(c): float(p) for c, p in zip(mr.contacts, mr.peaks)}
-            out["peaks"]["map"] = [got.get(c) for c in contacts]
+            out["peaks"]["map"] = on_contacts(contacts, mr.contacts, mr.peaks)
             out["map"] = {"model": MODEL_TITLES["map"], "variant": mr.variant, "profile": mr.profile, "status": mr.status,
                           "message": mr.message, "newton_fallbacks": mr.fallbacks,
                           "generated": mod.__name__}
@@ -342,7 +336,7 @@ def run_scene(
                 t0 = time.perf_counter()
                 law = evaluate_law(mod, seed_A, float(seed_contact), contacts, float(pert.eps), prm)
                 timings["longwave"] = time.perf_counter() - t0
-                out["peaks"]["longwave"] = [_clean(p) for p in law.peaks]
+                out["peaks"]["longwave"] = on_contacts(contacts, law.contacts, law.peaks)
                 out["longwave"] = {"model": MODEL_TITLES["longwave"], "kind": law.kind, "ended_at": law.ended_at,
                                    "ended": law.ended or None,
                                    "profile": choice.profile}
