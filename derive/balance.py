@@ -45,7 +45,8 @@ from .expansion import bead_symbol, exact_exponent
 from .expression import symbol
 from .integrals import DEFAULT_DPS, Constant, _scalar_funcs
 from .longwave import A0, I, I0, law_data, law_lines
-from .perturbation import Perturbation
+from .perturbation import Perturbation, param_data
+from .provenance import provenance
 from .profile import check_exponent, check_profile_kind, exact_profile, get_profile
 from .timebox import bounded
 
@@ -465,6 +466,19 @@ def map_equation(d: BalanceDerivation, numeric: bool = False) -> sympy.Eq:
     return sympy.Eq(K * a_i**d.expansion.Q, K * a_prev**d.expansion.Q + e * rate)
 
 
+def json_header(model: str, pert: Perturbation) -> dict:
+    """The first fields of every derivation's JSON (map or balance model): the model, provenance and
+    the perturbation (expression, R, eps, parameters)."""
+    return {
+        "model": model,
+        "provenance": provenance(),
+        "expression": pert.text,
+        "R": str(pert.R),
+        "eps": pert.eps,
+        "params": {k: param_data(v) for k, v in pert.params.items()},
+    }
+
+
 def to_json(d: BalanceDerivation) -> dict:
     """The balance derivation as JSON-serialisable data; ``model`` names it."""
     law = d.law
@@ -473,11 +487,8 @@ def to_json(d: BalanceDerivation) -> dict:
     wave = ({"E1": d.K, "K1": c["K1"], "V1": c["V1"], "kinetic_fraction": c["K1"] / d.K} if d.model == "energy"
             else {"p1": c["p1"]})
     return {
-        "model": d.model,
+        **json_header(d.model, d.perturbation),
         "title": model_title(d.model),
-        "expression": d.perturbation.text,
-        "R": str(d.perturbation.R),
-        "eps": d.perturbation.eps,
         "n": d.n,
         "profile": d.profile,
         "dps": d.dps,

@@ -19,8 +19,7 @@ from .amplitude_map import EPS, AmplitudeMap, check_variant, latex_names
 from .expansion import Expansion, expand
 from .integrals import DEFAULT_DPS, F_NAMES, constants
 from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, law_data, law_lines, longwave_law
-from .perturbation import Perturbation, param_data
-from .provenance import provenance
+from .perturbation import Perturbation
 from .profile import check_exponent, check_profile_kind, get_profile
 from .stationary import Stationary, StationaryError, stationary
 
@@ -178,12 +177,7 @@ def to_json(d: Derivation) -> dict:
                 {"param": x.param, "value": x.value, "A": x.A, "peak": x.peak, "kind": x.kind} for x in st.folds
             ]
     return {
-        "model": "map",
-        "provenance": provenance(),
-        "expression": pert.text,
-        "R": str(pert.R),
-        "eps": pert.eps,
-        "params": {k: param_data(v) for k, v in pert.params.items()},
+        **balance.json_header("map", pert),
         "n": d.n,
         "profile": d.profile,
         "variant": d.variant,

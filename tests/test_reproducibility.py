@@ -129,6 +129,7 @@ def test_run_output_records_what_produced_it(scene_file):
 
 
 def test_derive_and_profile_outputs_record_what_produced_them():
+    from derive.balance import derive_balance
     from derive.derivation import derive_all, to_json
     from derive.perturbation import make_perturbation
     from derive.provenance import provenance
@@ -138,6 +139,10 @@ def test_derive_and_profile_outputs_record_what_produced_them():
     assert d["provenance"] == provenance()
     assert (d["n"], d["profile"], d["variant"], d["dps"], d["sympy_seconds"]) == (1.5, "exact", "paper", 16, 0)
     assert d["params"] == {"mu": 2.0} and d["eps"] == 0.1
+    for model in ("energy", "momentum"):
+        b = round_trip(to_json(derive_balance(make_perturbation("-mu*v", 0.1, {"mu": 2.0}), model, sympy_seconds=0)))
+        assert b["provenance"] == provenance() and b["model"] == model
+        assert (b["params"], b["eps"], b["n"], b["profile"], b["dps"]) == ({"mu": 2.0}, 0.1, 1.5, "exact", 16)
     p = round_trip(profile_report(n=1.5, profile="pade"))
     assert p["provenance"] == provenance()
     assert (p["n"], p["profile"], p["dps"]) == (1.5, "pade", 30)
