@@ -35,10 +35,11 @@ def _phi(module, params):
 
 
 def roots(module: ModuleType, params: dict, lo: float = 1e-8, hi: float = 1e6, points: int = 3000) -> list[float]:
-    """Positive roots of Eq. 41 in [lo, hi]."""
+    """Positive roots of Eq. 41 in [lo, hi]: sign changes on a log grid, refined by brentq."""
     phi = _phi(module, params)
     grid = np.geomspace(lo, hi, points)
-    vals = np.array([phi(a) for a in grid])
+    # the generated code is numpy code: one call on the whole grid (a constant Phi comes back a scalar)
+    vals = np.broadcast_to(np.asarray(phi(grid), dtype=float), grid.shape)
     out = []
     for j in np.nonzero(np.sign(vals[:-1]) * np.sign(vals[1:]) < 0)[0]:
         out.append(brentq(phi, grid[j], grid[j + 1], xtol=1e-15 * grid[j + 1], rtol=1e-15))
