@@ -308,6 +308,22 @@ def make_solver(
     return cls(rhs, t0, y0, t_max, jac_sparsity=band_pattern(beads), **kw)
 
 
+def run_scipy(solver: _integrate.OdeSolver, on_step) -> tuple[float, Array, int, float]:
+    """Step a scipy OdeSolver until on_step says stop or the solver finishes.
+
+    ``on_step(t_old, y_old, t_new, y_new, dense_factory) -> bool`` is called after every
+    accepted step; True stops. Returns (t, y, nfev, last step size); a failed step raises
+    RuntimeError (same contract as window.run_fortran).
+    """
+    while True:
+        t_old, y_old = solver.t, solver.y.copy()
+        message = solver.step()
+        if solver.status == "failed":
+            raise RuntimeError(f"integrator failed at t={solver.t:.6g}: {message}")
+        if on_step(t_old, y_old, solver.t, solver.y.copy(), solver.dense_output) or solver.status != "running":
+            return solver.t, solver.y.copy(), int(solver.nfev), float(solver.step_size or 0.0)
+
+
 # ----------------------------------------------------------------------------- validation
 
 
@@ -438,28 +454,28 @@ def simulate(
     drift = 0.0
     wall_report = wall0
 
-    while True:
-        t_old, y_old = solver.t, solver.y.copy()
-        message = solver.step()
-        if solver.status == "failed":
-            track.reason = f"integrator failed at t={solver.t:.6g}: {message}"
-            break
-        y = solver.y
-        e = energy(y[0::2], y[1::2], exponent)
-        if track.check_state(solver.t, e, e0, ENERGY_BLOWUP):
-            break
+    def on_step(t_old: float, y_old: Array, t_new: float, y_new: Array, dense_factory) -> bool:
+        """Bookkeeping after one accepted step (energy every step); True stops the run."""
+        nonlocal drift, wall_report
+        e = energy(y_new[0::2], y_new[1::2], exponent)
+        if track.check_state(t_new, e, e0, ENERGY_BLOWUP):
+            return True
         drift = max(drift, abs(e - e0) / e0)
-        track.record(scan_step(y_old, y, t_old, solver.t, solver.dense_output, track.next_contact,
+        track.record(scan_step(y_old, y_new, t_old, t_new, dense_factory, track.next_contact,
                                last, track.threshold, peak_fraction))
-        if track.check_progress(solver.t, t_limit, budget):
-            break
-        if solver.status == "finished":
-            track.reason = f"t_max reached (t={solver.t:.6g}, next contact {track.next_contact})"
-            break
+        if track.check_progress(t_new, t_limit, budget):
+            return True
         if progress and _time.perf_counter() - wall_report > 2.0:
             wall_report = _time.perf_counter()
-            print(f"[dns] t={solver.t:.4g} contact {track.next_contact - 1}/{last} nfev={solver.nfev}",
+            print(f"[dns] t={t_new:.4g} contact {track.next_contact - 1}/{last} nfev={solver.nfev}",
                   file=sys.stderr)
+        return False
+
+    try:
+        run_scipy(solver, on_step)
+    except RuntimeError as err:
+        track.reason = str(err)
+    track.reason = track.reason or f"t_max reached (t={solver.t:.6g}, next contact {track.next_contact})"
 
     wall = _time.perf_counter() - wall0
     contacts_out, peaks, times, alive = track.outcome()

@@ -34,7 +34,8 @@ from typing import Callable
 import numpy as np
 import scipy.integrate as _integrate
 
-from solvers.dns import ENERGY_BLOWUP, DNSResult, energy, make_rhs, make_solver, velocity_scale
+from solvers.dns import (ENERGY_BLOWUP, DNSResult, energy, make_rhs, make_solver, run_scipy,
+                         velocity_scale)
 from solvers.peaks import PeakTracker, QuinticStep, scan_step
 
 Array = np.ndarray
@@ -250,17 +251,6 @@ def run_fortran(code, rhs, t0, y0, t_max, rtol, atol, first_step, on_step) -> tu
     if not r.successful() and r.get_return_code() != 2 and state["t"] < t_max:
         raise RuntimeError(f"integrator failed at t={state['t']:.6g} (code {r.get_return_code()})")
     return state["t"], state["y"], nfev, state["h"]
-
-
-def run_scipy(solver, on_step) -> tuple[float, Array, int, float]:
-    """Step a scipy OdeSolver until on_step says stop (same contract as run_fortran)."""
-    while True:
-        t_old, y_old = solver.t, solver.y.copy()
-        message = solver.step()
-        if solver.status == "failed":
-            raise RuntimeError(f"integrator failed at t={solver.t:.6g}: {message}")
-        if on_step(t_old, y_old, solver.t, solver.y.copy(), solver.dense_output) or solver.status != "running":
-            return solver.t, solver.y.copy(), int(solver.nfev), float(solver.step_size or 0.0)
 
 
 # ----------------------------------------------------------------------------- the run
