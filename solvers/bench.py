@@ -148,20 +148,19 @@ def reference_run(scene, rtol: float) -> dict:
 def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, methods, kind: str,
                log: Callable[[str], None]) -> list[Point]:
     """The DNS of the scene over the tolerance ladder for each method (window or full chain)."""
-    from solvers.dns import chain_length_for, simulate
-    from solvers.points import on_contacts
+    from solvers.dns import simulate
+    from solvers.points import dns_span, on_contacts
     from solvers.run import make_force
 
-    beads = scene.beads or chain_length_for(scene.contacts[1])
+    beads, span = dns_span(scene)
     force = make_force(scene, beads)
-    first = min(scene.contacts[0], max(1, scene.first_perturbed - 1))
     mode = "window" if window else "full"
     out = []
     for method in methods:
         for rtol in ladder.rtols:
             def run(method=method, rtol=rtol):
-                res = simulate(beads, scene.exponent, scene.velocity, (first, scene.contacts[1]), force,
-                               method=method, window=window, **tolerances(scene, rtol))
+                res = simulate(beads, scene.exponent, scene.velocity, span, force, method=method, window=window,
+                               **tolerances(scene, rtol))
                 return res, res.wall_time_s
 
             res, best = best_of(run, ladder.repeats)
@@ -183,13 +182,12 @@ def script_points(scene, contacts: list[int], ref: list, ladder: Ladder,
     times (dt scaled by the contact time v0^(-(n-1)/(n+1)), so extreme v0 get the same grid).
     """
     from solvers.baselines import baseline_script, script_force
-    from solvers.dns import chain_length_for, contact_rate, simulate
-    from solvers.points import on_contacts
+    from solvers.dns import contact_rate, simulate
+    from solvers.points import dns_span, on_contacts
     from solvers.run import make_force
 
-    beads = scene.beads or chain_length_for(scene.contacts[1])
-    first = min(scene.contacts[0], max(1, scene.first_perturbed - 1))
-    probe = simulate(beads, scene.exponent, scene.velocity, (first, scene.contacts[1]), make_force(scene, beads),
+    beads, span = dns_span(scene)
+    probe = simulate(beads, scene.exponent, scene.velocity, span, make_force(scene, beads),
                      window="auto", **tolerances(scene, 1e-8))
     contact_time = 1.0 / contact_rate(scene.velocity, scene.exponent)
     t_end = float(np.nanmax(probe.peak_times[probe.alive])) + 3.0 * contact_time
@@ -203,7 +201,7 @@ def script_points(scene, contacts: list[int], ref: list, ladder: Ladder,
         segment = None if 2 * beads * samples <= ladder.max_samples else max(16, int(ladder.max_samples / (2 * beads)))
 
         def run(rtol=rtol, dt_s=dt_s, segment=segment):
-            res = baseline_script(beads, scene.exponent, scene.velocity, (first, scene.contacts[1]), force_py,
+            res = baseline_script(beads, scene.exponent, scene.velocity, span, force_py,
                                   rtol=rtol, atol=tolerances(scene, rtol)["atol"], dt_sample=dt_s, t_end=t_end,
                                   segment_samples=segment)
             return res, res.wall_time_s
@@ -252,12 +250,12 @@ def model_points(scene, reference: dict, ref: list, ladder: Ladder, log: Callabl
 
 def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = lambda s: None) -> dict:
     """Work-precision report of one scene (JSON-able; see the module docstring)."""
-    from solvers.dns import chain_length_for
+    from solvers.points import dns_span
 
     wall0 = time.perf_counter()
     c0, c1 = scene.contacts
     contacts = list(range(c0, c1 + 1))
-    beads = scene.beads or chain_length_for(c1)
+    beads, _ = dns_span(scene)
     log(f"scene {scene.name}: R = {scene.perturbation.text}, eps = {scene.perturbation.eps:g}, "
         f"v0 = {scene.velocity:g}, n = {scene.exponent:g}, {beads} beads, contacts {c0}..{c1}")
     reference = reference_run(scene, ladder.reference_rtol)

@@ -18,7 +18,8 @@ import numpy as np
 from solvers.dns import OnSiteForce, chain_length_for, simulate
 from solvers.sweep import SweepError, generated_ref, load_generated
 
-__all__ = ["bead_params", "chain_force", "dns_map_task", "dns_task", "on_contacts", "plain_chain", "random_params"]
+__all__ = ["bead_params", "chain_force", "dns_map_task", "dns_span", "dns_task", "on_contacts", "plain_chain",
+           "random_params"]
 
 
 # ----------------------------------------------------------------------------- parent side
@@ -43,6 +44,14 @@ def random_params(scene) -> list[str]:
     return sorted(n for n in pert.used_parameters if isinstance(pert.params[n], RandomDraw))
 
 
+def dns_span(scene) -> tuple[int, tuple[int, int]]:
+    """(beads, (first, last)) of a scene's DNS: the scene's chain length, else chain_length_for(last),
+    and the contacts it tracks, from the map's seed contact first_perturbed - 1 (or the first
+    reported contact, if earlier) to the last reported one."""
+    c0, c1 = scene.contacts
+    return scene.beads or chain_length_for(c1), (min(c0, scene.first_perturbed - 1), c1)
+
+
 def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, variant: str | None = None,
                 window: "int | str | None" = None, rtol: float | None = None) -> dict:
     """The scene as the plain dict the tasks take; generates the modules it needs (parent only).
@@ -53,16 +62,14 @@ def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, va
     from solvers.codeload import force_module, map_module
 
     pert = scene.perturbation
-    c0, c1 = scene.contacts
-    beads = scene.beads or chain_length_for(c1)
-    first = max(1, min(c0, scene.first_perturbed - 1))
+    beads, (first, last) = dns_span(scene)
     out = {
         "exponent": float(scene.exponent),
         "first_perturbed": int(scene.first_perturbed),
         "velocity": float(scene.velocity),
         "eps": float(pert.eps),
         "beads": int(beads),
-        "contacts": [int(first), int(c1)],
+        "contacts": [int(first), int(last)],
         "params": {name: _param_data(pert, name, beads) for name in pert.used_parameters},
         "dns": {"rtol": float(rtol if rtol is not None else scene.dns["rtol"]), "atol": float(scene.dns["atol"]),
                 "method": str(scene.dns["method"]), "window": window},

@@ -21,10 +21,10 @@ from derive.provenance import provenance
 from solvers import __version__
 from solvers.balance_eval import evaluate_balance_law, iterate_balance_map
 from solvers.codeload import balance_module, force_module, map_module
-from solvers.dns import OnSiteForce, chain_length_for, simulate
+from solvers.dns import OnSiteForce, simulate
 from solvers.longwave_eval import evaluate_law
 from solvers.map_iteration import contact_params, eps0_ratio, iterate_map
-from solvers.points import chain_force, on_contacts
+from solvers.points import chain_force, dns_span, on_contacts
 from solvers.scene import METHODS, PROFILES, VARIANTS, Scene, SceneError, check_choice
 from solvers.sweep import SweepError
 
@@ -212,14 +212,13 @@ def run_scene(
     # ---------------------------------------------------------------- DNS
     dns_peaks = dns_alive = None
     if "dns" in methods:
-        beads = scene.beads or chain_length_for(c1)
+        beads, span = dns_span(scene)
         t0 = time.perf_counter()
         force = make_force(scene, beads)
         timings["derive_force"] = time.perf_counter() - t0
-        first = min(c0, seed_contact) if seed_contact >= 1 else c0
         t0 = time.perf_counter()
         res = simulate(
-            beads, scene.exponent, scene.velocity, (first, c1), force,
+            beads, scene.exponent, scene.velocity, span, force,
             method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
             atol=float(scene.dns.get("atol", 1e-12)), progress=progress,
             **({"window": dns_window} if dns_window is not None else {}),
