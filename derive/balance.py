@@ -40,10 +40,9 @@ from typing import Callable, Iterable
 import mpmath
 import sympy
 
-from . import cache
 from .expansion import bead_symbol, exact_exponent
 from .expression import symbol
-from .integrals import DEFAULT_DPS, Constant, _scalar_funcs
+from .integrals import DEFAULT_DPS, Constant, _scalar_funcs, cached_constants
 from .longwave import A0, I, I0, law_data, law_lines
 from .perturbation import Perturbation, param_data
 from .provenance import provenance
@@ -139,6 +138,14 @@ def _compute(profile, name: str, dps: int, L: int) -> tuple[float, float]:
     return value, err
 
 
+def _compute_bounded(prof, name: str, dps: int) -> tuple[float, float]:
+    """The integral over |tau| <= L and its error bound: the exact profile is known to accuracy * S0
+    pointwise, and the integrand sums 2L + 1 shifted copies of it."""
+    L = window(prof.n)
+    value, err = _compute(prof, name, dps, L)
+    return value, abs(err) + ((2 * L + 1) * prof.accuracy * prof.S0 * max(1.0, abs(value)) if prof.kind == "exact" else 0.0)
+
+
 def _cache_key(profile, dps: int, L: int) -> str:
     return f"balance-v{BALANCE_METHOD}|{profile.kind}|n={profile.n!r}|dps={dps}|L={L}"
 
@@ -150,27 +157,9 @@ def balance_constants(
 
     Computed on demand with mpmath and cached on disk, keyed by (n, profile, dps, window).
     """
-    prof = get_profile(profile, n)
-    dps = int(dps if dps is not None else DEFAULT_DPS[prof.kind])
-    if dps < 10 or dps > 200:
-        raise BalanceError(f"precision dps={dps} out of range: use 10 <= dps <= 200")
-    wanted = list(dict.fromkeys(names))
-    for name in wanted:
-        _parse_name(name)
-    L = window(prof.n)
-    key = _cache_key(prof, dps, L)
-    table = (cache.load("balance", key) or {}) if use_cache else {}
-    missing = [name for name in wanted if name not in table]
-    for name in missing:
-        value, err = _compute(prof, name, dps, L)
-        # the exact profile is known to accuracy * S0 pointwise; a sum of 2L + 1 shifted copies
-        err_total = abs(err) + ((2 * L + 1) * prof.accuracy * prof.S0 * max(1.0, abs(value)) if prof.kind == "exact" else 0.0)
-        table[name] = [value, err_total]
-    if missing and use_cache:
-        fresh = cache.load("balance", key) or {}
-        fresh.update(table)
-        cache.store("balance", key, fresh)
-    return {name: Constant(name, table[name][0], table[name][1], prof.kind, prof.n, dps) for name in wanted}
+    return cached_constants("balance", names, n=n, profile=profile, dps=dps, use_cache=use_cache,
+                            key=lambda prof, dps: _cache_key(prof, dps, window(prof.n)),
+                            check_name=_parse_name, compute=_compute_bounded, error=BalanceError)
 
 
 # ------------------------------------------------------------------------- expansion

@@ -168,6 +168,57 @@ def _cache_key(profile: Profile, dps: int) -> str:
     return f"v{METHOD_VERSION}|{profile.kind}|n={profile.n!r}|dps={dps}"
 
 
+def cached_constants(
+    namespace: str,
+    names: Iterable[str],
+    *,
+    n: float,
+    profile: str,
+    dps: int | None,
+    use_cache: bool,
+    key: Callable[[Profile, int], str],
+    check_name: Callable[[str], object],
+    compute: Callable[[Profile, str, int], tuple[float, float]],
+    error: type[Exception],
+) -> dict[str, Constant]:
+    """Constants ``names`` from the cache table ``key(profile, dps)`` in ``namespace``; the missing
+    ones computed as (value, error bound) by ``compute`` and stored. Every name is checked by
+    ``check_name`` before any work; a bad dps raises ``error``."""
+    prof = get_profile(profile, n)
+    dps = int(dps if dps is not None else DEFAULT_DPS[prof.kind])
+    if dps < 10 or dps > 200:
+        raise error(f"precision dps={dps} out of range: use 10 <= dps <= 200")
+    wanted = list(dict.fromkeys(names))
+    for name in wanted:
+        check_name(name)
+    table_key = key(prof, dps)
+    table = (cache.load(namespace, table_key) or {}) if use_cache else {}
+    missing = [name for name in wanted if name not in table]
+    for name in missing:
+        table[name] = list(compute(prof, name, dps))
+    if missing and use_cache:
+        fresh = cache.load(namespace, table_key) or {}
+        fresh.update(table)
+        cache.store(namespace, table_key, fresh)
+    return {name: Constant(name, table[name][0], table[name][1], prof.kind, prof.n, dps) for name in wanted}
+
+
+def _check_name(name: str) -> None:
+    if name not in F_NAMES:
+        if name.startswith("g1_"):
+            _parse_indices(name, 4)
+        elif name.startswith("g2_"):
+            _parse_indices(name, 2)
+        else:
+            raise IntegralError(f"unknown integral {name!r}: use f1..f7, g1_klmq or g2_pr")
+
+
+def _compute_bounded(prof: Profile, name: str, dps: int) -> tuple[float, float]:
+    """The integral and its error bound: the exact profile is known to accuracy * S0 pointwise."""
+    value, err = _compute(prof, name, dps)
+    return value, abs(err) + (prof.accuracy * prof.S0 * max(1.0, abs(value)) if prof.kind == "exact" else 0.0)
+
+
 def constants(
     names: Iterable[str],
     *,
@@ -180,35 +231,8 @@ def constants(
 
     Only the names asked for are computed; values already in the cache cost a file read.
     """
-    prof = get_profile(profile, n)
-    dps = int(dps if dps is not None else DEFAULT_DPS[prof.kind])
-    if dps < 10 or dps > 200:
-        raise IntegralError(f"precision dps={dps} out of range: use 10 <= dps <= 200")
-    wanted = list(dict.fromkeys(names))
-    for name in wanted:  # validate all names before any work
-        if name not in F_NAMES:
-            if name.startswith("g1_"):
-                _parse_indices(name, 4)
-            elif name.startswith("g2_"):
-                _parse_indices(name, 2)
-            else:
-                raise IntegralError(f"unknown integral {name!r}: use f1..f7, g1_klmq or g2_pr")
-    key = _cache_key(prof, dps)
-    table = (cache.load("integrals", key) or {}) if use_cache else {}
-    missing = [name for name in wanted if name not in table]
-    for name in missing:
-        value, err = _compute(prof, name, dps)
-        # The exact profile is known to prof.accuracy * S0 pointwise; bound its effect.
-        err_total = abs(err) + (prof.accuracy * prof.S0 * max(1.0, abs(value)) if prof.kind == "exact" else 0.0)
-        table[name] = [value, err_total]
-    if missing and use_cache:
-        fresh = cache.load("integrals", key) or {}
-        fresh.update(table)
-        cache.store("integrals", key, fresh)
-    return {
-        name: Constant(name, table[name][0], table[name][1], prof.kind, prof.n, dps)
-        for name in wanted
-    }
+    return cached_constants("integrals", names, n=n, profile=profile, dps=dps, use_cache=use_cache, key=_cache_key,
+                            check_name=_check_name, compute=_compute_bounded, error=IntegralError)
 
 
 def g1(k: int, l: int, m: int, q: int, **kw) -> Constant:
