@@ -87,23 +87,11 @@ def entry_peak(result: dict, first_perturbed: int) -> float | None:
 # ----------------------------------------------------------------------------- prediction
 
 
-def _stability(module, root_A: float, eps: float, params: dict) -> tuple[float | None, bool | None]:
-    from solvers.stationary_shock import map_fixed_point, multiplier
-
-    fp = root_A if module.VARIANT == "1d" else map_fixed_point(module, root_A, eps, params)
-    if fp is None:
-        return None, None
-    lam = multiplier(module, fp, eps, params)
-    if not math.isfinite(lam):
-        return None, None
-    return float(lam), bool(abs(lam) < 1)
-
-
 def predict(scene, name: str, lo: float, hi: float, points: int = 61, profile: str = "exact",
             variant: str = "1d") -> dict:
     """Roots of Eq. 41 over name in [lo, hi] with their stability, and the fold(s) in the range."""
     from solvers.codeload import map_module
-    from solvers.stationary_shock import continue_roots
+    from solvers.stationary_shock import continue_roots, stability
 
     pert = scene.perturbation
     mod = map_module(pert.text, pert.used_parameters, scene.exponent, profile, variant, pert.site_dependent)
@@ -115,7 +103,7 @@ def predict(scene, name: str, lo: float, hi: float, points: int = 61, profile: s
         prm = {**base, name: float(value)}
         rows = []
         for a in roots:
-            lam, stable = _stability(mod, a, float(pert.eps), prm)
+            _, lam, stable = stability(mod, a, float(pert.eps), prm)
             rows.append({"A": float(a), "peak": float(a) * S0, "multiplier": lam, "stable": stable})
         branches.append({"value": float(value), "roots": rows})
     folds = [{"value": float(p), "A": float(a), "peak": float(a) * S0} for p, a in cont.folds]

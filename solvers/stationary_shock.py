@@ -29,8 +29,13 @@ class StationaryRoot:
     stable: bool | None
 
 
+def _args(module: ModuleType, params: dict) -> tuple:
+    """The generated functions' parameter arguments for a uniform chain (scalar parameters)."""
+    return contact_params(module, params, 10**6)
+
+
 def _phi(module, params):
-    args = tuple(params[name] for name in module.PARAMS)
+    args = _args(module, params)
     return lambda a: module.stationary(a, *args)[0]
 
 
@@ -48,7 +53,7 @@ def roots(module: ModuleType, params: dict, lo: float = 1e-8, hi: float = 1e6, p
 
 def multiplier(module: ModuleType, a: float, eps: float, params: dict) -> float:
     """dA_i/dA_{i-1} of the map at A_{i-1} = A_i (= A_{i+1}) = a."""
-    args = contact_params(module, params, 10**6)
+    args = _args(module, params)
     sol, _ = step(module, a, eps, args)
     if sol is None:
         return math.nan
@@ -62,7 +67,7 @@ def multiplier(module: ModuleType, a: float, eps: float, params: dict) -> float:
 
 def map_fixed_point(module: ModuleType, guess: float, eps: float, params: dict) -> float | None:
     """A with map(A) = A near ``guess`` (the paper's map is shifted from Eq. 41's root)."""
-    args = contact_params(module, params, 10**6)
+    args = _args(module, params)
 
     def g(a):
         sol, _ = step(module, a, eps, args)
@@ -76,14 +81,21 @@ def map_fixed_point(module: ModuleType, guess: float, eps: float, params: dict) 
     return None
 
 
+def stability(module: ModuleType, root: float, eps: float, params: dict) -> tuple[float | None, float | None, bool | None]:
+    """(fixed point of the map near a root of Eq. 41, its multiplier, stable = |multiplier| < 1);
+    None where there is no fixed point or no finite multiplier."""
+    fp = root if module.VARIANT == "1d" else map_fixed_point(module, root, eps, params)
+    if fp is None:
+        return None, None, None
+    lam = multiplier(module, fp, eps, params)
+    if not math.isfinite(lam):
+        return fp, None, None
+    return fp, float(lam), bool(abs(lam) < 1)
+
+
 def analyse(module: ModuleType, eps: float, params: dict) -> list[StationaryRoot]:
     """Roots of Eq. 41 with the map's fixed point and multiplier near each."""
-    out = []
-    for r in roots(module, params):
-        fp = r if module.VARIANT == "1d" else map_fixed_point(module, r, eps, params)
-        lam = multiplier(module, fp, eps, params) if fp is not None else None
-        out.append(StationaryRoot(r, r * module.S0, fp, lam, None if lam is None else abs(lam) < 1))
-    return out
+    return [StationaryRoot(r, r * module.S0, *stability(module, r, eps, params)) for r in roots(module, params)]
 
 
 def is_fold(count_before: int, count_after: int) -> bool:
@@ -121,7 +133,7 @@ def refine_fold(module: ModuleType, params: dict, name: str, p0: float, a0: floa
     p, x = float(p0), math.log(a0)
     for _ in range(100):
         prm = {**params, name: p}
-        args = tuple(prm[k] for k in module.PARAMS)
+        args = _args(module, prm)
         a = math.exp(x)
         phi, dphi = module.stationary(a, *args)
         # second equation: a dPhi/dA; derivatives by central differences of the generated code
@@ -133,8 +145,8 @@ def refine_fold(module: ModuleType, params: dict, name: str, p0: float, a0: floa
         phi_x = a * dphi
         dp = module.stationary_dparam(a, *args)[name]
         hp = 1e-7 * max(1.0, abs(p))
-        args_p = tuple({**prm, name: p + hp}[k] for k in module.PARAMS)
-        args_m = tuple({**prm, name: p - hp}[k] for k in module.PARAMS)
+        args_p = _args(module, {**prm, name: p + hp})
+        args_m = _args(module, {**prm, name: p - hp})
         g_p = a * (module.stationary(a, *args_p)[1] - module.stationary(a, *args_m)[1]) / (2 * hp)
         det = phi_x * g_p - dp * g_x
         if det == 0:
