@@ -189,30 +189,29 @@ def cmd_generate(args: argparse.Namespace) -> int:
     for name in names:
         scene = load_scene(name)
         pert = scene.perturbation
+        profile = args.profile or scene.profile
         sources = []
         if "dns" in scene.methods:
             sources.append(codegen.force_source(pert.text, pert.used_parameters))
         if "map" in scene.methods or "longwave" in scene.methods:
-            sources.append(codegen.map_source(pert.text, pert.used_parameters, scene.exponent,
-                                              args.profile or scene.profile, args.variant or scene.variant,
-                                              scene.perturbation.site_dependent))
+            sources.append(codegen.map_source(pert.text, pert.used_parameters, scene.exponent, profile,
+                                              args.variant or scene.variant, pert.site_dependent))
         for model in ("energy", "momentum"):  # tiny; the ranking table (pulsemap table) uses them
-            src = codegen.balance_source(pert.text, pert.used_parameters, scene.exponent,
-                                         args.profile or scene.profile, model, pert.site_dependent)
-            try:
-                codegen.generate_balance(src)
-            except ValueError as exc:  # the model is undefined for this R
-                if codegen.module_name(src) not in written:
-                    print(f"no {model}-balance module for {name}: {exc}")
-                    written.add(codegen.module_name(src))
-                continue
-            sources.append(src)
+            sources.append(codegen.balance_source(pert.text, pert.used_parameters, scene.exponent, profile, model,
+                                                  pert.site_dependent))
         for src in sources:
             key = codegen.module_name(src)
-            if key not in written:
+            if key in written:
+                continue
+            written.add(key)
+            try:  # write() builds the text before it touches the disk: a refused model writes no file
                 path = codegen.write(src, args.into or codegen.PACKAGE_DIR)
-                written.add(key)
-                print(f"{path}  <- {name}")
+            except ValueError as exc:
+                if not isinstance(src, codegen.BalanceSource):
+                    raise
+                print(f"no {src.model}-balance module for {name}: {exc}")  # the model is undefined for this R
+                continue
+            print(f"{path}  <- {name}")
     return 0
 
 
