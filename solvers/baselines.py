@@ -21,6 +21,8 @@ from typing import Callable
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from solvers.peaks import contact_rate, velocity_scale
+
 
 @dataclass(frozen=True)
 class BaselineResult:
@@ -119,14 +121,13 @@ def baseline_script(
     the peaks are the same as in one call.
     """
     first, last = int(contacts[0]), int(contacts[1])
-    rate = velocity ** ((exponent - 1.0) / (exponent + 1.0))
     if t_end is None:
-        t_end = (5.0 + 1.25 * last) / rate
+        t_end = (5.0 + 1.25 * last) / contact_rate(velocity, exponent)
     grid = np.arange(0.0, t_end + 0.5 * dt_sample, dt_sample)
     y0 = np.zeros(2 * beads)
     y0[beads] = velocity
     rhs = script_rhs(beads, exponent, force_py)
-    thr = 1e-2 * velocity ** (2.0 / (exponent + 1.0))
+    thr = 1e-2 * velocity_scale(velocity, exponent)
     wall0 = _time.perf_counter()
     if segment_samples is None:
         sol = solve_ivp(rhs, (0.0, grid[-1]), y0, method="RK45", t_eval=grid, rtol=rtol, atol=atol)

@@ -20,7 +20,8 @@ import numpy as np
 import scipy.integrate as _integrate
 from scipy import sparse
 
-from solvers.peaks import PeakTracker, scan_step
+# velocity_scale is re-exported: callers import it from solvers.dns
+from solvers.peaks import PeakTracker, contact_rate, scan_step, velocity_scale  # noqa: F401
 
 if TYPE_CHECKING:  # pragma: no cover
     from solvers.window import WindowRule
@@ -106,16 +107,6 @@ def energy(x: Array, v: Array, exponent: float) -> float:
     """Kinetic plus contact energy of Eq. 1: sum v^2/2 + sum (x_i - x_{i+1})_+^(n+1)/(n+1)."""
     d = np.maximum(np.asarray(x[:-1]) - np.asarray(x[1:]), 0.0)
     return float(0.5 * np.dot(v, v) + np.sum(d ** (exponent + 1.0)) / (exponent + 1.0))
-
-
-def velocity_scale(velocity: float, exponent: float) -> float:
-    """Strain scale v0^(2/(n+1)) set by homogeneity of Eq. 1."""
-    return velocity ** (2.0 / (exponent + 1.0))
-
-
-def contact_rate(velocity: float, exponent: float) -> float:
-    """Contact frequency ~ A^s, s = (n-1)/2, with A from the velocity scale."""
-    return velocity_scale(velocity, exponent) ** ((exponent - 1.0) / 2.0)
 
 
 def choose_method(force: OnSiteForce | None, velocity: float, exponent: float) -> str:

@@ -13,6 +13,7 @@ import numpy as np
 
 from derive import cache
 from solvers.dns import chain_length_for, simulate
+from solvers.peaks import velocity_scale
 
 NAMESPACE = "kappa"
 FIRST_CONTACT = 30
@@ -75,7 +76,7 @@ def peak_from_velocity(v0: float, exponent: float) -> float:
     """Formed solitary-wave peak strain for impact velocity v0: kappa_n v0^(2/(n+1))."""
     if not (np.isfinite(v0) and v0 > 0.0):
         raise ValueError(f"v0 must be a finite number > 0, got {v0!r}")
-    return kappa(exponent) * v0 ** (2.0 / (exponent + 1.0))
+    return kappa(exponent) * velocity_scale(v0, exponent)
 
 
 def velocity_from_peak(peak: float, exponent: float) -> float:

@@ -37,9 +37,19 @@ def strain_rate(y: np.ndarray, k: int) -> float:
     return float(y[2 * k - 1] - y[2 * k + 1])
 
 
+def velocity_scale(velocity: float, exponent: float) -> float:
+    """Strain scale v0^(2/(n+1)) set by homogeneity of Eq. 1."""
+    return velocity ** (2.0 / (exponent + 1.0))
+
+
+def contact_rate(velocity: float, exponent: float) -> float:
+    """Contact frequency ~ A^s, s = (n-1)/2, with A = velocity_scale: v0^((n-1)/(n+1))."""
+    return velocity ** ((exponent - 1.0) / (exponent + 1.0))
+
+
 def first_threshold(velocity: float, exponent: float, fraction: float) -> float:
     """Threshold for contact 1: fraction of the v0 scale v0^(2/(n+1)) (homogeneity of Eq. 1)."""
-    return fraction * velocity ** (2.0 / (exponent + 1.0))
+    return fraction * velocity_scale(velocity, exponent)
 
 
 def is_falling_crossing(rate_old: float, rate_new: float) -> bool:
@@ -246,10 +256,10 @@ class PeakTracker:
     def start(cls, first: int, last: int, velocity: float, exponent: float, *, peak_fraction: float,
               death_fraction: float, overtake_factor: float, stall_factor: float) -> "PeakTracker":
         """Tracker at t = 0; the first stall window is stall_factor contact times (~A^-s)."""
-        rate = velocity ** ((exponent - 1.0) / (exponent + 1.0))
         return cls(first, last, peak_fraction, death_fraction, overtake_factor, stall_factor,
                    np.full(last, np.nan), np.full(last, np.nan),
-                   first_threshold(velocity, exponent, peak_fraction), stall_factor / rate)
+                   first_threshold(velocity, exponent, peak_fraction),
+                   stall_factor / contact_rate(velocity, exponent))
 
     def record(self, found: list[Peak], offset: int = 0) -> None:
         """Store peaks found in one step (contacts relative to ``offset``); stop at a lost pulse."""

@@ -34,9 +34,8 @@ from typing import Callable
 import numpy as np
 import scipy.integrate as _integrate
 
-from solvers.dns import (ENERGY_BLOWUP, DNSResult, energy, make_rhs, make_solver, run_scipy,
-                         velocity_scale)
-from solvers.peaks import PeakTracker, QuinticStep, scan_step
+from solvers.dns import ENERGY_BLOWUP, DNSResult, energy, make_rhs, make_solver, run_scipy
+from solvers.peaks import PeakTracker, QuinticStep, scan_step, velocity_scale
 
 Array = np.ndarray
 BOUNDARIES = ("coast", "free")
