@@ -128,11 +128,6 @@ def read_rows(path: str | os.PathLike) -> dict[str, dict]:
     return read_keyed(path, required=("scene",))
 
 
-def append_row(path: str | os.PathLike, row: dict) -> None:
-    """Append one row to the JSON-lines file (ending a line cut short first) and flush it to disk."""
-    append_record(path, row, sync=True)
-
-
 def table(names=None, progress: bool = False, rows_file: str | os.PathLike | None = None,
           fresh: bool = False, columns=COLUMNS, eps: float | None = None) -> list[dict]:
     """Rows for ``names`` (default: every built-in scene), reusing finished rows of ``rows_file``.
@@ -158,8 +153,8 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
         if progress:
             print(f"table: {name} ...", file=sys.stderr, flush=True)
         row = scene_row(name, columns=columns, eps=eps)
-        if rows_file is not None:
-            append_row(rows_file, row)
+        if rows_file is not None:  # repairs a line cut short first, flushed to disk
+            append_record(rows_file, row)
         rows.append(row)
     return rows
 
