@@ -40,7 +40,7 @@ from typing import Callable, Iterable
 import mpmath
 import sympy
 
-from .expansion import bead_symbol, exact_exponent
+from .expansion import bead_symbol, check_polynomial_at_rest, exact_exponent
 from .expression import symbol
 from .integrals import DEFAULT_DPS, Constant, _scalar_funcs, cached_constants
 from .longwave import A0, I, I0, law_data, law_lines
@@ -217,23 +217,12 @@ class BalanceExpansion:
         return total
 
 
-def _check_polynomial(R: sympy.Expr, model: str) -> None:
-    u, v = symbol("u"), symbol("v")
-    if not R.is_polynomial(u, v):
-        raise BalanceError(
-            f"R = {R} is not a polynomial in u, v: the {model} balance integrates R term by term; "
-            "Taylor-expand it (e.g. sin(u) -> u - u**3/6)"
-        )
-    if sympy.simplify(R.xreplace({u: 0, v: 0})) != 0:
-        raise BalanceError(f"R(0, 0) = {R.xreplace({u: 0, v: 0})} is not zero: a constant force moves the chain before the pulse; subtract it from R")
-
-
 def balance_expand(R: sympy.Expr, n: float | sympy.Rational = 1.5, model: str = "energy", site_dependent: Iterable[str] = ()) -> BalanceExpansion:
     """Expand R = sum c_ab u^a v^b into the work (energy) or impulse (momentum) terms of the model."""
     check_model(model)
     n_exact = exact_exponent(n)
     site = tuple(sorted(site_dependent))
-    _check_polynomial(R, model)
+    check_polynomial_at_rest(R, f"the {model} balance integrates R term by term", f"the {model} balance's integrals", BalanceError)
     u, v = symbol("u"), symbol("v")
     R_i = R.xreplace({symbol(name): bead_symbol(name, 0) for name in site}) if site else R
     s = (n_exact - 1) / 2

@@ -20,7 +20,7 @@ from typing import Iterable
 
 import sympy
 
-from .expression import symbol
+from .expression import is_polynomial_in_state, symbol
 from .integrals import g1_name, g2_name
 
 #: The ansatz symbols: delta_i, delta_{i+1}, delta_i', delta_{i+1}'.
@@ -98,23 +98,21 @@ def _at_bead(R: sympy.Expr, offset: int, site_dependent: Iterable[str]) -> sympy
     return R.xreplace(sub) if sub else R
 
 
-def _check_polynomial(R: sympy.Expr) -> None:
+def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str, error: type[ValueError] = ExpansionError) -> None:
+    """R must be a polynomial in u, v (Eq. 10) that vanishes at rest; else ``error`` saying what
+    ``needs`` the polynomial and which ``integrals`` a constant force makes diverge."""
     u, v = symbol("u"), symbol("v")
-    if not R.is_polynomial(u, v):
-        bad = [
-            a
-            for a in sympy.Add.make_args(sympy.expand(R))
-            if not a.is_polynomial(u, v)
-        ]
-        raise ExpansionError(
-            f"R = {R} is not a polynomial in u, v (term {bad[0] if bad else R}): the map of "
-            "Eq. 23 needs polynomial R (Eq. 10); Taylor-expand it (e.g. sin(u) -> u - u**3/6)"
+    if not is_polynomial_in_state(R):
+        bad = [a for a in sympy.Add.make_args(sympy.expand(R)) if not is_polynomial_in_state(a)]
+        raise error(
+            f"R = {R} is not a polynomial in u, v (term {bad[0] if bad else R}): {needs}; "
+            "Taylor-expand it (e.g. sin(u) -> u - u**3/6)"
         )
     at_rest = sympy.simplify(R.xreplace({u: 0, v: 0}))
     if at_rest != 0:
-        raise ExpansionError(
+        raise error(
             f"R(0, 0) = {at_rest} is not zero: a constant on-site force moves the chain before "
-            "the pulse arrives and makes the integrals of Eq. 23 diverge; subtract it from R"
+            f"the pulse arrives and makes {integrals} diverge; subtract it from R"
         )
 
 
@@ -124,7 +122,7 @@ def expand(
     """Expand R (polynomial in u, v) into the monomials of Eq. 23 for exponent n."""
     n_exact = exact_exponent(n)
     site = tuple(sorted(site_dependent))
-    _check_polynomial(R)
+    check_polynomial_at_rest(R, "the map of Eq. 23 needs polynomial R (Eq. 10)", "the integrals of Eq. 23")
     u, v = symbol("u"), symbol("v")
     r_i = _at_bead(R, 0, site)
     r_ip1 = _at_bead(R, 1, site)
