@@ -80,9 +80,14 @@ def write_json(path: str, payload: dict) -> None:
         fh.write("\n")
 
 
+def progress_enabled() -> bool:
+    """Progress is shown only when stderr is a terminal."""
+    return sys.stderr.isatty()
+
+
 def progress_log() -> Callable[[str], None]:
     """Progress lines to stderr when it is a terminal; otherwise a no-op."""
-    if sys.stderr.isatty():
+    if progress_enabled():
         return lambda s: print(s, file=sys.stderr, flush=True)
     return lambda s: None
 
@@ -135,7 +140,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------------- run
 def cmd_run(args: argparse.Namespace) -> int:
     """``pulsemap run SCENE``: DNS, map and long-wave peaks per contact, errors, timings."""
-    from solvers.run import plot, progress_enabled, run_scene, to_csv, to_text
+    from solvers.run import plot, run_scene, to_csv, to_text
     from solvers.scene import load_scene
 
     scene = load_scene(args.scene)

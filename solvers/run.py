@@ -9,7 +9,6 @@ the DNS peak at the last unperturbed contact (first_perturbed - 1), converted by
 from __future__ import annotations
 
 import math
-import sys
 import time
 from dataclasses import dataclass
 from types import ModuleType
@@ -453,7 +452,3 @@ def plot(result: dict, path: str) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
-
-
-def progress_enabled() -> bool:
-    return sys.stderr.isatty()
