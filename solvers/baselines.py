@@ -79,14 +79,11 @@ def grid_peaks(delta: np.ndarray, times: np.ndarray, first_threshold: float,
     when = np.full(m, np.nan)
     threshold, t_floor = first_threshold, -np.inf
     for k in range(m):
-        d = delta[k]
-        inner = (d[1:-1] > d[:-2]) & (d[1:-1] >= d[2:]) & (d[1:-1] > threshold) & (times[1:-1] >= t_floor)
-        idx = np.flatnonzero(inner)
-        if len(idx) == 0:
+        j = first_maximum(delta[k], times, threshold, t_floor)
+        if j is None:
             break
-        j = idx[0] + 1
-        peaks[k], when[k] = d[j], times[j]
-        threshold, t_floor = fraction * d[j], times[j]
+        peaks[k], when[k] = delta[k, j], times[j]
+        threshold, t_floor = fraction * delta[k, j], times[j]
     return peaks, when
 
 
@@ -118,7 +115,7 @@ def baseline_script(
     ``t_end`` for a damped (slower) pulse. ``segment_samples``: integrate in consecutive
     solve_ivp calls of that many grid samples each and read the peaks as the samples come (what a
     user does when the 2N x samples grid would not fit in memory, e.g. N = 1000); the grid and
-    the peaks are the same as in one call.
+    the peaks are the same as in one call (None: one call over the whole grid).
     """
     first, last = int(contacts[0]), int(contacts[1])
     if t_end is None:
@@ -128,31 +125,26 @@ def baseline_script(
     y0[beads] = velocity
     rhs = script_rhs(beads, exponent, force_py)
     thr = 1e-2 * velocity_scale(velocity, exponent)
+    segment = len(grid) if segment_samples is None else int(segment_samples)
     wall0 = _time.perf_counter()
-    if segment_samples is None:
-        sol = solve_ivp(rhs, (0.0, grid[-1]), y0, method="RK45", t_eval=grid, rtol=rtol, atol=atol)
-        x = sol.y[:beads]
-        peaks, when = grid_peaks(x[:last] - x[1 : last + 1], sol.t, thr)
-        nfev = int(sol.nfev)
-    else:
-        peaks, when = np.full(last, np.nan), np.full(last, np.nan)
-        k, threshold, t_floor, nfev = 0, thr, -np.inf, 0
-        tail_x, tail_t, y, start = None, None, y0, 0
-        while start < len(grid) - 1 and k < last:
-            stop = min(len(grid), start + int(segment_samples))
-            sol = solve_ivp(rhs, (grid[start], grid[stop - 1]), y, method="RK45", t_eval=grid[start:stop],
-                            rtol=rtol, atol=atol)
-            nfev += int(sol.nfev)
-            x, t = sol.y[:beads], sol.t
-            if tail_x is not None:  # the sample before this segment, for maxima on its first sample
-                x, t = np.hstack([tail_x, x]), np.concatenate([tail_t, t])
-            while k < last:
-                j = first_maximum(x[k] - x[k + 1], t, threshold, t_floor)
-                if j is None:
-                    break
-                peaks[k], when[k] = x[k, j] - x[k + 1, j], t[j]
-                threshold, t_floor, k = 1e-2 * peaks[k], t[j], k + 1
-            tail_x, tail_t, y, start = x[:, -2:-1], t[-2:-1], sol.y[:, -1], stop - 1
+    peaks, when = np.full(last, np.nan), np.full(last, np.nan)
+    k, threshold, t_floor, nfev = 0, thr, -np.inf, 0
+    tail_x, tail_t, y, start = None, None, y0, 0
+    while start < len(grid) - 1 and k < last:
+        stop = min(len(grid), start + segment)
+        sol = solve_ivp(rhs, (grid[start], grid[stop - 1]), y, method="RK45", t_eval=grid[start:stop],
+                        rtol=rtol, atol=atol)
+        nfev += int(sol.nfev)
+        x, t = sol.y[:beads], sol.t
+        if tail_x is not None:  # the sample before this segment, for maxima on its first sample
+            x, t = np.hstack([tail_x, x]), np.concatenate([tail_t, t])
+        while k < last:
+            j = first_maximum(x[k] - x[k + 1], t, threshold, t_floor)
+            if j is None:
+                break
+            peaks[k], when[k] = x[k, j] - x[k + 1, j], t[j]
+            threshold, t_floor, k = 1e-2 * peaks[k], t[j], k + 1
+        tail_x, tail_t, y, start = x[:, -2:-1], t[-2:-1], sol.y[:, -1], stop - 1
     wall = _time.perf_counter() - wall0
     sel = slice(first - 1, last)
     return BaselineResult(
