@@ -161,13 +161,13 @@ def script_force(scene, beads: int) -> Callable[[int, float, float], float]:
     first_perturbed.
     """
     from solvers.codeload import force_module
+    from solvers.run import _params
 
     pert = scene.perturbation
     mod = force_module(pert.text, pert.used_parameters)
-    per_bead = []
-    for i in range(1, beads + 1):
-        per_bead.append(tuple(float(pert.bead_values(name, beads)[i - 1]) if name in pert.site_dependent
-                              else float(pert.params[name]) for name in mod.PARAMS))
+    prm = _params(scene, beads)  # scalars, or arrays over the beads for site-dependent parameters
+    columns = [np.broadcast_to(np.asarray(prm[name], float), beads) for name in mod.PARAMS]
+    per_bead = [tuple(float(c[i]) for c in columns) for i in range(beads)]
     eps, first = float(pert.eps), int(scene.first_perturbed)
 
     def force_py(i: int, x: float, v: float) -> float:
