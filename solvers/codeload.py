@@ -42,11 +42,10 @@ def load_by_name(name: str) -> ModuleType:
 
 
 def _ensure(source) -> ModuleType:
-    name = module_name(source)
-    for folder in _dirs():
-        path = folder / f"{name}.py"
-        if path.is_file():
-            return _load_path(path)
+    try:
+        return load_by_name(module_name(source))
+    except FileNotFoundError:
+        pass
     from derive import codegen  # only now: the code is missing and must be generated
 
     return _load_path(codegen.write(source))
