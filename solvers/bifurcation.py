@@ -87,15 +87,22 @@ def entry_peak(result: dict, first_perturbed: int) -> float | None:
 # ----------------------------------------------------------------------------- prediction
 
 
-def predict(scene, name: str, lo: float, hi: float, points: int = 61, profile: str = "exact",
-            variant: str = "1d") -> dict:
-    """Roots of Eq. 41 over name in [lo, hi] with their stability, and the fold(s) in the range."""
+def _map(scene, profile: str, variant: str):
+    """(the generated map module of the scene's R, the scene's scalar parameter values)."""
     from solvers.codeload import map_module
-    from solvers.stationary_shock import continue_roots, stability
 
     pert = scene.perturbation
     mod = map_module(pert.text, pert.used_parameters, scene.exponent, profile, variant, pert.site_dependent)
-    base = {n: float(pert.params[n]) for n in pert.used_parameters}
+    return mod, {n: float(pert.params[n]) for n in pert.used_parameters}
+
+
+def predict(scene, name: str, lo: float, hi: float, points: int = 61, profile: str = "exact",
+            variant: str = "1d") -> dict:
+    """Roots of Eq. 41 over name in [lo, hi] with their stability, and the fold(s) in the range."""
+    from solvers.stationary_shock import continue_roots, stability
+
+    pert = scene.perturbation
+    mod, base = _map(scene, profile, variant)
     cont = continue_roots(mod, base, name, lo, hi, points)
     S0 = float(mod.S0)
     branches = []
@@ -116,7 +123,6 @@ def predicted_threshold(scene, name: str, prediction: dict, peak: float) -> floa
 
     None when that never happens in the range; the range's start when it holds there already.
     """
-    from solvers.codeload import map_module
     from solvers.stationary_shock import roots
 
     branches = prediction["branches"]
@@ -135,10 +141,7 @@ def predicted_threshold(scene, name: str, prediction: dict, peak: float) -> floa
         for f in prediction["folds"]:
             if left["value"] <= f["value"] <= branches[j]["value"] and f["peak"] <= peak:
                 return f["value"]
-    pert = scene.perturbation
-    mod = map_module(pert.text, pert.used_parameters, scene.exponent, prediction["profile"],
-                     prediction["variant"], pert.site_dependent)
-    base = {n: float(pert.params[n]) for n in pert.used_parameters}
+    mod, base = _map(scene, prediction["profile"], prediction["variant"])
     S0 = float(mod.S0)
 
     def g(value: float) -> float:
@@ -185,13 +188,10 @@ def check_param(scene, name: str) -> None:
                                "chain, give it a single value")
 
 
-def base_chain(scene, name: str, last: int, rtol: float, window: "int | str | None" = "auto") -> dict:
-    """The plain chain of the DNS probes (contacts first_perturbed - 1 .. last)."""
+def base_chain(scene, last: int, rtol: float, window: "int | str | None" = "auto") -> dict:
+    """The plain chain of the DNS probes (contacts first_perturbed - 1 .. last; bifurcation() checks last)."""
     from solvers.points import plain_chain
 
-    check_param(scene, name)
-    if last <= scene.first_perturbed + 1:
-        raise BifurcationError(f"last contact {last} must lie beyond first_perturbed = {scene.first_perturbed}")
     sc = scene.with_overrides(contacts=(scene.first_perturbed, int(last)), beads=None)
     return plain_chain(sc, window=window, rtol=rtol)
 
@@ -268,6 +268,14 @@ def bifurcation(
     max_last = max_last or 4 * last
     if max_last < last:
         raise BifurcationError(f"max_last = {max_last} is below last = {last}")
+    if impulses is not None:
+        impulses = [float(v) for v in impulses]
+    if dns:  # before the prediction, which takes a while
+        if last <= scene.first_perturbed + 1:
+            raise BifurcationError(f"last contact {last} must lie beyond first_perturbed = {scene.first_perturbed}")
+        for v in impulses or ():
+            if not (math.isfinite(v) and v > 0):
+                raise BifurcationError(f"impulse {v}: impulses are velocities v0 > 0")
     report: dict[str, Any] = {"scene": scene.as_dict(), "param": name, "range": [lo, hi], "prediction": {}}
     for prof in profiles:
         report["prediction"][prof] = predict(scene, name, lo, hi, predict_points, prof, variant)
@@ -276,11 +284,7 @@ def bifurcation(
     folds = report["prediction"][profiles[0]]["folds"]
     if impulses is None:
         impulses = default_impulses(scene, folds)
-    impulses = [float(v) for v in impulses]
-    for v in impulses:
-        if not (math.isfinite(v) and v > 0):
-            raise BifurcationError(f"impulse {v}: impulses are velocities v0 > 0")
-    chain = base_chain(scene, name, last, rtol)
+    chain = base_chain(scene, last, rtol)
     values = [float(v) for v in np.linspace(lo, hi, points)]
     grid = [probe(chain, name, val, v0, last) for v0 in impulses for val in values]
     sweeps = []

@@ -100,6 +100,22 @@ def test_bad_parameter_and_range_are_one_line_errors():
         bifurcation(fig13, "k", 0.0, 1.0)
 
 
+def test_bad_chain_and_impulses_are_reported_before_the_prediction(monkeypatch):
+    import solvers.bifurcation as bif
+
+    def no_predict(*args, **kwargs):
+        raise AssertionError("predict() ran before the DNS options were checked")
+
+    monkeypatch.setattr(bif, "predict", no_predict)
+    sc = load_scene(VDP_SCENE)
+    with pytest.raises(BifurcationError, match="must lie beyond first_perturbed"):
+        bifurcation(sc, "mu", 1.0, 2.0, last=sc.first_perturbed)
+    with pytest.raises(BifurcationError, match="impulses are velocities"):
+        bifurcation(sc, "mu", 1.0, 2.0, impulses=[2.3, -1.0])
+    with pytest.raises(AssertionError, match="predict"):  # prediction only: the chain is not checked
+        bifurcation(sc, "mu", 1.0, 2.0, last=sc.first_perturbed, dns=False)
+
+
 def test_dns_outcomes_on_a_short_chain(tmp_path):
     """mu = 3 settles on the stable root; mu = 1 (no stationary shock) decays."""
     sc = load_scene(VDP_SCENE)
