@@ -129,8 +129,9 @@ def cost_at(points: Sequence[Point], target: float) -> tuple[float | None, str]:
 
 def tolerances(scene, rtol: float) -> dict:
     """rtol and an atol scaled to the scene's strain and velocity scales (extreme v0 too)."""
-    v0, n = scene.velocity, scene.exponent
-    scale = min(v0, v0 ** (2.0 / (n + 1.0)))
+    from solvers.dns import velocity_scale
+
+    scale = min(scene.velocity, velocity_scale(scene.velocity, scene.exponent))
     return {"rtol": float(rtol), "atol": float(rtol * 1e-2 * scale)}
 
 
@@ -219,9 +220,8 @@ def model_points(scene, reference: dict, ref: list, ladder: Ladder, log: Callabl
     from solvers import run as run_mod
     from solvers.scene import PROFILES, VARIANTS
 
-    models = getattr(run_mod, "MODELS", ("map", "longwave"))
     out = []
-    for model in models:
+    for model in run_mod.MODELS:
         for profile in PROFILES:
             for variant in (VARIANTS if model == "map" else (None,)):
                 def run(model=model, profile=profile, variant=variant):
