@@ -114,7 +114,7 @@ def run_case(ref: str, *, check: bool = True, repeats: int = 1) -> dict:
     errors = result.get("errors", {})
     row["map_error"] = (errors.get("map") or {}).get("max_rel")
     row["longwave_error"] = (errors.get("longwave") or {}).get("max_rel")
-    if check and "dns" in result["peaks"] and result["peaks"]["dns"] is not None:
+    if check and result["peaks"]["dns"] is not None:
         second = other_method(dns["method"])
         tighter = scene.with_overrides(dns={"rtol": max(dns["rtol"] / 100.0, 1e-13),
                                             "atol": scene.dns["atol"] / 100.0, "method": second})
@@ -131,8 +131,8 @@ def run_case(ref: str, *, check: bool = True, repeats: int = 1) -> dict:
         row.update(status="FAIL", message="the DNS ended without a stop reason")
     elif "blow-up" in row["stop_reason"]:
         row.update(status="stopped", message=row["stop_reason"])
-    elif silent_model_errors(row):
-        row.update(status="SILENT", message="; ".join(silent_model_errors(row)))
+    elif silent := silent_model_errors(row):
+        row.update(status="SILENT", message="; ".join(silent))
     else:
         row.update(status="ok" if not row["warnings"] else "ok, warned",
                    message="; ".join(row["warnings"]) if row["warnings"] else "")
@@ -158,12 +158,10 @@ def run_suite(names: Sequence[str] | None = None, *, check: bool = True, repeats
                                            "met": None if ratio is None else bool(ratio <= STIFF_RATIO_TARGET)}}
 
 
-def _f(x, spec: str = ".2e") -> str:
-    return "-" if x is None else format(x, spec)
-
-
 def to_text(report: dict) -> str:
     """The suite table, then the warnings and messages, then the stiff ratio."""
+    from solvers.bench import fmt
+
     head = (f"{'scene':18s} {'status':11s} {'method':7s} {'dns [s]':>8s} {'dns err':>9s} {'vs':18s} "
             f"{'map err':>9s} {'live':>5s}  stop reason")
     lines = [head, "-" * len(head)]
@@ -172,8 +170,8 @@ def to_text(report: dict) -> str:
             lines.append(f"{r['scene']:18s} {'refused':11s} {r['message']}")
             continue
         lines.append(f"{r['scene']:18s} {r['status']:11s} {r.get('method') or '-':7s} "
-                     f"{_f(r.get('dns_time_s'), '8.3f'):>8s} {_f(r.get('dns_error')):>9s} "
-                     f"{r.get('dns_error_vs', '-'):18s} {_f(r.get('map_error')):>9s} {r.get('live_contacts', 0):5d}"
+                     f"{fmt(r.get('dns_time_s'), '8.3f'):>8s} {fmt(r.get('dns_error')):>9s} "
+                     f"{r.get('dns_error_vs', '-'):18s} {fmt(r.get('map_error')):>9s} {r.get('live_contacts', 0):5d}"
                      f"  {r.get('stop_reason', '')}")
     lines.append("")
     for r in report["cases"]:
