@@ -18,21 +18,9 @@ import sys
 
 import numpy as np
 
-from solvers.dns import OnSiteForce, simulate
+from bench_dns import damping, peak_error  # the sibling script (its directory is on sys.path)
+from solvers.dns import simulate
 from solvers.window import WindowRule
-
-
-def damping(eps_mu: float, beads: int, first: int = 16) -> OnSiteForce:
-    """F = -eps*mu*v on beads >= first, restrictable to the window."""
-    mask = (np.arange(1, beads + 1) >= first).astype(float)
-
-    def make(m: np.ndarray) -> OnSiteForce:
-        return OnSiteForce(lambda x, v: -eps_mu * m * v, lambda x, v: np.zeros(len(m)),
-                           lambda x, v: -eps_mu * m, stiffness_hint=eps_mu)
-
-    full = make(mask)
-    return OnSiteForce(full.force, full.dforce_dx, full.dforce_dv, eps_mu,
-                       restrict=lambda lo, hi: make(mask[lo:hi]))
 
 
 def best(repeats: int, **kwargs):
@@ -69,8 +57,7 @@ def calibrate() -> None:
             for boundary in ("coast", "free"):
                 w = simulate(beads, 1.5, 1.0, (1, last), force, **tight,
                              window=WindowRule(behind=behind, boundary=boundary))
-                ok = ref.alive & w.alive
-                err = float(np.max(np.abs(w.peaks[ok] / ref.peaks[ok] - 1)))
+                err, _ = peak_error(w, ref)
                 same = bool(np.array_equal(ref.alive, w.alive))
                 row.append(f"{behind}/{boundary}:{err:.1e}{'' if same else '!'}")
         print(f"eps*mu={eps_mu:<5g} " + " ".join(row), flush=True)
