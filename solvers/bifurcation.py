@@ -35,9 +35,8 @@ import numpy as np
 from scipy.optimize import brentq
 
 from solvers.points import dns_task
+from solvers.scene import PROFILES
 from solvers.sweep import SweepError, run_sweep
-
-PROFILES = ("exact", "pade")
 
 
 class BifurcationError(ValueError):

@@ -96,14 +96,16 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
     """``pulsemap bifurcation``: Eq. 41 branches and fold vs the DNS, thresholds."""
     from solvers.bifurcation import bifurcation, plot, to_text
     from solvers.cli import UsageError
-    from solvers.scene import load_scene
+    from solvers.scene import PROFILES, load_scene
 
     scene = load_scene(args.scene)
     lo, hi = args.range
-    profiles = tuple(p for p in args.profiles.split(",") if p)
+    profiles = PROFILES if args.profiles is None else tuple(p for p in args.profiles.split(",") if p)
     for p in profiles:
-        if p not in ("exact", "pade"):
-            raise UsageError(f"--profiles: unknown profile {p!r}: choose from exact, pade")
+        if p not in PROFILES:
+            raise UsageError(f"--profiles: unknown profile {p!r}: choose from {', '.join(PROFILES)}")
+    if not profiles:
+        raise UsageError(f"--profiles is empty: give a comma list of {', '.join(PROFILES)}")
     impulses = _floats(args.impulses) if args.impulses else None
     with executor_for(args) as (ex, workers):
         report = bifurcation(
@@ -145,7 +147,7 @@ def register(sub) -> None:
                    help="longest chain for an undecided bisection probe (default 4 L)")
     p.add_argument("--refine", type=_positive_int, default=4, metavar="R", help="bisection steps on the threshold (default 4)")
     p.add_argument("--rtol", type=number, default=1e-8, help="DNS tolerance (default 1e-8)")
-    p.add_argument("--profiles", default="exact,pade", help="profiles of the prediction (default exact,pade)")
+    p.add_argument("--profiles", metavar="P,...", help="profiles of the prediction, a comma list (default: all)")
     p.add_argument("--variant", default="1d", help="map variant for the multipliers (default 1d)")
     p.add_argument("--predict-points", type=_positive_int, default=61, metavar="P",
                    help="parameter values of the prediction (default 61)")
