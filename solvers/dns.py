@@ -330,6 +330,8 @@ def validate(
     death_fraction: float,
     t_max: float | None,
     stall_factor: float = 5.0,
+    overtake_factor: float = 1.25,
+    max_steps: int | None = None,
 ) -> tuple[int, int]:
     """Check simulate()'s arguments; return the contact range. One-line ValueErrors."""
     if isinstance(beads, bool) or not isinstance(beads, (int, np.integer)) or beads < 2:
@@ -365,6 +367,11 @@ def validate(
         raise ValueError(f"t_max must be a finite number > 0 or None, got {t_max!r}")
     if not (np.isfinite(stall_factor) and stall_factor > 1.0):
         raise ValueError(f"stall_factor must be a finite number > 1, got {stall_factor!r}")
+    if not (np.isfinite(overtake_factor) and overtake_factor > 1.0):
+        raise ValueError(f"overtake_factor must be a finite number > 1, got {overtake_factor!r}")
+    if max_steps is not None and (isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer))
+                                  or max_steps < 1):
+        raise ValueError(f"max_steps must be an integer >= 1 or None, got {max_steps!r}")
     return first, last
 
 
@@ -414,13 +421,8 @@ def simulate(
     Whatever stops the run, the peaks measured before it are returned (never NaN for a
     contact marked alive).
     """
-    if not (np.isfinite(overtake_factor) and overtake_factor > 1.0):
-        raise ValueError(f"overtake_factor must be a finite number > 1, got {overtake_factor!r}")
     first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol,
-                           peak_fraction, death_fraction, t_max, stall_factor)
-    if max_steps is not None and (isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer))
-                                  or max_steps < 1):
-        raise ValueError(f"max_steps must be an integer >= 1 or None, got {max_steps!r}")
+                           peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps)
     beads, exponent, velocity = int(beads), float(exponent), float(velocity)
     chosen = choose_method(force, velocity, exponent) if method == "auto" else method
     t_limit = default_t_max(last, velocity, exponent) if t_max is None else float(t_max)

@@ -272,22 +272,24 @@ class _Run:
 ENERGY_EVERY = 4  # the blow-up guard computes the window's energy every this many steps
 
 
-def plan(front: int, next_contact: int, lo: int, hi: int, beads: int, rule: WindowRule) -> tuple[int, int]:
-    """New [lo, hi) for the window given the front (last peaked contact, 1-based)."""
-    new_lo = max(lo, front - rule.behind)
+def plan(next_contact: int, lo: int, hi: int, beads: int, rule: WindowRule) -> tuple[int, int]:
+    """New [lo, hi) for the window given the next contact to peak (1-based; the front, the last
+    peaked contact, is next_contact - 1)."""
+    new_lo = max(lo, next_contact - 1 - rule.behind)
     new_hi = min(beads, max(hi, next_contact + rule.ahead + rule.chunk))
     return new_lo, new_hi
 
 
-def needs_shift(front: int, next_contact: int, lo: int, hi: int, beads: int, rule: WindowRule) -> bool:
-    """True when a chunk can be dropped behind or the room ahead is used up."""
-    droppable = front - rule.behind - lo >= rule.chunk
+def needs_shift(next_contact: int, lo: int, hi: int, beads: int, rule: WindowRule) -> bool:
+    """True when a chunk can be dropped behind the front or the room ahead is used up."""
+    droppable = next_contact - 1 - rule.behind - lo >= rule.chunk
     short = hi < beads and hi - next_contact < rule.ahead
     return droppable or short
 
 
-def shift_state(y: Array, lo: int, hi: int, new_lo: int, new_hi: int) -> Array:
-    """Interleaved state of window [new_lo, new_hi) from that of [lo, hi) (new beads at rest)."""
+def shift_state(y: Array, lo: int, new_lo: int, new_hi: int) -> Array:
+    """Interleaved state of window [new_lo, new_hi) from that of the window starting at lo
+    (new_lo >= lo; beads past the old window at rest)."""
     out = np.zeros(2 * (new_hi - new_lo))
     keep = y[2 * (new_lo - lo) :]
     out[: len(keep)] = keep
@@ -362,7 +364,7 @@ def simulate_windowed(
             run.wall_report = _time.perf_counter()
             print(f"[dns-window] t={t_new:.4g} contact {track.next_contact - 1}/{last} "
                   f"window [{run.lo + 1}, {run.hi}]", file=sys.stderr)
-        if needs_shift(track.next_contact - 1, track.next_contact, run.lo, run.hi, beads, rule):
+        if needs_shift(track.next_contact, run.lo, run.hi, beads, rule):
             run.action = "shift"
             return True
         return False
@@ -395,10 +397,9 @@ def simulate_windowed(
             y = np.concatenate([y, np.zeros(2 * add)])
             run.hi += add
         else:  # shift: drop beads behind, add beads ahead
-            front = track.next_contact - 1
-            new_lo, new_hi = plan(front, track.next_contact, run.lo, run.hi, beads, rule)
+            new_lo, new_hi = plan(track.next_contact, run.lo, run.hi, beads, rule)
             e_before = window_energy(y, exponent, None if run.left is None else run.left(t))
-            y_shifted = shift_state(y, run.lo, run.hi, new_lo, new_hi)
+            y_shifted = shift_state(y, run.lo, new_lo, new_hi)
             if new_lo > run.lo:
                 j = new_lo - run.lo - 1  # local index of the last dropped bead
                 run.left = coast(y[2 * j], y[2 * j + 1], t) if rule.boundary == "coast" else None
