@@ -117,6 +117,8 @@ def ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = N
 
 
 def to_text(report: dict) -> str:
+    from solvers.bifurcation import _f  # a number in a fixed-width column, '-' for None
+
     sc = report["scene"]
     st = report["statistics"]
     lines = [f"ensemble of {report['realisations']} realisations of {sc['name']} (R = {sc['perturbation']['R']}, "
@@ -141,10 +143,6 @@ def to_text(report: dict) -> str:
             lines.append(f"  {c:7d} {d['n']:5d} {_f(d['mean'], 9, 5)} {_f(d['std'], 8, 5)} {_f(m['mean'], 9, 5)} "
                          f"{_f(m['std'], 8, 5)} {_pct(e['mean'])} {_pct(e['std'])}")
     return "\n".join(lines)
-
-
-def _f(x, width: int, prec: int) -> str:
-    return f"{'-':>{width}s}" if x is None else f"{x:{width}.{prec}f}"
 
 
 def _pct(x) -> str:

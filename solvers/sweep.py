@@ -30,7 +30,7 @@ import socket
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 from typing import Any, Callable, Iterable, Mapping, TextIO
@@ -190,7 +190,6 @@ class SweepResult:
     wall_s: float
     executor: str
     out: str | None = None
-    keys: list[str] = field(default_factory=list)
 
     def results(self) -> list[dict | None]:
         """The result of each point (None where it failed)."""
@@ -309,7 +308,7 @@ def run_sweep(
     ordered = [records[k] for k in order]
     failed = sum(1 for r in ordered if r["status"] != "ok")
     result = SweepResult(ordered, computed, skipped, failed, time.perf_counter() - t_start, kind,
-                         None if path is None else str(path), list(order))
+                         None if path is None else str(path))
     if progress:
         print(f"[{label}] done: {computed} run, {skipped} skipped, {failed} failed, "
               f"{result.wall_s:.1f} s ({kind})", file=err)
