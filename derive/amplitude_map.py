@@ -21,8 +21,7 @@ from typing import Mapping
 import sympy
 
 from .expansion import Expansion, Term
-
-VARIANTS = ("paper", "corrected", "1d")
+from .sources import VARIANTS
 
 A_PREV, A_I, A_NEXT = sympy.symbols("A_{i-1} A_i A_{i+1}", positive=True)
 EPS = sympy.Symbol("epsilon", positive=True)

@@ -42,17 +42,14 @@ import sympy
 
 from .expansion import bead_symbol, check_polynomial_at_rest, exact_exponent
 from .expression import symbol
-from .integrals import DEFAULT_DPS, Constant, _scalar_funcs, cached_constants
+from .integrals import Constant, _scalar_funcs, cached_constants
 from .longwave import A0, I, I0, law_data, law_lines
 from .perturbation import Perturbation, param_data
 from .provenance import provenance
 from .profile import check_exponent, check_profile_kind, exact_profile, get_profile
+from .sources import BALANCE_METHOD, DEFAULT_DPS
+from .sources import BALANCE_MODELS as MODELS
 from .timebox import bounded
-
-#: The balance models and what they balance.
-MODELS = ("energy", "momentum")
-#: Bump when the numerical method of the balance constants changes (stale cache entries).
-BALANCE_METHOD = 1
 
 B = sympy.Symbol("B", positive=True)
 A = sympy.Symbol("A", positive=True)

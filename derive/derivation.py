@@ -17,10 +17,11 @@ import sympy
 from . import balance
 from .amplitude_map import EPS, AmplitudeMap, check_variant, latex_names
 from .expansion import Expansion, expand
-from .integrals import DEFAULT_DPS, F_NAMES, constants
+from .integrals import F_NAMES, constants
 from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, law_data, law_lines, longwave_law
 from .perturbation import Perturbation
 from .profile import check_exponent, check_profile_kind, get_profile
+from .sources import DEFAULT_DPS
 from .stationary import Stationary, StationaryError, stationary
 
 

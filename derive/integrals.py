@@ -23,11 +23,9 @@ import numpy as np
 
 from . import cache
 from .profile import Profile, get_profile
+from .sources import DEFAULT_DPS
+from .sources import INTEGRALS_METHOD as METHOD_VERSION
 
-#: Default mpmath working precision (decimal digits) for the exact and Pade profiles.
-DEFAULT_DPS = {"exact": 16, "pade": 30}
-#: Bump when the numerical method changes, so stale cache entries are not used.
-METHOD_VERSION = 1
 F_NAMES = ("f1", "f2", "f3", "f4", "f5", "f6", "f7")
 
 

@@ -23,12 +23,12 @@ from functools import lru_cache
 
 import numpy as np
 
+from .sources import PROFILE_KINDS
+
 #: Grid points per unit of tau; shifts by one are exact shifts of NPU nodes.
 NPU = 256
 #: Relative size below which the tails count as zero when sizing the domain.
 TAIL = 1e-15
-#: Profiles the toolkit knows.
-PROFILE_KINDS = ("exact", "pade")
 
 
 class ProfileError(ValueError):

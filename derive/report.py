@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from .integrals import DEFAULT_DPS, F_NAMES, constants
+from .integrals import F_NAMES, constants
+from .sources import DEFAULT_DPS
 from .profile import check_exponent, check_profile_kind, exact_profile, pade_profile
 from .provenance import provenance
 

@@ -13,11 +13,15 @@ from fractions import Fraction
 from typing import ClassVar, Union
 
 GENERATOR_VERSION = 1
-#: Bump together with derive.integrals.METHOD_VERSION (checked by a test).
+#: Bump when the numerical method of the profile integrals changes (stale cache entries, generated code).
 INTEGRALS_METHOD = 1
-#: Bump together with derive.balance.BALANCE_METHOD (checked by a test).
+#: Bump when the numerical method of the balance constants changes (stale cache entries, generated code).
 BALANCE_METHOD = 1
+#: The map variants (derive/amplitude_map.py), profiles (derive/profile.py) and balance models (derive/balance.py).
 VARIANTS = ("paper", "corrected", "1d")
+PROFILE_KINDS = ("exact", "pade")
+BALANCE_MODELS = ("energy", "momentum")
+#: Default mpmath working precision (decimal digits) for the exact and Pade profiles.
 DEFAULT_DPS = {"exact": 16, "pade": 30}
 
 

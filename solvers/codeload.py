@@ -12,7 +12,8 @@ from pathlib import Path
 from types import ModuleType
 
 from derive.cache import cache_dir
-from derive.sources import BalanceSource, ForceSource, GeneratedCodeError, MapSource, module_name, verify_generated
+from derive.sources import (BALANCE_MODELS, PROFILE_KINDS, VARIANTS, BalanceSource, ForceSource, GeneratedCodeError,
+                            MapSource, module_name, verify_generated)
 
 PACKAGE_DIR = Path(__file__).resolve().parent.parent / "generated"
 
@@ -51,15 +52,17 @@ def _ensure(source) -> ModuleType:
     return _load_path(codegen.write(source))
 
 
+def _check_profile(profile: str) -> None:
+    if profile not in PROFILE_KINDS:
+        raise ValueError(f"unknown profile {profile!r}: choose one of {', '.join(PROFILE_KINDS)}")
+
+
 def map_module(R_text: str, params, n: float, profile: str = "exact", variant: str = "paper",
                site_dependent=()) -> ModuleType:
     """The generated map module (Eq. 23, one variant) for this source, generating it if missing."""
-    from derive.sources import VARIANTS
-
     if variant not in VARIANTS:
         raise ValueError(f"unknown map variant {variant!r}: choose one of {', '.join(VARIANTS)}")
-    if profile not in ("exact", "pade"):
-        raise ValueError(f"unknown profile {profile!r}: choose one of exact, pade")
+    _check_profile(profile)
     return _ensure(MapSource.of(R_text, params, n, profile, variant, site_dependent))
 
 
@@ -74,8 +77,7 @@ def balance_module(R_text: str, params, n: float, profile: str = "exact", model:
 
     Raises derive.balance.BalanceError (a ValueError) when the model is undefined for R.
     """
-    if model not in ("energy", "momentum"):
-        raise ValueError(f"unknown balance model {model!r}: choose one of energy, momentum")
-    if profile not in ("exact", "pade"):
-        raise ValueError(f"unknown profile {profile!r}: choose one of exact, pade")
+    if model not in BALANCE_MODELS:
+        raise ValueError(f"unknown balance model {model!r}: choose one of {', '.join(BALANCE_MODELS)}")
+    _check_profile(profile)
     return _ensure(BalanceSource.of(R_text, params, n, profile, model, site_dependent))
