@@ -136,6 +136,8 @@ class Scene:
         default is filled in; ``beads`` is null when unset. ``parse_scene(d, source)`` of the
         result gives back an equal scene (``source`` in the dict is informational).
         """
+        from derive.perturbation import param_data  # lazily: derive.perturbation imports sympy
+
         pert = self.perturbation
         return {
             "name": self.name,
@@ -149,7 +151,7 @@ class Scene:
             "perturbation": {
                 "R": pert.text,
                 "eps": pert.eps,
-                "params": {name: _param_to_data(value) for name, value in pert.params.items()},
+                "params": {name: param_data(value) for name, value in pert.params.items()},
             },
             "output": {"contacts": list(self.contacts), "methods": list(self.methods)},
             "model": {"profile": self.profile, "variant": self.variant},
@@ -582,19 +584,6 @@ def _scene_hint(message: str) -> str:
     """Rewrite command-line advice for a scene file; keep the message on one line."""
     message = re.sub(r"--param (\w+)=VALUE", r"\1 = VALUE under [perturbation.params]", message)
     return " ".join(message.split())
-
-
-def _param_to_data(value: Any) -> Any:
-    """A ParamValue back in the form a scene file gives it."""
-    from derive.perturbation import IndexExpression, RandomDraw
-
-    if isinstance(value, RandomDraw):
-        return {value.distribution: [value.low, value.high], "seed": value.seed}
-    if isinstance(value, IndexExpression):
-        return value.text
-    if isinstance(value, tuple):
-        return list(value)
-    return value
 
 
 # --------------------------------------------------------------------------- cross-checks
