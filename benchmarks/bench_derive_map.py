@@ -17,8 +17,8 @@ import timeit
 COLD = r"""
 import time
 t0 = time.perf_counter()
-from derive.perturbation import make_perturbation
-from derive.derivation import derive_all
+from pulsemap.derive.perturbation import make_perturbation
+from pulsemap.derive.derivation import derive_all
 t1 = time.perf_counter()
 d = derive_all(make_perturbation({expr!r}, 0.1, {params!r}), sympy_seconds={bound})
 t2 = time.perf_counter()
@@ -42,10 +42,10 @@ def main() -> None:
         imp, der, kind = cold_derive(expr, params)
         print(f"  R = {expr:18s} derive {der:.3f} s (+ imports {imp:.3f} s), law: {kind}")
 
-    from solvers.codeload import map_module
-    from solvers.map_iteration import iterate_map
-    from solvers.run import run_scene
-    from solvers.scene import load_scene
+    from pulsemap.solvers.models.codeload import map_module
+    from pulsemap.solvers.models.map_iteration import iterate_map
+    from pulsemap.solvers.studies.run import run_scene
+    from pulsemap.solvers.data.scene import load_scene
 
     scene = load_scene("vdp-mu3-v2.3").with_overrides(contacts=(16, 115))
     mod = map_module(scene.perturbation.text, ["mu"], 1.5, "exact", "paper")

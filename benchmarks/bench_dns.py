@@ -6,11 +6,11 @@ N = 1000 beads, v0 = 1, n = 1.5, contacts 16..990, unperturbed (--damped: F = -e
 eps*mu = 0.01 from bead 16). Reference: full chain, DOP853, rtol 1e-12 (convergence checked
 against rtol 1e-11). Error = max relative peak difference over the contacts. Every line (method
 and mode over a tolerance ladder) is timed warm-up + best of K and its cost at 1e-6 is
-interpolated log-log between the two runs that bracket it (solvers.bench.cost_at):
+interpolated log-log between the two runs that bracket it (pulsemap.solvers.studies.bench.cost_at):
 
 * pulsemap: simulate(window="auto"), DOP853 and RK45 (Hairer's Fortran codes);
 * baseline (b): simulate(window=None), the full-chain vectorised DNS, DOP853 and RK45;
-* baseline (a): solvers.baselines.baseline_script (loop RHS, solve_ivp RK45, peaks off a
+* baseline (a): pulsemap.solvers.studies.baselines.baseline_script (loop RHS, solve_ivp RK45, peaks off a
   t_eval grid) at N = 1000 itself, integrated in grid segments so its 2N x samples grid fits in
   memory (same grid and peaks as one call). It is slow (minutes per run): one run per setting.
   If no setting reaches 1e-6, the ratio printed is a lower bound: (a)'s measured time (which
@@ -23,11 +23,11 @@ import sys
 
 import numpy as np
 
-from solvers.baselines import baseline_script
-from solvers.bench import Point, best_of, cost_at
-from solvers.bench import peak_error as _peak_error
-from solvers.dns import OnSiteForce, simulate
-from solvers.points import on_contacts
+from pulsemap.solvers.studies.baselines import baseline_script
+from pulsemap.solvers.studies.bench import Point, best_of, cost_at
+from pulsemap.solvers.studies.bench import peak_error as _peak_error
+from pulsemap.solvers.chain.dns import OnSiteForce, simulate
+from pulsemap.solvers.studies.points import on_contacts
 
 TARGET = 1e-6
 N, FIRST, EXPONENT = 1000, 16, 1.5
@@ -47,7 +47,7 @@ def damping(eps_mu: float, beads: int, first: int = FIRST) -> OnSiteForce:
 
 
 def peak_error(res, ref) -> tuple[float | None, int]:
-    """solvers.bench.peak_error of a DNS or baseline result against ``ref`` on its live contacts."""
+    """pulsemap.solvers.studies.bench.peak_error of a DNS or baseline result against ``ref`` on its live contacts."""
     def live(r):
         return on_contacts(ref.contacts, r.contacts, r.peaks, r.alive)
 

@@ -19,8 +19,8 @@ import sys
 import numpy as np
 
 from bench_dns import damping, peak_error  # the sibling script (its directory is on sys.path)
-from solvers.dns import simulate
-from solvers.window import WindowRule
+from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.window import WindowRule
 
 
 def best(repeats: int, **kwargs):

@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import sys
 
-from solvers.bench import best_of
-from solvers.run import run_scene
-from solvers.scene import load_scene
-from solvers.suite import resolve
+from pulsemap.solvers.studies.bench import best_of
+from pulsemap.solvers.studies.run import run_scene
+from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.studies.suite import resolve
 
 
 def timed(scene, method: str | None = None):

@@ -19,9 +19,9 @@ import time
 
 import numpy as np
 
-from solvers.points import dns_task, plain_chain
-from solvers.scene import load_scene
-from solvers.sweep import run_sweep
+from pulsemap.solvers.studies.points import dns_task, plain_chain
+from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.studies.sweep import run_sweep
 
 
 def points(k: int, last: int) -> list[dict]:

@@ -24,9 +24,9 @@ from typing import Any, Mapping, Union
 import numpy as np
 import sympy
 
-from derive.frozenmap import FrozenMap
+from pulsemap.derive.frozenmap import FrozenMap
 
-from derive.expression import (
+from pulsemap.derive.expression import (
     SYMBOLS,
     ExpressionError,
     check_parameter_name,

@@ -1,3 +1,3 @@
 """Numerical side of pulsemap: map iteration, laws, stationary shocks, DNS. numpy + scipy only."""
 
-from derive.provenance import __version__  # noqa: F401  (one source for the version)
+from pulsemap.derive.provenance import __version__  # noqa: F401  (one source for the version)

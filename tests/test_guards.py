@@ -11,9 +11,9 @@ import json
 import numpy as np
 import pytest
 
-from solvers.cli import main
-from solvers.codeload import map_module
-from solvers.map_iteration import iterate_map
+from pulsemap.solvers.cli.main import main
+from pulsemap.solvers.models.codeload import map_module
+from pulsemap.solvers.models.map_iteration import iterate_map
 
 SOFTENING = """\
 name = "softening"
@@ -74,8 +74,8 @@ def test_forcing_ratio_of_damping_is_the_closed_form():
     """R = -mu v: the eps term of Eq. 23 is -eps mu g1_0010 A with g1_0010 = int S' = S(0), so the
     ratio to the contact term f1 A^P is eps mu S(0) A^(1-P) / f1 (constants from derive, not
     from the generated module)."""
-    from derive.integrals import constants
-    from derive.profile import get_profile
+    from pulsemap.derive.integrals import constants
+    from pulsemap.derive.profile import get_profile
 
     S0 = get_profile("exact", 1.5).S0
     f1 = constants(["f1"], n=1.5, profile="exact")["f1"].value
@@ -114,8 +114,8 @@ def test_no_warning_inside_the_assumptions(tmp_path):
 
 
 def _map_run(n: float, variant: str, last: int = 60) -> dict:
-    from solvers.run import run_scene
-    from solvers.scene import load_scene
+    from pulsemap.solvers.studies.run import run_scene
+    from pulsemap.solvers.data.scene import load_scene
 
     scene = load_scene("fig8-eps0.1").with_overrides(exponent=n, contacts=(16, last), methods=("map",))
     return run_scene(scene, variant=variant, seed_peak=0.5)

@@ -35,8 +35,8 @@ import sympy
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from derive.expression import parse_expression, symbol
-from derive.perturbation import PerturbationError, make_perturbation
+from pulsemap.derive.expression import parse_expression, symbol
+from pulsemap.derive.perturbation import PerturbationError, make_perturbation
 
 U, V, I, MU = (symbol(name) for name in ("u", "v", "i", "mu"))
 SENTINEL = Path(os.environ.get("TMPDIR", "/tmp")) / "pulsemap-property-sentinel"
@@ -78,7 +78,7 @@ def _warm_up() -> None:
                 call()
             except ValueError:
                 pass
-    from solvers.scene import parse_scene
+    from pulsemap.solvers.data.scene import parse_scene
 
     try:
         parse_scene(_scene_data("-mu*v", 1.0), "warm.toml")
@@ -141,7 +141,7 @@ def test_arbitrary_text_never_runs_code(text: str, other: str) -> None:
 @given(ANY_TEXT, st.one_of(ANY_TEXT, st.floats(), st.integers(), st.booleans(), st.lists(st.floats(), max_size=3)))
 def test_arbitrary_scene_values_never_run_code(text: str, value: object) -> None:
     """Inside a scene: a Scene or a one-line SceneError, nothing else."""
-    from solvers.scene import SceneError, parse_scene
+    from pulsemap.solvers.data.scene import SceneError, parse_scene
 
     with trapped() as calls:
         try:
@@ -225,7 +225,7 @@ def independent_terms(poly: dict[tuple[int, int], int], mu_on: tuple[int, int] |
 @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(POLY, st.booleans(), st.sampled_from([0.5, 2.0]))
 def test_polynomial_perturbations_derive_and_match_an_independent_count(poly, with_mu, mu_value) -> None:
-    from derive.derivation import derive_all, to_json
+    from pulsemap.derive.derivation import derive_all, to_json
 
     mu_on = min(poly) if with_mu else None
     text = " + ".join(f"({c})*{'mu*' if (a, b) == mu_on else ''}u^{a}*v^{b}" for (a, b), c in sorted(poly.items()))

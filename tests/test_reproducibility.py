@@ -14,6 +14,7 @@ One caveat is recorded rather than excluded: ``pulsemap derive`` tries a closed-
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import subprocess
@@ -28,7 +29,7 @@ try:  # Python >= 3.11
 except ModuleNotFoundError:  # pragma: no cover
     import tomli as tomllib  # type: ignore[no-redef]
 
-from solvers.cli import main
+from pulsemap.solvers.cli.main import main
 
 ROOT = Path(__file__).resolve().parent.parent
 TIMING_KEYS = frozenset({"timings_s", "timing_s"})
@@ -70,7 +71,7 @@ def fresh_process(argv: list[str], tmp_path: Path) -> dict:
     cache = tmp_path / f"cache-{out.stem}"
     env = {**os.environ, "PULSEMAP_CACHE_DIR": str(cache),
            "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    proc = subprocess.run([sys.executable, "-m", "solvers.cli", *argv, "--json", str(out)],
+    proc = subprocess.run([sys.executable, "-m", "pulsemap.solvers.cli.main", *argv, "--json", str(out)],
                           capture_output=True, text=True, cwd=tmp_path, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert cache.is_dir()  # it really used (and filled) its own cache, not ours
@@ -95,25 +96,25 @@ def scene_file(tmp_path) -> Path:
 
 
 def test_the_version_has_one_source(capsys):
-    import derive
-    import solvers
+    import pulsemap.derive
+    import pulsemap.solvers
 
     with open(ROOT / "pyproject.toml", "rb") as fh:
         declared = tomllib.load(fh)["project"]["version"]
-    assert derive.__version__ == solvers.__version__ == declared
+    assert pulsemap.derive.__version__ == pulsemap.solvers.__version__ == declared
     with pytest.raises(SystemExit) as info:
         main(["--version"])
     assert info.value.code == 0 and capsys.readouterr().out.strip() == f"pulsemap {declared}"
 
 
 def test_run_output_records_what_produced_it(scene_file):
-    from solvers.run import run_scene
-    from solvers.scene import load_scene, parse_scene
+    from pulsemap.solvers.studies.run import run_scene
+    from pulsemap.solvers.data.scene import load_scene, parse_scene
 
     scene = load_scene(str(scene_file))
     data = round_trip(run_scene(scene))
     prov = data["provenance"]
-    assert prov["pulsemap"] == data["pulsemap_version"] == __import__("solvers").__version__
+    assert prov["pulsemap"] == data["pulsemap_version"] == importlib.import_module("pulsemap").__version__
     assert all(prov[name] for name in ("python", "numpy", "scipy", "sympy", "mpmath"))
     # the scene as resolved: complete enough to rebuild the very same scene, seed included
     assert parse_scene(data["scene"], data["scene"]["source"]) == scene
@@ -129,11 +130,11 @@ def test_run_output_records_what_produced_it(scene_file):
 
 
 def test_derive_and_profile_outputs_record_what_produced_them():
-    from derive.balance import derive_balance
-    from derive.derivation import derive_all, to_json
-    from derive.perturbation import make_perturbation
-    from derive.provenance import provenance
-    from derive.report import profile_report
+    from pulsemap.derive.balance import derive_balance
+    from pulsemap.derive.derivation import derive_all, to_json
+    from pulsemap.derive.perturbation import make_perturbation
+    from pulsemap.derive.provenance import provenance
+    from pulsemap.derive.report import profile_report
 
     d = round_trip(to_json(derive_all(make_perturbation("-mu*v", 0.1, {"mu": 2.0}), sympy_seconds=0)))
     assert d["provenance"] == provenance()
@@ -186,8 +187,8 @@ def test_profile_json_is_reproducible_across_processes(tmp_path, capsys):
 
 
 def test_a_different_seed_gives_different_draws(scene_file):
-    from solvers.run import run_scene
-    from solvers.scene import load_scene
+    from pulsemap.solvers.studies.run import run_scene
+    from pulsemap.solvers.data.scene import load_scene
 
     scenes = {seed: load_scene(str(scene_file)).with_overrides(params={"k": {"uniform": [0, 1], "seed": seed}})
               for seed in (3, 4)}

@@ -1,0 +1,207 @@
+"""Direct numerical simulation of the perturbed granular chain, paper Eq. 1.
+
+    x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')
+
+with free ends, all beads at rest and bead 1 given velocity v0. The state is interleaved,
+y = [x_1, v_1, x_2, v_2, ...], so the Jacobian is banded (lower bandwidth 3, upper 1). The
+scipy ``OdeSolver`` classes are driven step by step so that leading-edge peaks (the first local
+maximum in time of delta_i = x_i - x_{i+1}) are located on each step's dense output and the run
+stops as soon as the last requested contact has peaked or the pulse has died.
+"""
+
+from __future__ import annotations
+
+import sys
+import time as _time
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from pulsemap.solvers.chain import window as _window
+from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
+    ENERGY_BLOWUP, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
+    OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy, initial_state, make_rhs,
+    make_solver, run_scipy)
+# velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
+from pulsemap.solvers.chain.peaks import PeakTracker, contact_rate, scan_step, velocity_scale  # noqa: F401
+
+if TYPE_CHECKING:  # pragma: no cover
+    from pulsemap.solvers.chain.window import WindowRule
+
+
+# ----------------------------------------------------------------------------- validation
+
+
+def validate(
+    beads: int,
+    exponent: float,
+    velocity: float,
+    contacts: tuple[int, int],
+    method: str,
+    rtol: float,
+    atol: float,
+    peak_fraction: float,
+    death_fraction: float,
+    t_max: float | None,
+    stall_factor: float = 5.0,
+    overtake_factor: float = 1.25,
+    max_steps: int | None = None,
+) -> tuple[int, int]:
+    """Check simulate()'s arguments; return the contact range. One-line ValueErrors."""
+    if isinstance(beads, bool) or not isinstance(beads, (int, np.integer)) or beads < 2:
+        raise ValueError(f"beads must be an integer >= 2, got {beads!r}; use chain_length_for(last_contact)")
+    if not np.isfinite(exponent) or exponent <= 1.0:
+        raise ValueError(f"exponent must be a finite number > 1 (Hertz: 1.5), got {exponent!r}")
+    if not np.isfinite(velocity):
+        raise ValueError(f"velocity must be finite, got {velocity!r}")
+    if velocity <= 0.0:
+        raise ValueError(f"velocity must be > 0 (bead 1 pushes into the chain), got {velocity!r}")
+    try:
+        first, last = (int(c) for c in contacts)
+    except (TypeError, ValueError):
+        raise ValueError(f"contacts must be a pair (first, last) of integers, got {contacts!r}") from None
+    if (first, last) != tuple(contacts):
+        raise ValueError(f"contacts must be integers, got {contacts!r}")
+    if not 1 <= first <= last <= beads - 1:
+        raise ValueError(
+            f"contacts {contacts!r} must satisfy 1 <= first <= last <= beads-1 = {beads - 1}; "
+            f"fix the range or use beads=chain_length_for({last})"
+        )
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    if not (np.isfinite(rtol) and rtol > 0.0):
+        raise ValueError(f"rtol must be a finite number > 0, got {rtol!r}")
+    if not (np.isfinite(atol) and atol > 0.0):
+        raise ValueError(f"atol must be a finite number > 0, got {atol!r}")
+    if not 0.0 < peak_fraction < 1.0:
+        raise ValueError(f"peak_fraction must lie in (0, 1), got {peak_fraction!r}")
+    if not 0.0 <= death_fraction < 1.0:
+        raise ValueError(f"death_fraction must lie in [0, 1), got {death_fraction!r}")
+    if t_max is not None and not (np.isfinite(t_max) and t_max > 0.0):
+        raise ValueError(f"t_max must be a finite number > 0 or None, got {t_max!r}")
+    if not (np.isfinite(stall_factor) and stall_factor > 1.0):
+        raise ValueError(f"stall_factor must be a finite number > 1, got {stall_factor!r}")
+    if not (np.isfinite(overtake_factor) and overtake_factor > 1.0):
+        raise ValueError(f"overtake_factor must be a finite number > 1, got {overtake_factor!r}")
+    if max_steps is not None and (isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer))
+                                  or max_steps < 1):
+        raise ValueError(f"max_steps must be an integer >= 1 or None, got {max_steps!r}")
+    return first, last
+
+
+# ----------------------------------------------------------------------------- the run
+
+
+def simulate(
+    beads: int,
+    exponent: float,
+    velocity: float,
+    contacts: tuple[int, int],
+    force: OnSiteForce | None = None,
+    *,
+    method: str = "auto",
+    rtol: float = 1e-10,
+    atol: float = 1e-12,
+    peak_fraction: float = 1e-2,
+    death_fraction: float = 1e-3,
+    t_max: float | None = None,
+    stall_factor: float = 5.0,
+    progress: bool = False,
+    overtake_factor: float = 1.25,
+    window: "int | str | WindowRule | None" = None,
+    window_accuracy: float = 1e-8,
+    window_engine: str = "auto",
+    max_steps: int | None = None,
+) -> DNSResult:
+    """Integrate Eq. 1 and return the leading-edge peaks of contacts[0]..contacts[1].
+
+    ``window=None`` (default) integrates the whole chain. ``window="auto"`` integrates only a
+    moving window of beads around the leading edge (solvers/window.py), sized so that the
+    window costs less than ``window_accuracy`` relative peak error; an int gives the window's
+    width in beads, a ``WindowRule`` its full geometry. The windowed cost per contact does not
+    grow with N. Its ``energy_drift`` counts the energy carried out by dropped beads.
+    ``window_engine``: "auto" (Hairer's Fortran DOP853/DOPRI5 for those methods, else the
+    scipy OdeSolver), "fortran" or "scipy".
+
+    All contacts 1..last are tracked (each one's acceptance threshold is ``peak_fraction``
+    times the previous contact's peak; contact 1 uses the scale v0^(2/(n+1))). The run stops
+    when the last contact has peaked, when the pulse dies (a peak below ``death_fraction``
+    times the first requested contact's peak), when no new contact peaks within
+    ``stall_factor`` times the last inter-peak delay, at ``t_max``, or when the state becomes
+    non-finite or the energy grows beyond 1e6 times its initial value. A contact whose first
+    maximum exceeds ``overtake_factor`` times the previous contact's no longer carries the
+    primary pulse (the wake overtook the front): the run stops there too. ``max_steps``
+    (default ``default_max_steps(last)``) bounds the accepted steps, so no run can hang.
+    Whatever stops the run, the peaks measured before it are returned (never NaN for a
+    contact marked alive).
+    """
+    first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol,
+                           peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps)
+    beads, exponent, velocity = int(beads), float(exponent), float(velocity)
+    chosen = choose_method(force, velocity, exponent) if method == "auto" else method
+    t_limit = default_t_max(last, velocity, exponent) if t_max is None else float(t_max)
+    if window is not None:
+        return _window.simulate_windowed(
+            beads, exponent, velocity, (first, last), force, rule=_window.resolve_rule(window, window_accuracy),
+            method=chosen, rtol=rtol, atol=atol, peak_fraction=peak_fraction,
+            death_fraction=death_fraction, t_max=t_limit, stall_factor=stall_factor,
+            progress=progress, engine=window_engine, overtake_factor=overtake_factor,
+            max_steps=default_max_steps(last) if max_steps is None else int(max_steps))
+    y0 = initial_state(beads, velocity)
+    e0 = energy(y0[0::2], y0[1::2], exponent)
+
+    wall0 = _time.perf_counter()
+    solver = make_solver(chosen, beads, exponent, force, y0, t_limit, rtol, atol)
+    track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
+                              death_fraction=death_fraction, overtake_factor=overtake_factor,
+                              stall_factor=stall_factor)
+    budget = default_max_steps(last) if max_steps is None else max_steps
+    drift = 0.0
+    wall_report = wall0
+
+    def on_step(t_old: float, y_old: Array, t_new: float, y_new: Array, dense_factory) -> bool:
+        """Bookkeeping after one accepted step (energy every step); True stops the run."""
+        nonlocal drift, wall_report
+        e = energy(y_new[0::2], y_new[1::2], exponent)
+        if track.check_state(t_new, e, e0, ENERGY_BLOWUP):
+            return True
+        drift = max(drift, abs(e - e0) / e0)
+        track.record(scan_step(y_old, y_new, t_old, t_new, dense_factory, track.next_contact,
+                               last, track.threshold, peak_fraction))
+        if track.check_progress(t_new, t_limit, budget):
+            return True
+        if progress and _time.perf_counter() - wall_report > 2.0:
+            wall_report = _time.perf_counter()
+            print(f"[dns] t={t_new:.4g} contact {track.next_contact - 1}/{last} nfev={solver.nfev}",
+                  file=sys.stderr)
+        return False
+
+    try:
+        run_scipy(solver, on_step)
+    except RuntimeError as err:
+        track.reason = str(err)
+    track.reason = track.reason or f"t_max reached (t={solver.t:.6g}, next contact {track.next_contact})"
+
+    wall = _time.perf_counter() - wall0
+    contacts_out, peaks, times, alive = track.outcome()
+    return DNSResult(
+        contacts=contacts_out,
+        peaks=peaks,
+        peak_times=times,
+        alive=alive,
+        stop_reason=track.reason,
+        method=chosen,
+        rtol=float(rtol),
+        atol=float(atol),
+        beads=beads,
+        nfev=int(solver.nfev),
+        njev=int(getattr(solver, "njev", 0)),
+        wall_time_s=wall,
+        energy_drift=drift if force is None else None,
+        exponent=exponent,
+        velocity=velocity,
+        t_end=float(solver.t),
+        window_beads=beads,
+        blew_up=track.blew_up,
+        steps=track.steps,
+    )

@@ -1,0 +1,310 @@
+"""The equations of motion shared by every DNS engine, paper Eq. 1.
+
+    x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')
+
+The on-site force and result types, energy, initial state, right-hand side, banded Jacobian
+and the scipy solver factory. Both the full-chain front end (dns.py) and the moving window
+(window.py) import this module; neither imports the other's internals.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import scipy.integrate as _integrate
+from scipy import sparse
+
+# velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
+from pulsemap.solvers.chain.peaks import PeakTracker, contact_rate, scan_step, velocity_scale  # noqa: F401
+
+Array = np.ndarray
+EXPLICIT_METHODS = ("DOP853", "RK45", "RK23")
+IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
+METHODS = ("auto",) + EXPLICIT_METHODS + IMPLICIT_METHODS
+STIFFNESS_RATIO = 30.0  # 'auto' goes implicit when stiffness_hint > this x contact rate
+ENERGY_BLOWUP = 1e6  # blow-up guard: energy (kinetic + contact) beyond this x initial
+STEPS_PER_CONTACT = 2000  # step budget per contact (default_max_steps)
+
+
+@dataclass(frozen=True)
+class OnSiteForce:
+    """F(x, v) -> array (N,), eps and the perturbed range already applied (Eq. 1).
+
+    Optional dF/dx and dF/dv (diagonal, arrays (N,)) give implicit methods an analytic
+    Jacobian; when either is missing a banded finite-difference Jacobian is used.
+    ``stiffness_hint`` is a rate (e.g. max |dF/dv|, sqrt(max |dF/dx|)) used by method='auto'.
+    ``restrict(lo, hi)``, optional, returns the same force acting on beads lo..hi-1 only
+    (0-based slice; arrays of length hi-lo) for the moving-window DNS; without it the window
+    embeds its beads in full-length arrays, which works for any force but costs O(N) per call.
+    """
+
+    force: Callable[[Array, Array], Array]
+    dforce_dx: Callable[[Array, Array], Array] | None = None
+    dforce_dv: Callable[[Array, Array], Array] | None = None
+    stiffness_hint: float = 0.0
+    restrict: Callable[[int, int], "OnSiteForce"] | None = None
+
+    @property
+    def has_jacobian(self) -> bool:
+        return self.dforce_dx is not None and self.dforce_dv is not None
+
+
+@dataclass(frozen=True)
+class DNSResult:
+    """Leading-edge peaks of the requested contacts (1-based) and how the run went.
+
+    ``mode`` is "full" (all N beads integrated) or "window" (moving window, solvers/window.py);
+    ``window_beads`` is the largest number of beads integrated at once, ``window_shifts`` the
+    number of solver restarts the window needed and ``window_rule`` its geometry (None: full).
+    ``blew_up``: the run was stopped by the blow-up guard (non-finite state or energy beyond
+    ENERGY_BLOWUP x initial); the peaks measured before it are kept. ``steps``: accepted steps.
+    """
+
+    contacts: Array
+    peaks: Array
+    peak_times: Array
+    alive: Array
+    stop_reason: str
+    method: str
+    rtol: float
+    atol: float
+    beads: int
+    nfev: int
+    njev: int
+    wall_time_s: float
+    energy_drift: float | None
+    exponent: float = 0.0
+    velocity: float = 0.0
+    t_end: float = 0.0
+    mode: str = "full"
+    window_beads: int = 0
+    window_shifts: int = 0
+    window_rule: object | None = None
+    blew_up: bool = False
+    steps: int = 0
+
+
+# ----------------------------------------------------------------------------- small helpers
+
+
+def chain_length_for(last_contact: int, margin: int = 10) -> int:
+    """Beads needed so the free end cannot disturb the leading edge at ``last_contact``."""
+    if last_contact < 1 or margin < 0:
+        raise ValueError(f"last_contact must be >= 1 and margin >= 0, got {last_contact}, {margin}")
+    return int(last_contact) + 1 + int(margin)
+
+
+def energy(x: Array, v: Array, exponent: float) -> float:
+    """Kinetic plus contact energy of Eq. 1: sum v^2/2 + sum (x_i - x_{i+1})_+^(n+1)/(n+1)."""
+    d = np.maximum(np.asarray(x[:-1]) - np.asarray(x[1:]), 0.0)
+    return float(0.5 * np.dot(v, v) + np.sum(d ** (exponent + 1.0)) / (exponent + 1.0))
+
+
+def choose_method(force: OnSiteForce | None, velocity: float, exponent: float) -> str:
+    """'DOP853' unless the force's stiffness hint dwarfs the contact rate, then 'LSODA'.
+
+    LSODA (banded analytic Jacobian) was the fastest implicit method in the damped-chain
+    benchmarks (eps*mu = 30..3000, rtol 1e-6..1e-10); the explicit and implicit costs cross
+    near a stiffness ratio of 30.
+    """
+    if force is None or force.stiffness_hint <= STIFFNESS_RATIO * contact_rate(velocity, exponent):
+        return "DOP853"
+    return "LSODA"
+
+
+def default_t_max(last_contact: int, velocity: float, exponent: float) -> float:
+    """Generous time limit: 100x the unperturbed travel time to ``last_contact``."""
+    return 100.0 * (last_contact + 5) / contact_rate(velocity, exponent)
+
+
+def default_max_steps(last_contact: int) -> int:
+    """Step budget: 2000 accepted steps per contact (a formed pulse takes ~5-10 at rtol 1e-10)."""
+    return STEPS_PER_CONTACT * (int(last_contact) + 10)
+
+
+def initial_state(beads: int, velocity: float) -> Array:
+    """All beads at rest at x = 0, bead 1 with velocity v0 (interleaved state)."""
+    y0 = np.zeros(2 * beads)
+    y0[1] = velocity
+    return y0
+
+
+# ----------------------------------------------------------------------------- Eq. 1
+
+Boundary = Callable[[float], float]
+
+
+def power_into(d: Array, exponent: float) -> None:
+    """d <- d**n in place for d >= 0 (n = 1.5, 2, 3 by products and sqrt: cheaper than pow)."""
+    if exponent == 1.5:
+        np.multiply(d, np.sqrt(d), out=d)
+    elif exponent == 2.0:
+        np.multiply(d, d, out=d)
+    elif exponent == 3.0:
+        np.multiply(d, d * d, out=d)
+    else:
+        np.power(d, exponent, out=d)
+
+
+def make_rhs(
+    beads: int,
+    exponent: float,
+    force: OnSiteForce | None,
+    left: Boundary | None = None,
+    wall: bool = False,
+) -> Callable[[float, Array], Array]:
+    """Vectorised right-hand side of Eq. 1 on ``beads`` consecutive beads (interleaved state).
+
+    The whole chain by default (free ends). For a moving window (solvers/window.py):
+    ``left`` is the displacement of a prescribed bead before the first one (None: free end);
+    ``wall``: the bead after the last one is at rest at x = 0 (False: free end).
+    The positions sit in one padded array with the boundary beads (a free end is a copy of
+    its neighbour: no compression), so the contact forces are one difference and the
+    accelerations another (few numpy calls: call overhead dominates on a small window).
+    """
+    n = float(exponent)
+    on_site = None if force is None else force.force
+    xe = np.zeros(beads + 2)  # xe[0]: left boundary bead, xe[-1]: the bead after the last
+    d = np.empty(beads + 1)  # d[j]: force of contact j (0: left boundary, beads: wall)
+    inner = xe[1:-1]
+
+    def rhs(t: float, y: Array) -> Array:
+        out = np.empty(2 * beads)
+        out[0::2] = y[1::2]
+        inner[:] = y[0::2]
+        xe[0] = left(t) if left is not None else xe[1]
+        xe[-1] = 0.0 if wall else xe[-2]
+        np.subtract(xe[:-1], xe[1:], out=d)
+        np.maximum(d, 0.0, out=d)
+        power_into(d, n)
+        a = out[1::2]
+        np.subtract(d[:-1], d[1:], out=a)
+        if on_site is not None:
+            a += on_site(inner, y[1::2])
+        return out
+
+    return rhs
+
+
+def _band_diagonals(
+    beads: int, exponent: float, x: Array, v: Array, force: OnSiteForce | None
+) -> tuple[Array, Array, Array, Array]:
+    """Diagonals (offsets -3, -1, 0, +1) of the Jacobian of Eq. 1 on the interleaved state."""
+    n = float(exponent)
+    fp = n * np.maximum(x[:-1] - x[1:], 0.0) ** (n - 1.0)  # d f / d delta per contact
+    kdiag = np.zeros(beads)
+    kdiag[:-1] -= fp
+    kdiag[1:] -= fp
+    dfx = np.zeros(beads) if force is None else np.asarray(force.dforce_dx(x, v), float)
+    dfv = np.zeros(beads) if force is None else np.asarray(force.dforce_dv(x, v), float)
+    m = 2 * beads
+    lower3 = np.zeros(m - 3)
+    lower3[0::2] = fp  # (v_i, x_{i-1})
+    lower1 = np.zeros(m - 1)
+    lower1[0::2] = kdiag + dfx  # (v_i, x_i)
+    main = np.zeros(m)
+    main[1::2] = dfv  # (v_i, v_i)
+    upper1 = np.zeros(m - 1)
+    upper1[0::2] = 1.0  # (x_i, v_i)
+    upper1[1::2] = fp  # (v_i, x_{i+1})
+    return lower3, lower1, main, upper1
+
+
+def make_jacobians(
+    beads: int,
+    exponent: float,
+    force: OnSiteForce | None,
+    left: Boundary | None = None,
+    wall: bool = False,
+) -> tuple[Callable[[float, Array], sparse.csc_matrix], Callable[[float, Array], Array]]:
+    """Analytic banded Jacobian of ``make_rhs`` (same arguments; dF/dx, dF/dv needed with a
+    force): (sparse for BDF/Radau, packed for LSODA with lband=3, uband=1)."""
+    n = float(exponent)
+
+    def diagonals(t: float, y: Array):
+        x, v = y[0::2], y[1::2]
+        lower3, lower1, main, upper1 = _band_diagonals(beads, n, x, v, force)
+        if left is not None:
+            d = left(t) - x[0]
+            if d > 0.0:
+                lower1[0] -= n * d ** (n - 1.0)
+        if wall and x[-1] > 0.0:
+            lower1[2 * (beads - 1)] -= n * x[-1] ** (n - 1.0)
+        return lower3, lower1, main, upper1
+
+    def sparse_jac(t: float, y: Array) -> sparse.csc_matrix:
+        return sparse.diags(diagonals(t, y), (-3, -1, 0, 1), shape=(2 * beads, 2 * beads), format="csc")
+
+    def packed_jac(t: float, y: Array) -> Array:
+        lower3, lower1, main, upper1 = diagonals(t, y)
+        packed = np.zeros((5, 2 * beads))
+        packed[0, 1:] = upper1
+        packed[1, :] = main
+        packed[2, :-1] = lower1
+        packed[4, :-3] = lower3
+        return packed
+
+    return sparse_jac, packed_jac
+
+
+def band_pattern(beads: int) -> sparse.csc_matrix:
+    """Structural sparsity of the Jacobian: neighbours only (offsets -3, -1, 0, +1)."""
+    m = 2 * beads
+    ones = [np.ones(m - 3), np.ones(m - 1), np.ones(m), np.ones(m - 1)]
+    return sparse.diags(ones, (-3, -1, 0, 1), shape=(m, m), format="csc")
+
+
+def make_solver(
+    method: str,
+    beads: int,
+    exponent: float,
+    force: OnSiteForce | None,
+    y0: Array,
+    t_max: float,
+    rtol: float,
+    atol: float,
+    *,
+    t0: float = 0.0,
+    first_step: float | None = None,
+    left: Boundary | None = None,
+    wall: bool = False,
+) -> _integrate.OdeSolver:
+    """The scipy OdeSolver for ``method`` with the best Jacobian information available.
+
+    ``left``, ``wall`` as in make_rhs; a moving window restarts the solver at ``t0`` with the
+    previous step size as ``first_step``.
+    """
+    rhs = make_rhs(beads, exponent, force, left, wall)
+    cls = getattr(_integrate, method)
+    kw = dict(rtol=rtol, atol=atol)
+    if first_step is not None:
+        kw["first_step"] = min(first_step, t_max - t0)
+    if method in EXPLICIT_METHODS:
+        return cls(rhs, t0, y0, t_max, **kw)
+    analytic = force is None or force.has_jacobian
+    sparse_jac, packed_jac = make_jacobians(beads, exponent, force, left, wall)
+    if method == "LSODA":
+        return cls(rhs, t0, y0, t_max, jac=packed_jac if analytic else None, lband=3, uband=1, **kw)
+    if analytic:
+        return cls(rhs, t0, y0, t_max, jac=sparse_jac, **kw)
+    return cls(rhs, t0, y0, t_max, jac_sparsity=band_pattern(beads), **kw)
+
+
+def run_scipy(solver: _integrate.OdeSolver, on_step) -> tuple[float, Array, int, float]:
+    """Step a scipy OdeSolver until on_step says stop or the solver finishes.
+
+    ``on_step(t_old, y_old, t_new, y_new, dense_factory) -> bool`` is called after every
+    accepted step; True stops. Returns (t, y, nfev, last step size); a failed step raises
+    RuntimeError (same contract as window.run_fortran).
+    """
+    while True:
+        t_old, y_old = solver.t, solver.y.copy()
+        message = solver.step()
+        if solver.status == "failed":
+            raise RuntimeError(f"integrator failed at t={solver.t:.6g}: {message}")
+        if on_step(t_old, y_old, solver.t, solver.y.copy(), solver.dense_output) or solver.status != "running":
+            return solver.t, solver.y.copy(), int(solver.nfev), float(solver.step_size or 0.0)
+
+

@@ -1,0 +1,435 @@
+"""Moving-window DNS of paper Eq. 1: integrate only the beads near the leading edge.
+
+    x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')          (paper Eq. 1)
+
+The primary pulse spans about six beads and its leading and trailing edges decay
+super-exponentially (delta_{i+1} ~ delta_i^n ahead of the front), so
+
+* beads far ahead of the front are at rest to round-off: they are not integrated; the bead just
+  past the window (0-based index ``hi``) is held at rest at x = 0 (a wall for the contact
+  between beads hi-1 and hi), exactly as in the full chain while its true motion is below
+  round-off. A step after which bead hi-1 moves by more than ``threshold`` (relative to the
+  scales v0 and v0^(2/(n+1))) is rejected and redone with a wider window;
+* beads more than ``behind`` beads behind the last peaked contact (the front) no longer
+  influence the leading-edge peaks: they are dropped in chunks of ``chunk`` beads. The last
+  dropped bead becomes a prescribed left boundary: it coasts with its velocity at the moment
+  it was dropped (``boundary="coast"``), or it is removed with its contact (``"free"``).
+
+The scipy solver is restarted at every shift with the last step size as its first step, so a
+shift costs one or two right-hand-side evaluations. The cost per contact is independent of the
+chain length N (the full chain costs O(N) per contact, O(N^2) per run).
+
+The window rule (``rule_for_accuracy``) was calibrated against the full chain (peaks at every
+contact, n = 1.5 and n = 3, v0 = 1, unperturbed and damped from bead 16); see
+``CALIBRATION`` below and benchmarks/bench_dns_scaling.py.
+"""
+
+from __future__ import annotations
+
+import sys
+import time as _time
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+import scipy.integrate as _integrate
+
+from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, energy, make_rhs, make_solver, run_scipy
+from pulsemap.solvers.chain.peaks import PeakTracker, QuinticStep, scan_step, velocity_scale
+
+Array = np.ndarray
+BOUNDARIES = ("coast", "free")
+
+# Measured max relative peak error the window costs against the full chain, by the number of
+# beads kept behind the front (boundary "coast"; 200 beads, contacts 1..190, n = 1.5, v0 = 1,
+# DOP853 rtol 1e-13 in both runs so the integrator's own error is ~5e-11). Worst case over
+# unperturbed and damped F = -eps*mu*v from bead 16 with eps*mu = 0.01, 0.05, 0.1, 0.3; the
+# worst is always a decaying pulse's last contacts before it dies (eps*mu = 0.1, 0.3): there
+# the pulse is wide and slow. Unperturbed and eps*mu = 0.01 (and n = 3) are at the integrator
+# floor from behind = 3. "free" is 3-30x worse than "coast". ahead = 2..10 and the 1e-30
+# extension threshold made no measurable difference.
+CALIBRATION: dict[int, float] = {6: 1.5e-3, 8: 1.8e-4, 12: 4.3e-6, 16: 1.9e-9, 24: 5e-11}
+
+
+@dataclass(frozen=True)
+class WindowRule:
+    """Geometry of the moving window (bead counts).
+
+    behind: beads kept behind the front (the last peaked contact);
+    ahead: beads kept ahead of the next contact to peak (at rest up to round-off);
+    chunk: beads dropped/added per shift (amortises the solver restart);
+    threshold: motion of the last window bead, relative to the scales v0^(2/(n+1)) and v0,
+      that triggers a wider window;
+    boundary: what the last dropped bead does: "coast" (constant velocity) or "free" (removed).
+    """
+
+    behind: int = 20
+    ahead: int = 10
+    chunk: int = 10
+    threshold: float = 1e-30
+    boundary: str = "coast"
+
+    @property
+    def width(self) -> int:
+        """Largest number of beads integrated at once."""
+        return self.behind + self.ahead + self.chunk + 1
+
+
+def validate_rule(rule: WindowRule) -> WindowRule:
+    """One-line ValueErrors for a bad window geometry."""
+    if rule.behind < 2 or rule.ahead < 2 or rule.chunk < 1:
+        raise ValueError(f"window needs behind >= 2, ahead >= 2, chunk >= 1, got {rule!r}")
+    if not (np.isfinite(rule.threshold) and 0.0 < rule.threshold < 1.0):
+        raise ValueError(f"window threshold must lie in (0, 1), got {rule.threshold!r}")
+    if rule.boundary not in BOUNDARIES:
+        raise ValueError(f"window boundary must be one of {BOUNDARIES}, got {rule.boundary!r}")
+    return rule
+
+
+def rule_for_accuracy(accuracy: float) -> WindowRule:
+    """Window rule whose truncation error stays below ``accuracy`` (relative peak error).
+
+    Calibrated rule (see CALIBRATION): with d = ceil(log10(1/accuracy)),
+    behind = 4 + 4 * ceil(d / 2): 12 beads for 1e-4 (measured worst 4.3e-6), 16 for 1e-6
+    (1.9e-9), 20 for 1e-8 (between 1.9e-9 at 16 and the integrator floor at 24), 24 for 1e-10.
+    ahead = 10 and the 1e-30 extension threshold cost nothing measurable.
+    """
+    if not (np.isfinite(accuracy) and 0.0 < accuracy < 1.0):
+        raise ValueError(f"window_accuracy must lie in (0, 1), got {accuracy!r}")
+    digits = max(1, int(np.ceil(-np.log10(accuracy))))
+    return WindowRule(behind=4 + 4 * ((digits + 1) // 2))
+
+
+MIN_WIDTH = 17  # the narrowest width whose rule keeps behind >= 2 (10 ahead, chunk 4, 1 for the front)
+
+
+def rule_for_width(width: int) -> WindowRule:
+    """Window rule with ``width`` integrated beads at most (ahead 10, chunk ~ width/4)."""
+    if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < MIN_WIDTH:
+        raise ValueError(f"window width must be an integer >= {MIN_WIDTH}, got {width!r}; or use window='auto'")
+    chunk = max(1, int(width) // 4)
+    ahead = 10
+    return WindowRule(behind=int(width) - ahead - chunk - 1, ahead=ahead, chunk=chunk)
+
+
+def resolve_rule(window, accuracy: float) -> WindowRule:
+    """``window`` as given to simulate(): 'auto', an int width, or a WindowRule."""
+    if isinstance(window, WindowRule):
+        return validate_rule(window)
+    if isinstance(window, str):
+        if window != "auto":
+            raise ValueError(f"window must be None, 'auto', an int width or a WindowRule, got {window!r}")
+        return rule_for_accuracy(accuracy)
+    return validate_rule(rule_for_width(window))
+
+
+# ----------------------------------------------------------------------------- Eq. 1 on a window
+
+
+def restrict_force(force, beads: int, lo: int, hi: int):
+    """The on-site force on beads lo..hi-1 (0-based) as an OnSiteForce on the window.
+
+    Uses ``force.restrict(lo, hi)`` when the force provides it (O(window) per call); otherwise
+    embeds the window in full-length arrays (beads outside it at 0: the force is on-site, so
+    their values never matter), which costs O(N) per call but works for any force.
+    """
+    if force is None:
+        return None
+    if force.restrict is not None:
+        return force.restrict(lo, hi)
+    xf, vf = np.zeros(beads), np.zeros(beads)
+
+    def embed(fn):
+        if fn is None:
+            return None
+
+        def on_window(x: Array, v: Array) -> Array:
+            xf[lo:hi] = x
+            vf[lo:hi] = v
+            return np.asarray(fn(xf, vf), float)[lo:hi]
+
+        return on_window
+
+    return replace(force, force=embed(force.force), dforce_dx=embed(force.dforce_dx),
+                   dforce_dv=embed(force.dforce_dv), restrict=None)
+
+
+def coast(x_b: float, v_b: float, t_b: float) -> Callable[[float], float]:
+    """Prescribed left boundary bead: x_b + v_b (t - t_b)."""
+    return lambda t: x_b + v_b * (t - t_b)
+
+
+def window_energy(y: Array, exponent: float, left_x: float | None) -> float:
+    """Energy of Eq. 1 in the window, with the contact to the prescribed left bead."""
+    x, v = y[0::2], y[1::2]
+    e = energy(x, v, exponent)
+    if left_x is not None and left_x > x[0]:
+        e += (left_x - x[0]) ** (exponent + 1.0) / (exponent + 1.0)
+    return e
+
+
+def moved(y: Array, scale_x: float, scale_v: float) -> float:
+    """Motion of the last window bead relative to the chain's scales."""
+    return abs(y[-2]) / scale_x + abs(y[-1]) / scale_v
+
+
+# ----------------------------------------------------------------------------- engines
+
+FORTRAN_CODES = {"DOP853": "dop853", "RK45": "dopri5"}  # Hairer's codes behind scipy.integrate.ode
+FORTRAN_METHODS = {code: method for method, code in FORTRAN_CODES.items()}
+# PI step-size control (Hairer's BETA): fewer rejected steps at contact openings. Measured on
+# N = 1000, contacts 16..990, v0 = 1 (benchmarks/bench_dns.py): beta = 0.06 cut DOP853's
+# evaluations at equal peak accuracy by ~30 % (0, 0.03, 0.045, 0.06 tried; 0.1 is worse).
+FORTRAN_BETA = {"dop853": 0.06, "dopri5": 0.04}
+
+
+def tableau(method: str) -> tuple[Array, Array, Array]:
+    """Butcher tableau (A, b, c) of the explicit scheme behind ``method`` (DOP853 or RK45)."""
+    if method == "DOP853":
+        from scipy.integrate._ivp import dop853_coefficients as co
+
+        s = co.N_STAGES
+        return co.A[:s, :s], co.B, co.C[:s]
+    cls = getattr(_integrate, method)
+    return cls.A, cls.B, cls.C
+
+
+def exact_stepper(rhs, method: str):
+    """``step(t, y, f, h) -> y(t + h)``: one step of ``method``'s own scheme (h may be < 0).
+
+    Used by QuinticStep to read a peak's value at a located time: a step at most half as long
+    as an accepted one has a smaller local error (order 8 for DOP853, 5 for RK45).
+    """
+    A, B, C = tableau(method)
+    stages = len(B)
+
+    def step(t: float, y: Array, f: Array, h: float) -> Array:
+        K = np.empty((stages, len(y)))
+        K[0] = f
+        for j in range(1, stages):
+            K[j] = rhs(t + C[j] * h, y + h * (A[j, :j] @ K[:j]))
+        return y + h * (B @ K)
+
+    return step
+
+
+def run_fortran(code, rhs, t0, y0, t_max, rtol, atol, first_step, on_step) -> tuple[float, Array, int, float]:
+    """Integrate with Hairer's DOP853/DOPRI5 (scipy.integrate.ode) until on_step says stop.
+
+    ``on_step(t_old, y_old, t_new, y_new, dense_factory) -> bool`` is called after every
+    accepted step; True interrupts the integration. Returns (t, y, nfev, last step size).
+    """
+    state = {"t": t0, "y": np.array(y0, float), "h": first_step or 0.0, "extra": 0}
+
+    def counted(t: float, y: Array) -> Array:  # evaluations outside the Fortran loop
+        state["extra"] += 1
+        return rhs(t, y)
+
+    step_exactly = exact_stepper(counted, FORTRAN_METHODS[code])
+
+    def solout(t: float, y: Array) -> int:
+        if t == state["t"]:
+            return 0  # the initial point
+        t_old, y_old = state["t"], state["y"]
+        y_new = np.array(y)
+
+        def dense_factory():
+            return QuinticStep(t_old, y_old, counted(t_old, y_old), t, y_new, counted(t, y_new), step_exactly)
+
+        state["h"] = t - t_old
+        state["t"], state["y"] = t, y_new
+        return -1 if on_step(t_old, y_old, t, y_new, dense_factory) else 0
+
+    r = _integrate.ode(rhs).set_integrator(code, rtol=rtol, atol=atol, nsteps=2**31 - 1,
+                                           first_step=min(first_step or 0.0, t_max - t0),
+                                           beta=FORTRAN_BETA[code])
+    r.set_solout(solout)
+    r.set_initial_value(y0, t0)
+    r.integrate(t_max)
+    nfev = int(r._integrator.iwork[16]) + state["extra"]  # IWORK(17) = NFCN (Hairer)
+    if not r.successful() and r.get_return_code() != 2 and state["t"] < t_max:
+        raise RuntimeError(f"integrator failed at t={state['t']:.6g} (code {r.get_return_code()})")
+    return state["t"], state["y"], nfev, state["h"]
+
+
+# ----------------------------------------------------------------------------- the run
+
+
+@dataclass
+class _Run:
+    """Mutable window geometry of one windowed run (internal to simulate_windowed)."""
+
+    lo: int
+    hi: int
+    left: Callable[[float], float] | None = None
+    drift: float = 0.0
+    e_gone: float = 0.0
+    action: str = ""  # "", "stop", "shift", "extend"
+    redo: tuple[float, Array] | None = None
+    wall_report: float = 0.0
+
+
+ENERGY_EVERY = 4  # the blow-up guard computes the window's energy every this many steps
+
+
+def plan(next_contact: int, lo: int, hi: int, beads: int, rule: WindowRule) -> tuple[int, int]:
+    """New [lo, hi) for the window given the next contact to peak (1-based; the front, the last
+    peaked contact, is next_contact - 1)."""
+    new_lo = max(lo, next_contact - 1 - rule.behind)
+    new_hi = min(beads, max(hi, next_contact + rule.ahead + rule.chunk))
+    return new_lo, new_hi
+
+
+def needs_shift(next_contact: int, lo: int, hi: int, beads: int, rule: WindowRule) -> bool:
+    """True when a chunk can be dropped behind the front or the room ahead is used up."""
+    droppable = next_contact - 1 - rule.behind - lo >= rule.chunk
+    short = hi < beads and hi - next_contact < rule.ahead
+    return droppable or short
+
+
+def shift_state(y: Array, lo: int, new_lo: int, new_hi: int) -> Array:
+    """Interleaved state of window [new_lo, new_hi) from that of the window starting at lo
+    (new_lo >= lo; beads past the old window at rest)."""
+    out = np.zeros(2 * (new_hi - new_lo))
+    keep = y[2 * (new_lo - lo) :]
+    out[: len(keep)] = keep
+    return out
+
+
+def simulate_windowed(
+    beads: int,
+    exponent: float,
+    velocity: float,
+    contacts: tuple[int, int],
+    force=None,
+    *,
+    rule: WindowRule,
+    method: str = "DOP853",
+    rtol: float = 1e-10,
+    atol: float = 1e-12,
+    peak_fraction: float = 1e-2,
+    death_fraction: float = 1e-3,
+    t_max: float,
+    stall_factor: float = 5.0,
+    progress: bool = False,
+    engine: str = "auto",
+    overtake_factor: float = 1.25,
+    max_steps: int = 10**9,
+):
+    """Moving-window integration of Eq. 1 (arguments validated by dns.simulate, which calls it).
+
+    ``engine``: "fortran" (Hairer's DOP853/DOPRI5 through scipy.integrate.ode: the step loop
+    runs in compiled code, about 2x less overhead per step on a small window), "scipy" (the
+    scipy OdeSolver classes, needed for RK23 and the implicit methods) or "auto" (fortran when
+    the method has a Fortran code).
+    """
+    first, last = int(contacts[0]), int(contacts[1])
+    if engine == "auto":
+        engine = "fortran" if method in FORTRAN_CODES else "scipy"
+    if engine not in ("fortran", "scipy") or (engine == "fortran" and method not in FORTRAN_CODES):
+        raise ValueError(f"engine {engine!r} cannot run method {method!r}; use engine='scipy'")
+    scale_x, scale_v = velocity_scale(velocity, exponent), velocity
+    run = _Run(lo=0, hi=min(beads, rule.ahead + rule.chunk + 2))
+    track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
+                              death_fraction=death_fraction, overtake_factor=overtake_factor,
+                              stall_factor=stall_factor)
+    y = np.zeros(2 * run.hi)
+    y[1] = velocity
+    t = 0.0
+    e0 = window_energy(y, exponent, None)
+    nfev = njev = shifts = 0
+    widest = run.hi - run.lo
+    h: float | None = None
+    wall0 = run.wall_report = _time.perf_counter()
+
+    def on_step(t_old: float, y_old: Array, t_new: float, y_new: Array, dense_factory) -> bool:
+        """Bookkeeping after one accepted step; True asks the engine to stop."""
+        if run.hi < beads and moved(y_new, scale_x, scale_v) > rule.threshold:
+            run.action, run.redo = "extend", (t_old, y_old)  # precursor reached the edge
+            return True
+        if track.steps % ENERGY_EVERY == 0 or not np.isfinite(y_new[-1] + y_new[0]):
+            left_x = None if run.left is None else run.left(t_new)
+            e = window_energy(y_new, exponent, left_x) + run.e_gone
+            if track.check_state(t_new, e, e0, ENERGY_BLOWUP):
+                run.action = "stop"
+                return True
+            run.drift = max(run.drift, abs(e - e0) / e0)
+        local_last = min(last, run.hi - 1) - run.lo
+        track.record(scan_step(y_old, y_new, t_old, t_new, dense_factory, track.next_contact - run.lo,
+                               local_last, track.threshold, peak_fraction), offset=run.lo)
+        if track.check_progress(t_new, t_max, max_steps):
+            run.action = "stop"
+            return True
+        if progress and _time.perf_counter() - run.wall_report > 2.0:
+            run.wall_report = _time.perf_counter()
+            print(f"[dns-window] t={t_new:.4g} contact {track.next_contact - 1}/{last} "
+                  f"window [{run.lo + 1}, {run.hi}]", file=sys.stderr)
+        if needs_shift(track.next_contact, run.lo, run.hi, beads, rule):
+            run.action = "shift"
+            return True
+        return False
+
+    while True:
+        width = run.hi - run.lo
+        force_w = restrict_force(force, beads, run.lo, run.hi)
+        wall = run.hi < beads
+        run.action, run.redo = "", None
+        try:
+            if engine == "fortran":
+                rhs = make_rhs(width, exponent, force_w, run.left, wall)
+                t, y, used, h = run_fortran(FORTRAN_CODES[method], rhs, t, y, t_max, rtol, atol, h, on_step)
+            else:
+                solver = make_solver(method, width, exponent, force_w, y, t_max, rtol, atol,
+                                     t0=t, first_step=h, left=run.left, wall=wall)
+                t, y, used, h = run_scipy(solver, on_step)
+                njev += int(getattr(solver, "njev", 0))
+        except RuntimeError as err:
+            track.reason = str(err)
+            break
+        nfev += used
+        if run.action == "stop" or not run.action:
+            track.reason = track.reason or f"t_max reached (t={t:.6g}, next contact {track.next_contact})"
+            break
+        shifts += 1
+        if run.action == "extend":
+            t, y = run.redo
+            add = min(beads, run.hi + rule.chunk) - run.hi
+            y = np.concatenate([y, np.zeros(2 * add)])
+            run.hi += add
+        else:  # shift: drop beads behind, add beads ahead
+            new_lo, new_hi = plan(track.next_contact, run.lo, run.hi, beads, rule)
+            e_before = window_energy(y, exponent, None if run.left is None else run.left(t))
+            y_shifted = shift_state(y, run.lo, new_lo, new_hi)
+            if new_lo > run.lo:
+                j = new_lo - run.lo - 1  # local index of the last dropped bead
+                run.left = coast(y[2 * j], y[2 * j + 1], t) if rule.boundary == "coast" else None
+            run.lo, run.hi, y = new_lo, new_hi, y_shifted
+            run.e_gone += e_before - window_energy(y, exponent, None if run.left is None else run.left(t))
+        widest = max(widest, run.hi - run.lo)
+
+    wall_s = _time.perf_counter() - wall0
+    contacts_out, peaks, times, alive = track.outcome()
+    return DNSResult(
+        contacts=contacts_out,
+        peaks=peaks,
+        peak_times=times,
+        alive=alive,
+        stop_reason=track.reason,
+        method=method,
+        rtol=float(rtol),
+        atol=float(atol),
+        beads=beads,
+        nfev=int(nfev),
+        njev=int(njev),
+        wall_time_s=wall_s,
+        energy_drift=run.drift if force is None else None,
+        exponent=exponent,
+        velocity=velocity,
+        t_end=float(t),
+        blew_up=track.blew_up,
+        steps=track.steps,
+        mode=f"window/{engine}",
+        window_beads=int(widest),
+        window_shifts=int(shifts),
+        window_rule=rule,
+    )

@@ -1,0 +1,360 @@
+"""The ``pulsemap`` command line.
+
+Sub-commands import what they need lazily, so ``pulsemap profile`` never loads sympy or scipy.
+Every error a user can cause is a one-line message on stderr and exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import difflib
+import json
+import importlib
+import re
+import sys
+import time
+from pathlib import Path
+from typing import Callable, NoReturn, Sequence
+
+EXIT_USAGE = 2
+
+# Sub-commands that live in their own module: each defines ``register(subparsers)`` and imports
+# what its command needs inside the command function (so building the parser stays cheap).
+COMMAND_MODULES: tuple[str, ...] = ("pulsemap.solvers.cli.sweep", "pulsemap.solvers.cli.bench", "pulsemap.solvers.cli.suite")
+
+
+class UsageError(ValueError):
+    """A command-line argument that cannot be used as given."""
+
+
+class _ArgumentParser(argparse.ArgumentParser):
+    """argparse whose usage errors are UsageErrors (one line, exit 2 in :func:`main`).
+
+    Sub-parsers inherit the class, so every sub-command's argument errors behave the same.
+    """
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(_usage_message(self.prog, message))
+
+
+def _usage_message(prog: str, message: str) -> str:
+    """argparse's message on one line, with a suggestion for a misspelt choice and a pointer to --help."""
+    message = " ".join(message.split())
+    match = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+    if match:
+        choices = [c.strip().strip("'\"") for c in match.group(2).split(",")]
+        close = difflib.get_close_matches(match.group(1), choices, n=1)
+        if close:
+            message += f"; did you mean '{close[0]}'?"
+    return f"{message} (see '{prog} --help')"
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Output files (--json, --csv, --plot) must be writable places: fail before a long run, not after."""
+    for option in ("json", "csv", "plot"):
+        value = getattr(args, option, None)
+        if not isinstance(value, str) or value == "-":
+            continue
+        path = Path(value).expanduser()
+        if path.is_dir():
+            raise UsageError(f"--{option} {value}: is a directory: give a file name in it")
+        parent = path.parent
+        if not parent.is_dir():
+            raise UsageError(f"--{option} {value}: directory {parent} does not exist: create it or choose another path")
+
+
+def number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def write_json(path: str, payload: dict) -> None:
+    if path == "-":
+        json.dump(payload, sys.stdout, indent=2, sort_keys=False)
+        sys.stdout.write("\n")
+        return
+    with open(path, "w", encoding="utf-8") as fh:
+        json.dump(payload, fh, indent=2, sort_keys=False)
+        fh.write("\n")
+
+
+def progress_enabled() -> bool:
+    """Progress is shown only when stderr is a terminal."""
+    return sys.stderr.isatty()
+
+
+def progress_log() -> Callable[[str], None]:
+    """Progress lines to stderr when it is a terminal; otherwise a no-op."""
+    if progress_enabled():
+        return lambda s: print(s, file=sys.stderr, flush=True)
+    return lambda s: None
+
+
+# ----------------------------------------------------------------------------- profile
+def cmd_profile(args: argparse.Namespace) -> int:
+    """``pulsemap profile``: S(0), half width, Pade q's, f1..f7, Eq. 4 residual."""
+    from pulsemap.derive.report import profile_report, profile_text
+
+    t0 = time.perf_counter()
+    report = profile_report(n=args.n, profile=args.profile, dps=args.dps)
+    report["timing_s"] = round(time.perf_counter() - t0, 6)
+    print(profile_text(report))
+    if args.json:
+        write_json(args.json, report)
+    return 0
+
+
+# ------------------------------------------------------------------------------ derive
+def cmd_derive(args: argparse.Namespace) -> int:
+    """``pulsemap derive``: expansion, map (Eq. 23), long-wave law (Eq. 30), Eq. 41; or a balance model."""
+    from pulsemap.derive.derivation import derive_model, to_json, to_latex, to_text
+    from pulsemap.derive.perturbation import check_all_used, make_perturbation, parse_cli_param
+
+    params = {}
+    for text in args.param:
+        name, value = parse_cli_param(text)
+        if name in params:
+            raise UsageError(f"--param {name} given twice")
+        params[name] = value
+    pert = check_all_used(make_perturbation(args.expr, args.eps, params))
+    d = derive_model(
+        pert,
+        args.model,
+        n=args.n,
+        profile=args.profile,
+        variant=(args.variant or "paper") if args.model == "map" else args.variant,
+        fold=args.fold,
+        A0_value=args.A0,
+        i0=args.i0,
+        dps=args.dps,
+        sympy_seconds=args.sympy_seconds,
+    )
+    print(to_latex(d) if args.latex else to_text(d))
+    if args.json:
+        write_json(args.json, to_json(d))
+    return 0
+
+
+# --------------------------------------------------------------------------------- run
+def cmd_run(args: argparse.Namespace) -> int:
+    """``pulsemap run SCENE``: DNS, map and long-wave peaks per contact, errors, timings."""
+    from pulsemap.solvers.studies.run import plot, run_scene, to_csv, to_text
+    from pulsemap.solvers.data.scene import load_scene
+
+    scene = load_scene(args.scene)
+    methods = args.methods.split(",") if args.methods else None
+    result = run_scene(scene, methods=methods, profile=args.profile, variant=args.variant,
+                       progress=progress_enabled() and not args.quiet, seed_peak=args.seed_peak)
+    print(to_text(result))
+    if args.json:
+        write_json(args.json, result)
+    if args.csv:
+        with open(args.csv, "w", encoding="utf-8") as fh:
+            fh.write(to_csv(result))
+    if args.plot:
+        plot(result, args.plot)
+    return 0
+
+
+def cmd_scenes(args: argparse.Namespace) -> int:
+    """``pulsemap scenes``: the built-in scenes."""
+    from pulsemap.solvers.data.scene import DEFAULT_SCENE, builtin_scenes, load_scene
+
+    for name in builtin_scenes():
+        sc = load_scene(name)
+        mark = "  (default)" if name == DEFAULT_SCENE else ""
+        print(f"{name:16s} R = {sc.perturbation.text:28s} eps = {sc.perturbation.eps:<5g} v0 = {sc.velocity:<5g} "
+              f"contacts {sc.contacts[0]}..{sc.contacts[1]}  [{', '.join(sc.methods)}]{mark}")
+    return 0
+
+
+# ------------------------------------------------------------------------------- table
+def cmd_table(args: argparse.Namespace) -> int:
+    """``pulsemap table``: every model's errors against the DNS for the paper's scenes, and the winners."""
+    from pulsemap.solvers.studies.table import markdown, table, wins
+
+    rows = table(args.scenes or None, progress=not args.quiet, rows_file=args.rows, fresh=args.fresh, eps=args.eps)
+    print(markdown(rows))
+    print("\nScenes won: " + ", ".join(f"{k} {v}" for k, v in wins(rows).items()))
+    if args.json:
+        write_json(args.json, {"rows": rows})
+    return 0
+
+
+# ---------------------------------------------------------------------------- generate
+def cmd_generate(args: argparse.Namespace) -> int:
+    """``pulsemap generate``: write the generated modules the given scenes use."""
+    from pulsemap.derive import codegen
+    from pulsemap.solvers.data.scene import builtin_scenes, load_scene
+
+    names = args.scenes or builtin_scenes()
+    written = set()
+    for name in names:
+        scene = load_scene(name)
+        pert = scene.perturbation
+        profile = args.profile or scene.profile
+        sources = []
+        if "dns" in scene.methods:
+            sources.append(codegen.force_source(pert.text, pert.used_parameters))
+        if "map" in scene.methods or "longwave" in scene.methods:
+            sources.append(codegen.map_source(pert.text, pert.used_parameters, scene.exponent, profile,
+                                              args.variant or scene.variant, pert.site_dependent))
+        for model in ("energy", "momentum"):  # tiny; the ranking table (pulsemap table) uses them
+            sources.append(codegen.balance_source(pert.text, pert.used_parameters, scene.exponent, profile, model,
+                                                  pert.site_dependent))
+        for src in sources:
+            key = codegen.module_name(src)
+            if key in written:
+                continue
+            written.add(key)
+            try:  # write() builds the text before it touches the disk: a refused model writes no file
+                path = codegen.write(src, args.into or codegen.PACKAGE_DIR)
+            except ValueError as exc:
+                if not isinstance(src, codegen.BalanceSource):
+                    raise
+                print(f"no {src.model}-balance module for {name}: {exc}")  # the model is undefined for this R
+                continue
+            print(f"{path}  <- {name}")
+    return 0
+
+
+# ------------------------------------------------------------------------------- main
+def build_parser() -> argparse.ArgumentParser:
+    parser = _ArgumentParser(
+        prog="pulsemap",
+        description="Primary pulses in uncompressed granular chains with on-site perturbations "
+        "(Starosvetsky's amplitude map, long-wave law, stationary shocks, checked by DNS).",
+    )
+    from pulsemap.solvers import __version__
+
+    parser.add_argument("--version", action="version", version=f"pulsemap {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    p = sub.add_parser("profile", help="solitary-wave profile, Pade fit and universal constants")
+    p.add_argument("--n", type=number, default=1.5, help="contact exponent n > 1 (default 1.5)")
+    p.add_argument("--profile", default="exact", help="profile for f1..f7: exact (default) or pade")
+    p.add_argument("--dps", type=int, default=None, help="mpmath working precision (digits)")
+    p.add_argument("--json", metavar="OUT", help="write the report as JSON ('-' for stdout)")
+    p.set_defaults(func=cmd_profile)
+
+    p = sub.add_parser("derive", help="derive the map, long-wave law and stationary equation for R(u, v)")
+    p.add_argument("expr", metavar="EXPR", help='on-site perturbation R in u, v, i and parameters, e.g. "-mu*v"')
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="parameter value: a number, a comma list (per bead) or an expression of i")
+    p.add_argument("--eps", type=number, default=0.1, help="small parameter eps (default 0.1)")
+    p.add_argument("--n", type=number, default=1.5, help="contact exponent n > 1 (default 1.5)")
+    p.add_argument("--profile", default="exact", help="exact (default) or pade")
+    p.add_argument("--variant", default=None, help="map variant: paper (default), corrected, 1d")
+    p.add_argument("--model", default="map", choices=("map", "energy", "momentum"),
+                   help="map (default: the paper's map, long-wave law, Eq. 41), energy or momentum balance")
+    p.add_argument("--fold", metavar="NAME", help="locate the saddle-node of Eq. 41 in parameter NAME")
+    p.add_argument("--A0", type=number, default=None, help="initial amplitude for the law's singular index")
+    p.add_argument("--i0", type=number, default=0.0, help="contact index of A0 (default 0)")
+    p.add_argument("--dps", type=int, default=None, help="mpmath working precision (digits)")
+    p.add_argument("--sympy-seconds", type=number, default=2.0,
+                   help="time bound for sympy's closed-form integration (default 2 s)")
+    p.add_argument("--latex", action="store_true", help="print LaTeX instead of text")
+    p.add_argument("--json", metavar="OUT", help="write the derivation as JSON ('-' for stdout)")
+    p.set_defaults(func=cmd_derive)
+
+    p = sub.add_parser("run", help="run a scene: DNS, map and long-wave law side by side")
+    p.add_argument("scene", metavar="SCENE", help="a TOML scene file or a built-in name (see 'pulsemap scenes')")
+    p.add_argument("--methods", help="comma list overriding the scene's methods (map, longwave, energy-map, energy-law, "
+                        "momentum-map, momentum-law, dns)")
+    p.add_argument("--profile", help="exact or pade (default: the scene's, else exact)")
+    p.add_argument("--variant", help="map variant: paper, corrected, 1d (default: the scene's, else paper)")
+    p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-' for stdout)")
+    p.add_argument("--csv", metavar="OUT", help="write peaks per contact as CSV")
+    p.add_argument("--plot", metavar="OUT.png", help="plot in the paper's style (needs matplotlib)")
+    p.add_argument("--seed-peak", type=number, default=None, metavar="PEAK",
+                   help="seed map and law with this peak at contact first_perturbed - 1 (default: the DNS "
+                        "peak there, or v0 through kappa_n without the DNS)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("generate", help="write the generated modules that scenes use (default: all built-in)")
+    p.add_argument("scenes", nargs="*", metavar="SCENE")
+    p.add_argument("--into", metavar="DIR", help="target directory (default: the package's generated/)")
+    p.add_argument("--profile", help="exact or pade (default: the scene's)")
+    p.add_argument("--variant", help="paper, corrected or 1d (default: the scene's)")
+    p.set_defaults(func=cmd_generate)
+
+    p = sub.add_parser("table", help="ranking: every model's errors against the DNS for the paper's scenes")
+    p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: all built-in scenes")
+    p.add_argument("--json", metavar="OUT", help="write the rows as JSON")
+    p.add_argument("--rows", metavar="FILE.jsonl", default="pulsemap-table.jsonl",
+                   help="JSON-lines file each finished scene is appended to; a rerun skips the scenes "
+                        "already there (default: pulsemap-table.jsonl)")
+    p.add_argument("--fresh", action="store_true", help="ignore (and replace) the rows file: recompute every scene")
+    p.add_argument("--eps", type=number, default=None,
+                   help="run every scene at this eps instead of its own (which model is right as eps -> 0)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=cmd_table)
+
+    p = sub.add_parser("scenes", help="list the built-in scenes")
+    p.set_defaults(func=cmd_scenes)
+
+    for modname in COMMAND_MODULES:
+        importlib.import_module(modname).register(sub)
+    return parser
+
+
+def _option_strings(parser: argparse.ArgumentParser) -> set[str]:
+    """Every option string of the parser and its sub-commands (e.g. -h, --json)."""
+    found = set(parser._option_string_actions)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                found |= _option_strings(sub)
+    return found
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _protect_expressions(argv: list[str], options: set[str] = frozenset()) -> list[str]:
+    """Let an expression that starts with '-' (e.g. "-mu*v", "-v") pass as a positional argument.
+
+    A single-dash word that is no option of any command and no number is a value: a leading
+    space makes argparse take it as one (the expression parser skips the space).
+    """
+    out = []
+    for arg in argv:
+        single_dash = arg.startswith("-") and not arg.startswith("--") and arg != "-"
+        if single_dash and (any(c in arg for c in "*()^/+ ")
+                            or (arg.split("=")[0] not in options and not _is_number(arg))):
+            arg = " " + arg  # argparse treats it as a value; the parser skips the space
+        out.append(arg)
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        parser = build_parser()
+        args = parser.parse_args(_protect_expressions(list(sys.argv[1:] if argv is None else argv),
+                                                      _option_strings(parser)))
+        _check_outputs(args)
+        func: Callable[[argparse.Namespace], int] = args.func
+        return func(args)
+    except BrokenPipeError:  # e.g. piped into `head`
+        sys.stderr.close()
+        return 0
+    except KeyboardInterrupt:
+        print("pulsemap: interrupted", file=sys.stderr)
+        return 130
+    except (ValueError, OSError) as exc:  # our errors subclass ValueError
+        message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        print(f"pulsemap: error: {message}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,172 @@
+"""Ensembles of random chains (paper Eq. 42, Fig. 13): M realisations, the map and DNS of each.
+
+A scene whose parameters include a random per-bead draw (``k = {uniform = [0, 1], seed = 1}``)
+is run M times, realisation j with the draw's seed replaced by a derived seed
+``SeedSequence([seed, j, q]).generate_state(1)[0]`` (q: the parameter's place among the random
+parameters, sorted by name). Realisation j's seed does not depend on M, so a larger ensemble
+reuses the points of a smaller one. Each realisation is one sweep point (solvers/sweep.py):
+the DNS of Eq. 1 and the map of Eq. 23 (site-dependent form, ERRATA item 8) seeded from the DNS
+peak at contact first_perturbed - 1, exactly as ``pulsemap run`` does for one scene.
+
+Statistics per contact, over the realisations: mean, standard deviation (ddof 1), min and max
+of the DNS peak, of the map's peak and of the map's relative error against the DNS, each over the
+realisations whose DNS primary pulse is alive at that contact.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Sequence
+
+import numpy as np
+
+from pulsemap.solvers.studies.sweep import run_sweep
+
+MAX_REALISATIONS = 100_000
+
+
+class EnsembleError(ValueError):
+    """An ensemble that cannot be run as asked."""
+
+
+def derived_seed(seed: int, realisation: int, index: int = 0) -> int:
+    """The seed of random parameter number ``index`` in realisation ``realisation``."""
+    return int(np.random.SeedSequence([int(seed), int(realisation), int(index)]).generate_state(1)[0])
+
+
+def ensemble_points(scene, realisations: int, seed: int, *, profile: str | None = None,
+                    variant: str | None = None) -> list[dict]:
+    """The plain sweep points of the ensemble (generates the force and map modules here)."""
+    from pulsemap.solvers.studies.points import plain_chain, random_params
+
+    if isinstance(realisations, bool) or not isinstance(realisations, int) or not 1 <= realisations <= MAX_REALISATIONS:
+        raise EnsembleError(f"--realisations {realisations!r}: give an integer from 1 to {MAX_REALISATIONS}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise EnsembleError(f"--seed {seed!r}: give an integer >= 0")
+    names = random_params(scene)
+    if not names:
+        raise EnsembleError(
+            f"scene '{scene.name}' has no random parameter: an ensemble needs a per-bead draw such as "
+            "k = {uniform = [0, 1], seed = 1} (e.g. the built-in fig13-seed1)")
+    base = plain_chain(scene, with_map=True, profile=profile, variant=variant)
+    points = []
+    for j in range(realisations):
+        params = dict(base["params"])
+        for q, name in enumerate(names):
+            params[name] = {"uniform": list(base["params"][name]["uniform"]), "seed": derived_seed(seed, j, q)}
+        points.append({**base, "params": params, "ensemble": {"seed": int(seed), "realisation": j}})
+    return points
+
+
+def _stats(values: Sequence[float]) -> dict:
+    arr = np.asarray([v for v in values if v is not None], dtype=float)
+    if arr.size == 0:
+        return {"n": 0, "mean": None, "std": None, "min": None, "max": None}
+    return {"n": int(arr.size), "mean": float(arr.mean()), "std": float(arr.std(ddof=1)) if arr.size > 1 else None,
+            "min": float(arr.min()), "max": float(arr.max())}
+
+
+def statistics(results: Sequence[dict], first_perturbed: int) -> dict:
+    """Per-contact statistics over realisations (contacts from first_perturbed), and per-realisation errors."""
+    ok = [r for r in results if r is not None]
+    if not ok:
+        return {"contacts": [], "dns": [], "map": [], "rel_error": [], "realisations": []}
+    contacts = [c for c in ok[0]["contacts"] if c >= first_perturbed]
+    per = {"dns": [], "map": [], "rel_error": []}
+    for c in contacts:
+        k = ok[0]["contacts"].index(c)
+        per["dns"].append(_stats([r["peaks"][k] for r in ok]))
+        per["map"].append(_stats([r["map_peaks"][k] for r in ok if r["peaks"][k] is not None]))
+        per["rel_error"].append(_stats([r["rel_error"][k] for r in ok]))
+    rows = []
+    for r in ok:
+        errs = [e for c, e in zip(r["contacts"], r["rel_error"]) if c >= first_perturbed and e is not None]
+        rows.append({"live_contacts": sum(1 for c, p in zip(r["contacts"], r["peaks"]) if c >= first_perturbed and p is not None),
+                     "max_rel": max(errs) if errs else None,
+                     "rms_rel": float(math.sqrt(np.mean(np.square(errs)))) if errs else None})
+    return {"contacts": contacts, **per, "realisations": rows,
+            "live_contacts": _stats([r["live_contacts"] for r in rows]),
+            "max_rel": _stats([r["max_rel"] for r in rows]),
+            "rms_rel": _stats([r["rms_rel"] for r in rows])}
+
+
+def ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = None, variant: str | None = None,
+             out: str | None = None, executor=None, max_workers: int | None = None, progress: bool = False,
+             retry_failed: bool = False) -> dict:
+    """Run the ensemble through the sweep engine; the report with per-contact statistics."""
+    from pulsemap.solvers.studies.points import dns_map_task
+
+    points = ensemble_points(scene, realisations, seed, profile=profile, variant=variant)
+    res = run_sweep(dns_map_task, points, out, executor=executor, max_workers=max_workers, progress=progress,
+                    retry_failed=retry_failed, label="ensemble")
+    results = res.results()
+    report: dict[str, Any] = {
+        "scene": scene.as_dict(),
+        "seed": seed,
+        "realisations": realisations,
+        "derived_seeds": [{n: v["seed"] for n, v in rec["params"]["params"].items() if isinstance(v, dict)}
+                          for rec in res.records],
+        "choices": {"profile": profile or scene.profile, "variant": variant or scene.variant,
+                    "rtol": points[0]["dns"]["rtol"]},
+        "failed": [{"realisation": rec["params"]["ensemble"]["realisation"], "error": rec.get("error")}
+                   for rec in res.records if rec["status"] != "ok"],
+        "statistics": statistics(results, scene.first_perturbed),
+        "sweep": res.summary(),
+    }
+    return report
+
+
+def to_text(report: dict) -> str:
+    from pulsemap.solvers.studies.bifurcation import _f  # a number in a fixed-width column, '-' for None
+
+    sc = report["scene"]
+    st = report["statistics"]
+    lines = [f"ensemble of {report['realisations']} realisations of {sc['name']} (R = {sc['perturbation']['R']}, "
+             f"eps = {sc['perturbation']['eps']}), seed {report['seed']}; map {report['choices']['variant']}/"
+             f"{report['choices']['profile']} seeded from each DNS"]
+    if report["failed"]:
+        lines.append(f"  {len(report['failed'])} realisations failed: " + "; ".join(
+            f"#{f['realisation']}: {f['error']}" for f in report["failed"][:3]))
+    if st["contacts"]:
+        lc = st["live_contacts"]
+        lines.append(f"  live contacts per realisation: mean {lc['mean']:.3g}, min {lc['min']:.0f}, max {lc['max']:.0f}")
+        for key, label in (("max_rel", "max"), ("rms_rel", "RMS")):
+            s = st[key]
+            if s["n"]:
+                lines.append(f"  map {label} rel. error over a realisation's live contacts: mean {100 * s['mean']:.1f} %"
+                             + (f", std {100 * s['std']:.1f} %" if s["std"] is not None else ""))
+        lines.append(f"  {'contact':>7s} {'alive':>5s} {'DNS mean':>9s} {'DNS std':>8s} {'map mean':>9s} {'map std':>8s} "
+                     f"{'err mean':>8s} {'err std':>8s}")
+        for c, d, m, e in zip(st["contacts"], st["dns"], st["map"], st["rel_error"]):
+            if d["n"] == 0:
+                continue
+            lines.append(f"  {c:7d} {d['n']:5d} {_f(d['mean'], 9, 5)} {_f(d['std'], 8, 5)} {_f(m['mean'], 9, 5)} "
+                         f"{_f(m['std'], 8, 5)} {_pct(e['mean'])} {_pct(e['std'])}")
+    return "\n".join(lines)
+
+
+def _pct(x) -> str:
+    return f"{'-':>8s}" if x is None else f"{100 * x:7.1f}%"
+
+
+def plot(report: dict, path: str) -> None:
+    """Mean and spread (one standard deviation) of the DNS and map peaks per contact (Fig. 13)."""
+    from pulsemap.solvers.data.plotting import pyplot
+
+    plt = pyplot(EnsembleError)
+    st = report["statistics"]
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for key, color, label in (("dns", "k", "DNS"), ("map", "tab:red", "map")):
+        xs = [c for c, s in zip(st["contacts"], st[key]) if s["n"]]
+        mean = np.array([s["mean"] for s in st[key] if s["n"]])
+        std = np.array([s["std"] or 0.0 for s in st[key] if s["n"]])
+        if xs:
+            ax.plot(xs, mean, "-o" if key == "dns" else "--", color=color, ms=3, label=f"{label} mean")
+            ax.fill_between(xs, mean - std, mean + std, color=color, alpha=0.15)
+    ax.set_xlabel("contact i")
+    ax.set_ylabel("primary pulse peak")
+    ax.set_title(f"{report['scene']['name']}: {report['realisations']} realisations")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

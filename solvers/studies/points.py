@@ -1,0 +1,206 @@
+"""A chain as plain parameters, and the sweep tasks that run it (DNS of Eq. 1, map of Eq. 23).
+
+The parent turns a Scene (whose perturbation is a sympy object) into a plain dict with
+:func:`plain_chain`: numbers, per-bead lists, random draws as ``{"uniform": [lo, hi], "seed": s}``
+and the name + source hash of the generated force and map modules (generated here, in the
+parent). The tasks :func:`dns_task` and :func:`dns_map_task` run in workers from that dict alone:
+they load the generated modules by name, check their hash, and never import sympy.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from pulsemap.solvers.chain.dns import OnSiteForce, chain_length_for, simulate
+from pulsemap.solvers.studies.sweep import SweepError, generated_ref, load_generated
+
+__all__ = ["bead_params", "chain_force", "dns_map_task", "dns_span", "dns_task", "on_contacts", "plain_chain",
+           "random_params"]
+
+
+# ----------------------------------------------------------------------------- parent side
+
+
+def _param_data(pert, name: str, beads: int) -> Any:
+    from pulsemap.derive.perturbation import RandomDraw
+
+    value = pert.params[name]
+    if name not in pert.site_dependent:
+        return float(value)
+    if isinstance(value, RandomDraw):
+        return {value.distribution: [float(value.low), float(value.high)], "seed": int(value.seed)}
+    return [float(x) for x in pert.bead_values(name, beads)]
+
+
+def random_params(scene) -> list[str]:
+    """Names of the scene's parameters drawn at random per bead (sorted)."""
+    from pulsemap.derive.perturbation import RandomDraw
+
+    pert = scene.perturbation
+    return sorted(n for n in pert.used_parameters if isinstance(pert.params[n], RandomDraw))
+
+
+def dns_span(scene) -> tuple[int, tuple[int, int]]:
+    """(beads, (first, last)) of a scene's DNS: the scene's chain length, else chain_length_for(last),
+    and the contacts it tracks, from the map's seed contact first_perturbed - 1 (or the first
+    reported contact, if earlier) to the last reported one."""
+    c0, c1 = scene.contacts
+    return scene.beads or chain_length_for(c1), (min(c0, scene.first_perturbed - 1), c1)
+
+
+def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, variant: str | None = None,
+                window: "int | str | None" = None, rtol: float | None = None) -> dict:
+    """The scene as the plain dict the tasks take; generates the modules it needs (parent only).
+
+    Contacts: the DNS tracks first_perturbed - 1 (the map's seed contact) through the scene's
+    last contact. ``window``: None (whole chain, as ``pulsemap run``), "auto" or a width.
+    """
+    from pulsemap.solvers.models.codeload import force_module, map_module
+
+    pert = scene.perturbation
+    beads, (first, last) = dns_span(scene)
+    out = {
+        "exponent": float(scene.exponent),
+        "first_perturbed": int(scene.first_perturbed),
+        "velocity": float(scene.velocity),
+        "eps": float(pert.eps),
+        "beads": int(beads),
+        "contacts": [int(first), int(last)],
+        "params": {name: _param_data(pert, name, beads) for name in pert.used_parameters},
+        "dns": {"rtol": float(rtol if rtol is not None else scene.dns["rtol"]), "atol": float(scene.dns["atol"]),
+                "method": str(scene.dns["method"]), "window": window},
+        "force": generated_ref(force_module(pert.text, pert.used_parameters)),
+    }
+    if with_map:
+        mod = map_module(pert.text, pert.used_parameters, scene.exponent, profile or scene.profile,
+                         variant or scene.variant, pert.site_dependent)
+        out["map"] = generated_ref(mod)
+    return out
+
+
+# ----------------------------------------------------------------------------- worker side
+
+
+def bead_params(chain: Mapping[str, Any]) -> dict[str, float | np.ndarray]:
+    """Parameter values: floats, or per-bead arrays (random draws as in pulsemap.derive.perturbation:
+    ``numpy.random.default_rng(seed).uniform(low, high, size=beads)``)."""
+    beads = int(chain["beads"])
+    out: dict[str, float | np.ndarray] = {}
+    for name, value in chain["params"].items():
+        if isinstance(value, Mapping):
+            if set(value) != {"uniform", "seed"}:
+                raise SweepError(f"parameter '{name}': a random draw is {{uniform: [lo, hi], seed: s}}, got {value!r}")
+            lo, hi = value["uniform"]
+            out[name] = np.random.default_rng(int(value["seed"])).uniform(float(lo), float(hi), size=beads)
+        elif isinstance(value, list):
+            if len(value) != beads:
+                raise SweepError(f"parameter '{name}' has {len(value)} per-bead values for {beads} beads")
+            out[name] = np.asarray(value, dtype=float)
+        else:
+            out[name] = float(value)
+    return out
+
+
+def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | None = None) -> OnSiteForce:
+    """eps_i R_i(x_i, v_i) (zero before first_perturbed) from a generated force module, Eq. 1.
+
+    ``restrict(lo, hi)`` gives the same force on beads lo..hi-1, so a moving-window DNS pays
+    for its window only. Only ``chain["beads"]``, ``["first_perturbed"]`` and ``["eps"]`` are read
+    (and ``["params"]`` when ``values`` is not given). A force that cannot be evaluated at rest, or
+    is not finite there, is a SweepError.
+    """
+    beads = int(chain["beads"])
+    values = bead_params(chain) if values is None else values
+    idx = np.arange(1, beads + 1, dtype=float)
+    eps = np.where(idx >= int(chain["first_perturbed"]), float(chain["eps"]), 0.0)
+    full = tuple(values[name] if np.ndim(values[name]) else float(values[name]) for name in module.PARAMS)
+    zeros = np.zeros(beads)
+    try:
+        with np.errstate(all="ignore"):
+            kx = np.abs(np.asarray(module.force_dx(zeros, zeros, idx, eps, *full), dtype=float))
+            kv = np.abs(np.asarray(module.force_dv(zeros, zeros, idx, eps, *full), dtype=float))
+    except (ValueError, ZeroDivisionError, FloatingPointError) as exc:
+        raise SweepError(f"the on-site force cannot be evaluated at rest: {exc}") from None
+    if not (np.all(np.isfinite(kx)) and np.all(np.isfinite(kv))):
+        raise SweepError("the on-site force is undefined at rest (non-finite value): check R and its parameters")
+    hint = float(max(kv.max(initial=0.0), math.sqrt(kx.max(initial=0.0))))
+
+    def build(lo: int, hi: int) -> OnSiteForce:
+        i, e = idx[lo:hi], eps[lo:hi]
+        args = tuple(a[lo:hi] if np.ndim(a) else a for a in full)
+        return OnSiteForce(
+            force=lambda x, v: module.force(x, v, i, e, *args),
+            dforce_dx=lambda x, v: module.force_dx(x, v, i, e, *args),
+            dforce_dv=lambda x, v: module.force_dv(x, v, i, e, *args),
+            stiffness_hint=hint,
+            restrict=build,
+        )
+
+    return build(0, beads)
+
+
+def on_contacts(contacts: Sequence[int], at: Sequence[int], values: Sequence[float | None],
+                alive: Sequence[bool] | None = None) -> list[float | None]:
+    """``values`` given at contacts ``at`` (a DNS, a baseline or a model run) on ``contacts``:
+    None where there is no value, it is not finite, or ``alive`` (a DNS's live flags) is False."""
+    flags = itertools.repeat(True) if alive is None else alive
+    got = {int(c): float(v) for c, v, a in zip(at, values, flags) if a and v is not None and math.isfinite(v)}
+    return [got.get(int(c)) for c in contacts]
+
+
+def _dns(chain: Mapping[str, Any], values: Mapping[str, Any]) -> dict:
+    force = chain_force(load_generated(chain["force"]), chain, values)
+    opts = chain["dns"]
+    first, last = (int(c) for c in chain["contacts"])
+    kw = {} if opts.get("window") is None else {"window": opts["window"]}
+    res = simulate(int(chain["beads"]), float(chain["exponent"]), float(chain["velocity"]), (first, last), force,
+                   method=opts.get("method", "auto"), rtol=float(opts["rtol"]), atol=float(opts["atol"]), **kw)
+    contacts = list(range(first, last + 1))
+    peaks = on_contacts(contacts, res.contacts, res.peaks, res.alive)
+    live = [c for c, p in zip(contacts, peaks) if p is not None]
+    return {
+        "contacts": contacts,
+        "peaks": peaks,
+        "alive_to": live[-1] if live else None,
+        "stop_reason": res.stop_reason,
+        "method": res.method,
+        "nfev": int(res.nfev),
+        "mode": res.mode,
+    }
+
+
+def dns_task(chain: Mapping[str, Any]) -> dict:
+    """Sweep task: the DNS of the plain chain; leading-edge peaks per contact (None: no live pulse)."""
+    return _dns(chain, bead_params(chain))
+
+
+def dns_map_task(chain: Mapping[str, Any]) -> dict:
+    """Sweep task: the DNS, and the map (Eq. 23) seeded from the DNS peak at contact
+    first_perturbed - 1 (Eq. 32), over the same contacts, with the relative error per contact."""
+    from pulsemap.solvers.models.map_iteration import iterate_map
+
+    if "map" not in chain:
+        raise SweepError("dns_map_task needs a 'map' module reference: plain_chain(scene, with_map=True)")
+    values = bead_params(chain)
+    out = _dns(chain, values)
+    seed_contact = int(chain["first_perturbed"]) - 1
+    contacts = out["contacts"]
+    seed_peak = out["peaks"][contacts.index(seed_contact)] if seed_contact in contacts else None
+    out["seed_peak"] = seed_peak
+    if seed_peak is None:
+        raise SweepError(f"the DNS has no live pulse at the seed contact {seed_contact}: nothing to seed the map with")
+    mod = load_generated(chain["map"])
+    run = iterate_map(mod, seed_peak / float(mod.S0), seed_contact, contacts[-1], float(chain["eps"]), values)
+    out["map_peaks"] = on_contacts(contacts, run.contacts, run.peaks)
+    out["map_status"] = run.status
+    out["map_variant"] = run.variant
+    out["map_profile"] = run.profile
+    out["rel_error"] = [
+        None if (d is None or m is None or c <= seed_contact) else abs(m - d) / abs(d)
+        for c, d, m in zip(contacts, out["peaks"], out["map_peaks"])
+    ]
+    return out

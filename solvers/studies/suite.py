@@ -1,0 +1,186 @@
+"""Stiff and extreme cases of paper Eq. 1, each a scene, run from one command (``pulsemap suite``).
+
+The scenes live in solvers/scenes/suite/ (stiff damping eps*mu = 10, 100, 1000; a stiff
+foundation; v0 = 1e-6 and 1e6; eps = 1; n = 1.1, 2.5, 3; N = 10000; the Van der Pol chain near
+its fold; an unstable foundation for the blow-up guard; a non-stiff yardstick). For each one:
+``run_scene`` with the moving-window DNS (method 'auto' picks explicit or implicit), the map and
+the long-wave law; then a second DNS at 100x tighter rtol with the other kind of method
+(implicit if the first was explicit and vice versa) gives the DNS error. Reported: method
+chosen, DNS time, DNS error, the map's error against the DNS, the stop reason, warnings, and a
+status. A run that returns a non-finite number anywhere, or ends without a stop reason, FAILs;
+one whose map or long-wave law misses the DNS by more than 50 % while the run output warned
+about nothing of the kind is SILENT (outside the models' range without saying so).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from importlib import resources
+from pathlib import Path
+from typing import Callable, Sequence
+
+STIFF_SCENE, YARDSTICK = "damp-100", "nonstiff"
+STIFF_RATIO_TARGET = 5.0
+SILENT_ERROR = 0.5  # a model this far off the DNS (max relative error) must have been warned about
+
+
+class SuiteError(ValueError):
+    """A suite that cannot be run as asked."""
+
+
+def suite_dir() -> Path:
+    """Directory of the suite's scene files (shipped as package data)."""
+    return Path(str(resources.files("pulsemap.solvers.data") / "scenes" / "suite"))
+
+
+def suite_scenes() -> list[str]:
+    """Names of the suite's scenes, sorted."""
+    return sorted(p.stem for p in suite_dir().glob("*.toml"))
+
+
+def resolve(name: str) -> str:
+    """A suite scene name -> its file; anything else (built-in name, path) as given."""
+    path = suite_dir() / f"{name}.toml"
+    return str(path) if path.is_file() else name
+
+
+def non_finite(obj, where: str = "") -> list[str]:
+    """Paths of every NaN or infinity inside a JSON-like object."""
+    if isinstance(obj, float):
+        return [] if math.isfinite(obj) else [where or "<value>"]
+    if isinstance(obj, dict):
+        return [p for k, v in obj.items() for p in non_finite(v, f"{where}.{k}" if where else str(k))]
+    if isinstance(obj, (list, tuple)):
+        return [p for i, v in enumerate(obj) for p in non_finite(v, f"{where}[{i}]")]
+    return []
+
+
+def max_rel(values: Sequence[float | None], ref: Sequence[float | None]) -> tuple[float | None, int]:
+    """(max relative difference where both have a value, contacts only one of them has)."""
+    rel, odd = [], 0
+    for v, r in zip(values, ref):
+        if (v is None) != (r is None):
+            odd += 1
+        elif v is not None:
+            rel.append(abs(v / r - 1.0))
+    return (max(rel) if rel else None), odd
+
+
+def silent_model_errors(row: dict) -> list[str]:
+    """Models off the DNS by more than SILENT_ERROR while run output warned about none of it."""
+    warned = " ".join(row.get("warnings", [])).lower()
+    out = []
+    for key, model, words in (("map_error", "map", ("map", "eps", "reduced models")),
+                              ("longwave_error", "long-wave law", ("long-wave", "eps", "reduced models"))):
+        err = row.get(key)
+        if err is not None and err > SILENT_ERROR and not any(w in warned for w in words):
+            out.append(f"{model} off the DNS by {100 * err:.0f} % (max rel) and nothing in the run output warned")
+    return out
+
+
+def other_method(method: str) -> str:
+    """The check run's method: implicit for an explicit first run, DOP853 for an implicit one."""
+    from pulsemap.solvers.chain.dns import EXPLICIT_METHODS
+
+    return "LSODA" if method in EXPLICIT_METHODS else "DOP853"
+
+
+def run_case(ref: str, *, check: bool = True, repeats: int = 1) -> dict:
+    """Run one suite scene (name or path) and report it (see the module docstring)."""
+    from pulsemap.solvers.studies.run import run_scene
+    from pulsemap.solvers.data.scene import load_scene
+
+    wall0 = time.perf_counter()
+    try:
+        scene = load_scene(resolve(ref))
+    except ValueError as exc:  # a refused scene is a clear message, not a crash
+        return {"scene": Path(ref).stem, "status": "refused", "message": str(exc), "wall_s": 0.0}
+    row: dict = {"scene": scene.name, "R": scene.perturbation.text, "eps": scene.perturbation.eps,
+                 "v0": scene.velocity, "n": scene.exponent, "contacts": list(scene.contacts),
+                 "methods": list(scene.methods)}
+    try:
+        result = run_scene(scene, dns_window="auto")
+        times = [result["timings_s"].get("dns", math.nan)]
+        for _ in range(max(0, repeats - 1)):
+            times.append(run_scene(scene, methods=["dns"], dns_window="auto")["timings_s"]["dns"])
+    except ValueError as exc:  # a refused scene is a clear message, not a crash
+        row.update(status="refused", message=str(exc), wall_s=time.perf_counter() - wall0)
+        return row
+    dns = result.get("dns", {})
+    row.update(method=dns.get("method"), rtol=dns.get("rtol"), dns_time_s=min(times),
+               stop_reason=dns.get("stop_reason"), live_contacts=len(dns.get("live_contacts", [])),
+               warnings=list(result["warnings"]))
+    errors = result.get("errors", {})
+    row["map_error"] = (errors.get("map") or {}).get("max_rel")
+    row["longwave_error"] = (errors.get("longwave") or {}).get("max_rel")
+    if check and result["peaks"]["dns"] is not None:
+        second = other_method(dns["method"])
+        tighter = scene.with_overrides(dns={"rtol": max(dns["rtol"] / 100.0, 1e-13),
+                                            "atol": scene.dns["atol"] / 100.0, "method": second})
+        check_run = run_scene(tighter, methods=["dns"], dns_window="auto")
+        err, odd = max_rel(result["peaks"]["dns"], check_run["peaks"]["dns"])
+        row.update(dns_error=err, dns_error_vs=f"{second} rtol {tighter.dns['rtol']:g}",
+                   dns_error_mismatch=odd, check_time_s=check_run["timings_s"]["dns"],
+                   check_stop_reason=check_run["dns"]["stop_reason"])
+    bad = non_finite(result)
+    row["wall_s"] = time.perf_counter() - wall0
+    if bad:
+        row.update(status="FAIL", message="non-finite values in the result: " + ", ".join(bad[:5]))
+    elif not row.get("stop_reason"):
+        row.update(status="FAIL", message="the DNS ended without a stop reason")
+    elif "blow-up" in row["stop_reason"]:
+        row.update(status="stopped", message=row["stop_reason"])
+    elif silent := silent_model_errors(row):
+        row.update(status="SILENT", message="; ".join(silent))
+    else:
+        row.update(status="ok" if not row["warnings"] else "ok, warned",
+                   message="; ".join(row["warnings"]) if row["warnings"] else "")
+    return row
+
+
+def run_suite(names: Sequence[str] | None = None, *, check: bool = True, repeats: int = 1,
+              log: Callable[[str], None] = lambda s: None) -> dict:
+    """Run the suite (all its scenes by default) and the stiff-damping time ratio."""
+    names = list(names) if names else suite_scenes()
+    rows = []
+    for name in names:
+        log(f"[suite] {name} ...")
+        rows.append(run_case(name, check=check, repeats=repeats))
+        r = rows[-1]
+        log(f"[suite] {name}: {r['status']} ({r.get('wall_s', 0):.1f} s)")
+    by = {r["scene"]: r for r in rows}
+    ratio = None
+    if STIFF_SCENE in by and YARDSTICK in by and by[YARDSTICK].get("dns_time_s"):
+        ratio = by[STIFF_SCENE].get("dns_time_s", math.nan) / by[YARDSTICK]["dns_time_s"]
+    return {"cases": rows, "stiff_ratio": {"scene": STIFF_SCENE, "yardstick": YARDSTICK, "ratio": ratio,
+                                           "target": STIFF_RATIO_TARGET,
+                                           "met": None if ratio is None else bool(ratio <= STIFF_RATIO_TARGET)}}
+
+
+def to_text(report: dict) -> str:
+    """The suite table, then the warnings and messages, then the stiff ratio."""
+    from pulsemap.solvers.studies.bench import fmt
+
+    head = (f"{'scene':18s} {'status':11s} {'method':7s} {'dns [s]':>8s} {'dns err':>9s} {'vs':18s} "
+            f"{'map err':>9s} {'live':>5s}  stop reason")
+    lines = [head, "-" * len(head)]
+    for r in report["cases"]:
+        if r["status"] == "refused":
+            lines.append(f"{r['scene']:18s} {'refused':11s} {r['message']}")
+            continue
+        lines.append(f"{r['scene']:18s} {r['status']:11s} {r.get('method') or '-':7s} "
+                     f"{fmt(r.get('dns_time_s'), '8.3f'):>8s} {fmt(r.get('dns_error')):>9s} "
+                     f"{r.get('dns_error_vs', '-'):18s} {fmt(r.get('map_error')):>9s} {r.get('live_contacts', 0):5d}"
+                     f"  {r.get('stop_reason', '')}")
+    lines.append("")
+    for r in report["cases"]:
+        for w in r.get("warnings", []):
+            lines.append(f"{r['scene']}: warning: {w}")
+        if r["status"] in ("FAIL", "stopped", "SILENT"):
+            lines.append(f"{r['scene']}: {r['status']}: {r['message']}")
+    s = report["stiff_ratio"]
+    if s["ratio"] is not None:
+        lines.append(f"\nstiff damping: time({s['scene']}) / time({s['yardstick']}) = {s['ratio']:.2f} "
+                     f"(target <= {s['target']:g}: {'met' if s['met'] else 'NOT met'})")
+    return "\n".join(lines)

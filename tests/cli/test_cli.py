@@ -1,0 +1,57 @@
+"""The pulsemap command line: outputs and one-line errors with exit status 2."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from pulsemap.solvers.cli.main import main
+
+
+def test_profile_json(tmp_path, capsys):
+    out = tmp_path / "p.json"
+    assert main(["profile", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["S0"] > 1 and data["pade"]["fit_error"] < 1e-3
+    assert abs(data["f1"] - 2 * data["f2"] + data["f3"]) < 1e-10
+    assert "S(0)" in capsys.readouterr().out
+
+
+def test_derive_json_has_the_contract_keys(tmp_path):
+    out = tmp_path / "d.json"
+    assert main(["derive", "-(u - mu*(1-u^2)*v)", "--param", "mu=3", "--fold", "mu", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    for key in ("S0", "f1", "f2", "f3", "f4", "f5", "f6", "monomials", "longwave", "stationary"):
+        assert key in data
+    assert {"param", "value", "A", "peak"} <= set(data["stationary"]["fold"])
+    assert len(data["stationary"]["roots"]) == 2
+
+
+@pytest.mark.parametrize(
+    "argv, fragment",
+    [
+        (["profile", "--n", "1"], "exponent n"),
+        (["profile", "--profile", "spline"], "unknown profile"),
+        (["derive", "-mu*w", "--param", "mu=1"], "unknown symbol 'w'"),
+        (["derive", "__import__('os').system('true')"], "__import__"),
+        (["derive", "sinn(u)"], "sinn"),
+        (["derive", "-mu*v"], "mu"),
+        (["derive", "sin(u)"], "not a polynomial"),
+        (["derive", "-mu*v", "--param", "mu=1", "--fold", "nu"], "nu"),
+        (["derive", "-mu*v", "--param", "mu=1", "--variant", "2d"], "variant"),
+        (["run", "no-such-scene"], "no-such-scene"),
+        (["run", "fig8-eps0.1", "--methods", "map,dsn"], "dsn"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(argv, fragment, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("pulsemap: error:")
+    assert fragment in err
+    assert "Traceback" not in err
+
+
+def test_console_script_module_runs():
+    out = subprocess.run([sys.executable, "-m", "pulsemap.solvers.cli.main", "scenes"], capture_output=True, text=True)
+    assert out.returncode == 0 and "fig8-eps0.3" in out.stdout

@@ -1,0 +1,45 @@
+"""solvers/records.py: JSON-lines files that survive a run killed mid-write."""
+
+from __future__ import annotations
+
+import json
+
+from pulsemap.solvers.data.records import append_record, open_for_append, read_keyed, read_lines, write_record
+
+
+def test_missing_file_reads_as_empty(tmp_path):
+    assert list(read_lines(tmp_path / "absent.jsonl")) == [] and read_keyed(tmp_path / "absent.jsonl") == {}
+
+
+def test_records_round_trip_and_the_last_of_a_key_wins(tmp_path):
+    path = tmp_path / "sub" / "r.jsonl"  # the folder is created
+    recs = [{"key": "a", "v": 1}, {"key": "b", "v": [1.5, None]}, {"key": "a", "v": 3}]
+    with open_for_append(path) as fh:
+        for rec in recs:
+            write_record(fh, rec)
+    assert list(read_lines(path)) == recs
+    assert read_keyed(path) == {"a": recs[2], "b": recs[1]}
+
+
+def test_skips_blank_non_object_and_keyless_lines(tmp_path):
+    path = tmp_path / "r.jsonl"
+    path.write_text('\n[1, 2]\n"text"\n{"key": 5}\n{"v": 1}\n{"key": "k", "v": 2}\n\n', encoding="utf-8")
+    assert list(read_lines(path)) == [{"key": 5}, {"v": 1}, {"key": "k", "v": 2}]
+    assert read_keyed(path) == {"k": {"key": "k", "v": 2}}
+    assert read_keyed(path, required=("scene",)) == {}
+
+
+def test_a_line_cut_by_a_kill_is_skipped_and_the_next_record_starts_a_new_line(tmp_path):
+    path = tmp_path / "r.jsonl"
+    append_record(path, {"key": "a", "scene": "x"})
+    append_record(path, {"key": "b", "scene": "y"})
+    with path.open("a", encoding="utf-8") as fh:
+        fh.write('{"key": "c", "scene": ')  # the kill: no closing brace, no newline
+    assert set(read_keyed(path)) == {"a", "b"}
+    append_record(path, {"key": "c", "scene": "z"})
+    lines = path.read_text(encoding="utf-8").splitlines()
+    assert len(lines) == 4 and lines[2] == '{"key": "c", "scene": '
+    assert json.loads(lines[3]) == {"key": "c", "scene": "z"}
+    assert read_keyed(path, required=("scene",))["c"] == {"key": "c", "scene": "z"}
+    append_record(path, {"key": "d", "scene": "w"})  # an intact file gets no blank line
+    assert len(path.read_text(encoding="utf-8").splitlines()) == 5

@@ -1,0 +1,197 @@
+"""Generated solver code (issue: generated code, map/law/stationary solvers)."""
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy
+
+from pulsemap.derive import codegen
+from pulsemap.derive.amplitude_map import A_I, A_NEXT, A_PREV, EPS, AmplitudeMap
+from pulsemap.derive.expansion import expand
+from pulsemap.derive.expression import parse_expression, symbol
+from pulsemap.derive.integrals import METHOD_VERSION
+from pulsemap.derive.sources import INTEGRALS_METHOD, GeneratedCodeError, verify_generated
+from pulsemap.solvers.models.codeload import _load_path, force_module, map_module
+from pulsemap.solvers.models.map_iteration import _fallback, _newton, iterate_map
+from pulsemap.solvers.models.stationary_shock import analyse, continue_roots
+
+GENERATED = Path(codegen.PACKAGE_DIR)
+VDP = "-(u - mu*(1 - u^2)*v)"
+
+
+def test_sources_version_tracks_integrals_version():
+    assert INTEGRALS_METHOD == METHOD_VERSION
+
+
+@pytest.mark.parametrize("path", sorted([*GENERATED.glob("map_*.py"), *GENERATED.glob("force_*.py")]), ids=lambda p: p.name)
+def test_regenerating_committed_modules_changes_nothing(path):
+    current, fresh = codegen.regenerate_text(path)
+    assert current == fresh, f"{path.name} differs from what derive/codegen.py generates now"
+
+
+def test_committed_modules_cover_the_builtin_scenes():
+    assert len(list(GENERATED.glob("map_*.py"))) >= 5
+    assert len(list(GENERATED.glob("force_*.py"))) >= 5
+
+
+def test_hand_edited_module_is_refused(tmp_path):
+    src = next(GENERATED.glob("map_*.py"))
+    edited = tmp_path / src.name
+    edited.write_text(src.read_text().replace("f1 = ", "f1 = 1.0 + "), encoding="utf-8")
+    with pytest.raises(RuntimeError, match="content-hash"):
+        _load_path(edited)
+    with pytest.raises(GeneratedCodeError, match="content-hash"):
+        verify_generated(edited.read_text())
+
+
+def test_lookup_of_existing_code_does_not_import_sympy():
+    code = (
+        "import sys; from pulsemap.solvers.models.codeload import map_module, force_module; "
+        f"map_module({VDP!r}, ['mu'], 1.5, 'exact', 'paper'); force_module({VDP!r}, ['mu']); "
+        "print('sympy' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+def _sympy_map(mod, text, params, variant):
+    """The sympy equations of derive, evaluated with the constants embedded in the module."""
+    R = parse_expression(text, params)
+    ex = expand(R, 1.5)
+    names = ["f1", "f2", "f3", "f4", "f5", "f6", "f7"] + list(ex.integrals())
+    consts = {k: float(getattr(mod, k)) for k in names}
+    return AmplitudeMap(ex.n, variant, ex, consts, {})
+
+
+@pytest.mark.parametrize("variant", ["paper", "corrected", "1d"])
+def test_generated_code_equals_the_sympy_equations(variant):
+    mod = map_module(VDP, ["mu"], 1.5, "exact", variant)
+    amap = _sympy_map(mod, VDP, ["mu"], variant)
+    eqs = amap.equations(numeric=False)
+    vals = {sympy.Symbol(k, real=True): v for k, v in amap.constants.items()}
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        a, b, c, eps, mu = rng.uniform(0.2, 2.0, 5)
+        pt = {A_PREV: a, A_I: b, A_NEXT: c, EPS: eps, symbol("mu"): mu}
+        direct = [float(e.xreplace(vals).xreplace(pt)) for e in eqs]
+        state = (a, b) if variant == "1d" else (a, b, c)
+        gen = mod.map_residual(*state, eps, mu)
+        assert gen == pytest.approx(direct, rel=1e-13, abs=1e-14)
+        # Jacobian against finite differences of the generated residual
+        jac, dprev = mod.map_jacobian(*state, eps, mu)
+        h = 1e-6
+        for j, _unk in enumerate(state[1:]):
+            up = list(state); up[j + 1] += h  # noqa: E702
+            dn = list(state); dn[j + 1] -= h  # noqa: E702
+            fd = (np.array(mod.map_residual(*up, eps, mu)) - np.array(mod.map_residual(*dn, eps, mu))) / (2 * h)
+            assert [row[j] for row in jac] == pytest.approx(fd, rel=1e-7, abs=1e-9)
+
+
+@pytest.mark.parametrize("variant", ["corrected", "1d"])
+def test_unperturbed_map_keeps_amplitude_constant(variant):
+    mod = map_module("-mu*v", ["mu"], 1.5, "exact", variant)
+    run = iterate_map(mod, 0.6, 15, 215, 0.0, {"mu": 1.0})
+    assert run.status == "ok" and len(run.A) == 200
+    assert np.max(np.abs(run.A / 0.6 - 1)) < 1e-13
+
+
+def test_literal_map_drifts_as_errata_5_predicts():
+    """eps = 0: f1 A_{i-1}^P = (f1 + f7/2) A_i^P per step, i.e. A ratio (1 + f7/(2 f1))^(-1/P)."""
+    mod = map_module("-mu*v", ["mu"], 1.5, "exact", "paper")
+    run = iterate_map(mod, 0.6, 15, 115, 0.0, {"mu": 1.0})
+    predicted = (1 + mod.f7 / (2 * mod.f1)) ** (-1 / mod.P)
+    measured = run.A[1:] / run.A[:-1]
+    assert measured == pytest.approx(np.full_like(measured, predicted), rel=1e-12)
+    drift = run.A[-1] / 0.6 - 1
+    assert drift == pytest.approx(predicted**100 - 1, rel=1e-9)
+    assert -0.02 < drift < -0.005  # about -1.2 % over 100 contacts
+
+
+def test_newton_and_bracketing_fallback_agree():
+    mod = map_module(VDP, ["mu"], 1.5, "exact", "paper")
+    a = _newton(mod, 0.7, (0.7, 0.7), 0.1, (3.0,))
+    b = _fallback(mod, 0.7, 0.1, (3.0,), True)
+    assert a == pytest.approx(b, rel=1e-10)
+
+
+def test_van_der_pol_stable_and_unstable_stationary_amplitudes():
+    for variant in ("1d", "corrected"):
+        mod = map_module(VDP, ["mu"], 1.5, "exact", variant)
+        roots = analyse(mod, 0.1, {"mu": 3.0})
+        assert len(roots) == 2
+        small, large = roots
+        assert small.multiplier > 1 and small.stable is False
+        assert 0 < large.multiplier < 1 and large.stable is True
+    # the literal map: shifted fixed point near the large root, still stable
+    mod = map_module(VDP, ["mu"], 1.5, "exact", "paper")
+    small, large = analyse(mod, 0.1, {"mu": 3.0})
+    assert large.fixed_point > large.A and large.stable
+
+
+def test_fold_by_continuation_equals_the_derivation():
+    from pulsemap.derive.derivation import derive_all
+    from pulsemap.derive.perturbation import make_perturbation
+
+    mod = map_module(VDP, ["mu"], 1.5, "exact", "1d")
+    cont = continue_roots(mod, {"mu": 3.0}, "mu", 1.0, 4.0, 61)
+    assert len(cont.folds) == 1
+    mu_star, a_star = cont.folds[0]
+    d = derive_all(make_perturbation(VDP, 0.1, {"mu": 3}), fold="mu")
+    assert mu_star == pytest.approx(d.stationary.fold.value, rel=1e-8)
+    assert a_star == pytest.approx(d.stationary.fold.A, rel=1e-6)
+    counts = [len(b) for b in cont.branches]
+    assert counts[0] == 0 and counts[-1] == 2
+
+
+def test_force_module_derivatives():
+    mod = force_module(VDP, ["mu"])
+    rng = np.random.default_rng(0)
+    x, v = rng.normal(size=6), rng.normal(size=6)
+    i = np.arange(1, 7.0)
+    eps = np.full(6, 0.1)
+    h = 1e-6
+    fdx = (mod.force(x + h, v, i, eps, 3.0) - mod.force(x - h, v, i, eps, 3.0)) / (2 * h)
+    fdv = (mod.force(x, v + h, i, eps, 3.0) - mod.force(x, v - h, i, eps, 3.0)) / (2 * h)
+    assert np.allclose(mod.force_dx(x, v, i, eps, 3.0), fdx, rtol=1e-7, atol=1e-9)
+    assert np.allclose(mod.force_dv(x, v, i, eps, 3.0), fdv, rtol=1e-7, atol=1e-9)
+    expected = -(x - 3.0 * (1 - x**2) * v) * 0.1
+    assert np.allclose(mod.force(x, v, i, eps, 3.0), expected, rtol=1e-14)
+
+
+def test_site_dependent_map_uses_per_bead_values():
+    mod = map_module("-k*u", ["k"], 1.5, "exact", "paper", ("k",))
+    assert mod.PARAMS == ("k_i", "k_ip1")
+    k = np.linspace(0.1, 0.9, 140)
+    run = iterate_map(mod, 0.5, 15, 30, 0.5, {"k": k})
+    # uniform k gives the same as the uniform map with that value
+    uni = map_module("-k*u", ["k"], 1.5, "exact", "paper")
+    r1 = iterate_map(mod, 0.5, 15, 30, 0.5, {"k": np.full(140, 0.3)})
+    r2 = iterate_map(uni, 0.5, 15, 30, 0.5, {"k": 0.3})
+    assert r1.A == pytest.approx(r2.A, rel=1e-13)
+    assert not np.allclose(run.A[: len(r1.A)], r1.A[: len(run.A)])
+    assert all(math.isfinite(a) for a in run.A)
+
+
+@pytest.mark.parametrize("text, name, eps", [("beta*u^3", "beta", 0.3), ("-c*v", "c", 0.3)])
+def test_closed_form_longwave_law_ends_as_the_derivation_says(text, name, eps):
+    """The generated closed-form law (Eq. 30) ends where, and as (extinction / blow-up), the symbolic
+    law's singular index says; the amplitudes before the end move the same way."""
+    from pulsemap.derive.longwave import longwave_law
+
+    from pulsemap.solvers.models.longwave_eval import evaluate_law
+
+    mod = map_module(text, [name], 1.5, "exact", "paper")
+    R = parse_expression(text, [name])
+    ex = expand(R, 1.5)
+    consts = {k: float(getattr(mod, k)) for k in ["f1", "f2", "f3", "f4", "f5", "f6", "f7"] + list(ex.integrals())}
+    law = longwave_law(AmplitudeMap(ex.n, "paper", ex, consts, {symbol(name): 1}), eps)
+    index, what = law.singular_index(1.0, 0.0)
+    run = evaluate_law(mod, 1.0, 0.0, np.arange(1, 200), eps, {name: 1.0})
+    assert index is not None and run.ended_at == pytest.approx(index, rel=1e-9)
+    assert what.startswith(run.ended)
+    values = [a for a in run.A if a is not None]
+    assert (values[-1] > values[0]) == (run.ended == "blow-up")

@@ -1,0 +1,108 @@
+"""pulsemap bench (solvers/bench.py): work-precision points, interpolation to equal accuracy, CLI."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import pytest
+
+from conftest import scene_toml
+from pulsemap.solvers.studies.bench import Ladder, Point, bench_scene, cost_at, peak_error, to_csv, to_text
+from pulsemap.solvers.data.scene import load_scene
+
+SCENE_TOML = scene_toml("tiny")
+
+
+def line(errors_times, kind="dns"):
+    return [Point(kind, "x", f"rtol {r:g}", r, e, 0, t) for r, (e, t) in
+            zip((1e-4, 1e-6, 1e-8, 1e-10), errors_times)]
+
+
+def test_cost_at_interpolates_a_power_law_exactly():
+    # time = 0.01 * err^(-1/4): log-log linear, so the interpolation is exact
+    pts = line([(e, 0.01 * e ** -0.25) for e in (1e-3, 1e-5, 1e-7, 1e-9)])
+    t, how = cost_at(pts, 1e-6)
+    assert t == pytest.approx(0.01 * 1e-6 ** -0.25, rel=1e-12) and "interpolated" in how
+
+
+def test_cost_at_refuses_to_extrapolate_and_bounds_from_above():
+    assert cost_at(line([(1e-2, 1.0), (1e-3, 2.0)]), 1e-6)[0] is None
+    t, how = cost_at(line([(1e-8, 3.0), (1e-9, 2.0), (1e-10, 5.0)]), 1e-6)
+    assert t == 2.0 and "upper bound" in how
+    # a run with missing contacts does not count
+    pts = [Point("dns", "x", "a", 1e-4, 1e-7, 3, 0.1), Point("dns", "x", "b", 1e-6, 1e-8, 0, 1.0)]
+    assert cost_at(pts, 1e-6)[0] == 1.0
+
+
+def test_peak_error_counts_missing_values():
+    err, missing = peak_error([1.0, None, 2.2, 5.0], [1.0, 2.0, 2.0, None])
+    assert err == pytest.approx(0.1) and missing == 1
+    assert peak_error([None], [1.0]) == (None, 1)
+
+
+@pytest.fixture(scope="module")
+def tiny_report(tmp_path_factory):
+    path = tmp_path_factory.mktemp("bench") / "tiny.toml"
+    path.write_text(SCENE_TOML)
+    ladder = Ladder(rtols=(1e-5, 1e-7, 1e-9), reference_rtol=1e-12, check_rtol=1e-11,
+                    methods=("DOP853", "LSODA"), full_methods=("DOP853",), script=((1e-8, 0.005),), repeats=1)
+    return bench_scene(load_scene(str(path)), ladder)
+
+
+def test_reference_is_converged_and_errors_fall_with_tolerance(tiny_report):
+    r = tiny_report
+    assert r["reference"]["convergence"] < 1e-8 and r["reference"]["missing"] == 0
+    for kind, line_name in (("dns", "window DOP853"), ("dns", "window LSODA"), ("baseline-b", "full DOP853")):
+        errs = [p["error"] for p in r["points"] if p["kind"] == kind and p["line"] == line_name]
+        assert len(errs) == 3 and errs[0] > errs[2] and errs[2] < 1e-6
+    a = [p for p in r["points"] if p["kind"] == "baseline-a"]
+    assert len(a) == 1 and 1e-9 < a[0]["error"] < 1e-2  # grid sampling limits the script's accuracy
+
+
+def test_every_model_run_offers_is_measured(tiny_report):
+    from pulsemap.solvers.studies import run
+    from pulsemap.solvers.data.scene import PROFILES, VARIANTS
+
+    lines = {p["line"] for p in tiny_report["points"] if p["kind"] == "model"}
+    models = getattr(run, "MODELS", ("map", "longwave"))
+    assert {f"map/{p}/{v}" for p in PROFILES for v in VARIANTS} <= lines
+    assert {f"longwave/{p}" for p in PROFILES} <= lines
+    assert {m.split("/")[0] for m in lines} <= set(models)
+    for p in tiny_report["points"]:
+        if p["kind"] == "model":
+            assert p["error"] is not None and math.isfinite(p["error"]) and p["time_s"] > 0
+
+
+def test_ratios_and_reports(tiny_report):
+    rat = tiny_report["ratios"]
+    assert rat["dns"]["time_s"] > 0 and rat["baseline_b"]["time_s"] > 0
+    assert rat["dns_vs_b"] == pytest.approx(rat["baseline_b"]["time_s"] / rat["dns"]["time_s"])
+    m = rat["models"]
+    assert m["map_line"] == "map/exact/paper" and m["run_dns_vs_map"] > 1
+    text = to_text([tiny_report])
+    assert "ratio (b)/DNS" in text and "window LSODA" in text
+    csv = to_csv([tiny_report]).splitlines()
+    assert len(csv) == 1 + len(tiny_report["points"]) and csv[0].startswith("scene,kind,line")
+
+
+@pytest.mark.parametrize("argv, pattern", [
+    (["bench", "--repeats", "0"], "--repeats"),
+    (["bench", "no-such-scene"], "no-such-scene"),
+    (["bench", "--target", "2"], "--target"),
+])
+def test_cli_errors_are_one_line(argv, pattern):
+    proc = subprocess.run([sys.executable, "-m", "pulsemap.solvers.cli.main", *argv], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("pulsemap: error:") and pattern in proc.stderr
+    assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_plot_writes_a_png(tiny_report, tmp_path):
+    pytest.importorskip("matplotlib")
+    from pulsemap.solvers.studies.bench import plot
+
+    out = tmp_path / "wp.png"
+    plot([tiny_report], str(out))
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5000

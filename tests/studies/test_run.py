@@ -1,0 +1,113 @@
+"""Scene runs: DNS, map and long-wave law side by side (DESIGN.md run contract)."""
+
+import json
+
+import numpy as np
+import pytest
+
+import pulsemap.solvers.studies.run as run_mod
+from pulsemap.solvers.studies.run import run_scene, to_csv
+from pulsemap.solvers.data.scene import load_scene
+
+
+def _small(name, last=40, **kw):
+    return load_scene(name).with_overrides(contacts=(16, last), **kw)
+
+
+def test_run_json_contract_and_seed_from_dns():
+    res = run_scene(_small("fig8-eps0.1", 40))
+    json.dumps(res)
+    for key in ("scene", "contacts", "peaks", "errors", "timings_s"):
+        assert key in res
+    assert res["contacts"] == list(range(16, 41))
+    for name in ("dns", "map", "longwave"):
+        assert len(res["peaks"][name]) == 25
+    assert res["seed"]["contact"] == 15 and res["seed"]["from"].startswith("DNS")
+    assert res["choices"] == {"profile": "exact", "variant": "paper", "methods": ["map", "longwave", "dns"]}
+    for name in ("map", "longwave"):
+        err = res["errors"][name]
+        assert err["compared"] > 0 and 0 <= err["rms_rel"] <= err["max_rel"]
+    # errors recomputed from the peaks
+    d, m = np.array(res["peaks"]["dns"], float), np.array(res["peaks"]["map"], float)
+    ok = np.isfinite(d) & np.isfinite(m)
+    assert res["errors"]["map"]["max_rel"] == pytest.approx(np.max(np.abs(m[ok] - d[ok]) / d[ok]))
+    assert set(res["timings_s"]) >= {"dns", "map", "longwave"}
+    assert to_csv(res).splitlines()[0] == "contact,dns,map,longwave,dns_alive"
+
+
+def test_law_only_scene_runs_no_dns(monkeypatch):
+    def boom(*a, **k):
+        raise AssertionError("the DNS ran although the scene did not ask for it")
+
+    monkeypatch.setattr(run_mod, "simulate", boom)
+    res = run_scene(_small("fig8-eps0.1", 60), methods=["longwave"])
+    assert res["peaks"]["dns"] is None and res["peaks"]["map"] is None
+    assert res["peaks"]["longwave"][0] is not None
+    assert "kappa" in res["seed"]["from"]
+
+
+def test_map_and_law_agree_with_each_other_for_small_eps():
+    """The long-wave law is the continuum limit of the (1d) map: close for small eps."""
+    res = run_scene(_small("fig7-eps0.1", 60), methods=["map", "longwave"], variant="1d")
+    m = np.array(res["peaks"]["map"], float)
+    lw = np.array(res["peaks"]["longwave"], float)
+    assert np.max(np.abs(m - lw) / lw) < 0.05
+
+
+def test_site_dependent_scene_skips_the_law():
+    res = run_scene(_small("fig13-seed1", 30), methods=["map", "longwave"])
+    assert res["peaks"]["longwave"] is None
+    assert any("site-dependent" in w for w in res["warnings"])
+
+
+def test_van_der_pol_mu3_both_impulses_approach_the_stable_root():
+    from pulsemap.derive.derivation import derive_all
+
+    finals = []
+    for name in ("vdp-mu3-v2.3", "vdp-mu3-v0.3"):
+        res = run_scene(_small(name, 90), methods=["dns", "map", "longwave"], variant="1d")
+        dns = [p for p in res["peaks"]["dns"] if p is not None]
+        finals.append(dns[-1])
+    sc = load_scene("vdp-mu3-v2.3")
+    roots = derive_all(sc.perturbation).stationary.peaks()
+    stable = max(roots)
+    assert finals[0] == pytest.approx(finals[1], rel=5e-3)
+    assert finals[0] == pytest.approx(stable, rel=0.01)
+    print(f"VdP mu=3: DNS settles at {finals[0]:.6f} / {finals[1]:.6f}; Eq. 41 stable root peak {stable:.6f}")
+
+
+def test_van_der_pol_mu1_decays_while_the_primary_pulse_lives():
+    res = run_scene(_small("vdp-mu1-v2.3", 60), methods=["dns"])
+    dns = [p for p in res["peaks"]["dns"] if p is not None]
+    assert len(dns) > 30
+    assert all(b < a for a, b in zip(dns, dns[1:]))
+
+
+def test_seed_from_a_given_peak_equals_seed_from_that_amplitude():
+    from pulsemap.solvers.models.codeload import map_module
+    from pulsemap.solvers.models.map_iteration import iterate_map
+
+    res = run_scene(_small("fig8-eps0.1", 30), methods=["map"], seed_peak=0.7)
+    assert res["seed"]["peak"] == 0.7 and "given" in res["seed"]["from"]
+    mod = map_module("-mu*v", ["mu"], 1.5)
+    direct = iterate_map(mod, 0.7 / mod.S0, 15, 30, 0.1, {"mu": 1.0})
+    assert res["peaks"]["map"] == pytest.approx(list(direct.peaks), rel=1e-15)
+
+
+def test_plot_in_the_papers_style(tmp_path):
+    pytest.importorskip("matplotlib")
+    from pulsemap.solvers.studies.run import plot
+
+    res = run_scene(_small("fig8-eps0.1", 30), methods=["map", "longwave"])
+    out = tmp_path / "p.png"
+    plot(res, str(out))
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_reusing_a_dns_run_gives_the_same_errors_as_running_it():
+    scene = _small("vdp-mu3-v2.3", 40)
+    full = run_scene(scene, methods=["dns", "map", "longwave"])
+    ref = run_scene(scene, methods=["dns"])
+    again = run_scene(scene, methods=["map", "longwave"], reuse_dns=ref)
+    assert again["seed"] == full["seed"]
+    assert again["errors"] == full["errors"]

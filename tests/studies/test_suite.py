@@ -1,0 +1,95 @@
+"""pulsemap suite (solvers/suite.py): stiff and extreme scenes, guards, statuses."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.studies.suite import (
+    max_rel,
+    non_finite,
+    other_method,
+    resolve,
+    run_case,
+    run_suite,
+    silent_model_errors,
+    suite_scenes,
+    to_text,
+)
+
+REQUIRED = {"damp-10", "damp-100", "damp-1000", "stiff-foundation", "v0-1e-6", "v0-1e6", "eps1",
+            "n1.1", "n2.5", "n3", "chain10000", "vdp-fold", "nonstiff", "unstable"}
+
+
+def test_suite_has_every_case_of_the_issue_and_they_load():
+    assert REQUIRED <= set(suite_scenes())
+    mus = {}
+    for name in suite_scenes():
+        scene = load_scene(resolve(name))
+        assert scene.name == name and "dns" in scene.methods
+        mus[name] = scene
+    eps_mu = {n: mus[n].perturbation.eps * float(mus[n].perturbation.params["mu"]) for n in ("damp-10", "damp-100", "damp-1000")}
+    assert eps_mu == pytest.approx({"damp-10": 10.0, "damp-100": 100.0, "damp-1000": 1000.0})
+    assert mus["chain10000"].beads == 10000 and {mus[n].exponent for n in ("n1.1", "n2.5", "n3")} == {1.1, 2.5, 3.0}
+    assert {mus[n].velocity for n in ("v0-1e-6", "v0-1e6")} == {1e-6, 1e6}
+    assert float(mus["vdp-fold"].perturbation.params["mu"]) == pytest.approx(1.47, abs=0.05)
+    # the suite is not among the built-in scenes `pulsemap table` iterates
+    from pulsemap.solvers.data.scene import builtin_scenes
+
+    assert not REQUIRED & set(builtin_scenes())
+
+
+def test_helpers():
+    assert non_finite({"a": [1.0, float("nan")], "b": {"c": float("inf")}, "d": "x"}) == ["a[1]", "b.c"]
+    assert non_finite({"a": [1.0, None]}) == []
+    assert max_rel([1.0, 2.0, None], [1.0, 1.0, 3.0]) == (1.0, 1)
+    assert other_method("DOP853") == "LSODA" and other_method("LSODA") == "DOP853"
+    assert silent_model_errors({"map_error": 0.7, "longwave_error": 0.1, "warnings": []}) == [
+        "map off the DNS by 70 % (max rel) and nothing in the run output warned"]
+    assert silent_model_errors({"map_error": 0.7, "warnings": ["map: pulse died at contact 9"]}) == []
+    assert silent_model_errors({"map_error": 0.2, "longwave_error": None, "warnings": []}) == []
+
+
+def test_unstable_foundation_is_stopped_by_the_guard_without_nan():
+    row = run_case("unstable", check=False)
+    assert row["status"] == "stopped" and row["stop_reason"].startswith("blow-up")
+    assert any("blow-up" in w for w in row["warnings"])
+    json.dumps(row, allow_nan=False)
+
+
+def test_stiff_damping_goes_implicit_and_agrees_with_explicit_check():
+    row = run_case("damp-100")
+    assert row["method"] in ("LSODA", "Radau", "BDF") and row["status"].startswith("ok")
+    assert row["dns_error_vs"].startswith("DOP853")
+    assert row["dns_error"] is not None and row["dns_error"] < 1e-6 and row["dns_error_mismatch"] == 0
+    assert any("pulse died" in w for w in row["warnings"])  # the map is told the pulse is gone
+
+
+def test_large_eps_is_warned():
+    row = run_case("eps1")
+    assert row["status"] == "ok, warned" and any("not small" in w for w in row["warnings"])
+    assert row["dns_error"] < 1e-6 and math.isfinite(row["map_error"])
+
+
+def test_refused_scene_is_a_status_not_a_crash(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text('name = "bad"\n[chain]\nexponent = 1.5\nfirst_perturbed = 16\n[excitation]\nvelocity = 1.0\n'
+                    '[perturbation]\nR = "1 + u"\neps = 0.1\n[output]\ncontacts = [16, 30]\nmethods = ["dns"]\n')
+    row = run_case(str(path), check=False)
+    assert row["status"] == "refused" and "R(0,0)" in row["message"]
+    assert "refused" in to_text({"cases": [row], "stiff_ratio": {"ratio": None}})
+
+
+@pytest.mark.slow
+def test_whole_suite_runs_without_failure():
+    report = run_suite()
+    text = to_text(report)
+    for row in report["cases"]:
+        assert row["status"] in ("ok", "ok, warned", "stopped", "SILENT"), (row["scene"], row.get("message"))
+        if row["status"] != "stopped" and row.get("live_contacts"):
+            assert row["dns_error"] is not None and row["dns_error"] < 1e-5, row["scene"]
+    json.dumps(report, allow_nan=False)
+    assert report["stiff_ratio"]["ratio"] is not None and "stiff damping" in text
