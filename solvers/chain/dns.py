@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import sys
 import time as _time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
@@ -23,6 +23,7 @@ from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the 
     OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy, initial_state, make_rhs,
     make_solver, run_scipy)
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
+from pulsemap.solvers.chain.front import SNAPSHOT_SPAN, FrontRecorder, check_snapshot_contacts, memo, state_at
 from pulsemap.solvers.chain.peaks import PeakTracker, contact_rate, scan_step, velocity_scale  # noqa: F401
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -112,6 +113,8 @@ def simulate(
     window_accuracy: float = 1e-8,
     window_engine: str = "auto",
     max_steps: int | None = None,
+    snapshots: "Sequence[int] | None" = None,
+    snapshot_span: tuple[int, int] = SNAPSHOT_SPAN,
 ) -> DNSResult:
     """Integrate Eq. 1 and return the leading-edge peaks of contacts[0]..contacts[1].
 
@@ -134,10 +137,16 @@ def simulate(
     (default ``default_max_steps(last)``) bounds the accepted steps, so no run can hang.
     Whatever stops the run, the peaks measured before it are returned (never NaN for a
     contact marked alive).
+
+    As each requested contact peaks, the pulse's and the chain's energy are recorded
+    (front.py); ``snapshots``: contacts at whose peak time the strains of contacts
+    k - snapshot_span[0] .. k + snapshot_span[1] are kept.
     """
     first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol,
                            peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps)
     beads, exponent, velocity = int(beads), float(exponent), float(velocity)
+    front = FrontRecorder(first, last, exponent, check_snapshot_contacts(snapshots, first, last),
+                          _check_span(snapshot_span))
     chosen = choose_method(force, velocity, exponent) if method == "auto" else method
     t_limit = default_t_max(last, velocity, exponent) if t_max is None else float(t_max)
     if window is not None:
@@ -146,7 +155,7 @@ def simulate(
             method=chosen, rtol=rtol, atol=atol, peak_fraction=peak_fraction,
             death_fraction=death_fraction, t_max=t_limit, stall_factor=stall_factor,
             progress=progress, engine=window_engine, overtake_factor=overtake_factor,
-            max_steps=default_max_steps(last) if max_steps is None else int(max_steps))
+            max_steps=default_max_steps(last) if max_steps is None else int(max_steps), front=front)
     y0 = initial_state(beads, velocity)
     e0 = energy(y0[0::2], y0[1::2], exponent)
 
@@ -166,8 +175,11 @@ def simulate(
         if track.check_state(t_new, e, e0, ENERGY_BLOWUP):
             return True
         drift = max(drift, abs(e - e0) / e0)
-        track.record(scan_step(y_old, y_new, t_old, t_new, dense_factory, track.next_contact,
-                               last, track.threshold, peak_fraction))
+        dense = memo(dense_factory)
+        found = scan_step(y_old, y_new, t_old, t_new, dense, track.next_contact, last, track.threshold, peak_fraction)
+        track.record(found)
+        if found:
+            front.record(found, state_at(dense()))
         if track.check_progress(t_new, t_limit, budget):
             return True
         if progress and _time.perf_counter() - wall_report > 2.0:
@@ -204,4 +216,18 @@ def simulate(
         window_beads=beads,
         blew_up=track.blew_up,
         steps=track.steps,
+        energy_initial=e0,
+        pulse_energy=front.pulse,
+        total_energy=front.total,
+        snapshots=tuple(front.snapshots),
     )
+
+
+def _check_span(span) -> tuple[int, int]:
+    try:
+        behind, ahead = (int(s) for s in span)
+    except (TypeError, ValueError):
+        raise ValueError(f"snapshot_span must be a pair (behind, ahead) of integers >= 0, got {span!r}") from None
+    if behind < 0 or ahead < 0:
+        raise ValueError(f"snapshot_span must be a pair (behind, ahead) of integers >= 0, got {span!r}")
+    return behind, ahead

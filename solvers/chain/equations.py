@@ -17,6 +17,7 @@ import scipy.integrate as _integrate
 from scipy import sparse
 
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
+from pulsemap.solvers.chain.front import pulse_speed
 from pulsemap.solvers.chain.peaks import PeakTracker, contact_rate, scan_step, velocity_scale  # noqa: F401
 
 Array = np.ndarray
@@ -60,6 +61,13 @@ class DNSResult:
     number of solver restarts the window needed and ``window_rule`` its geometry (None: full).
     ``blew_up``: the run was stopped by the blow-up guard (non-finite state or energy beyond
     ENERGY_BLOWUP x initial); the peaks measured before it are kept. ``steps``: accepted steps.
+
+    Front diagnostics (solvers/chain/front.py), per requested contact at its peak time, NaN where
+    it did not peak: ``pulse_energy`` (kinetic + contact energy of the beads within 8 of the
+    contact), ``total_energy`` (of the whole chain; a moving window adds the energy its dropped
+    beads carried when dropped); ``energy_initial`` = v0^2/2; ``snapshots``: strains around the
+    chosen contacts (front.Snapshot). An engine that does not record them leaves the defaults.
+    ``speed`` (a property): contacts per unit time from the peak times.
     """
 
     contacts: Array
@@ -84,6 +92,15 @@ class DNSResult:
     window_rule: object | None = None
     blew_up: bool = False
     steps: int = 0
+    energy_initial: float = 0.0
+    pulse_energy: Array | None = None
+    total_energy: Array | None = None
+    snapshots: tuple = ()
+
+    @property
+    def speed(self) -> Array:
+        """Pulse speed at each requested contact (contacts per unit time, front.pulse_speed)."""
+        return pulse_speed(self.peak_times)
 
 
 # ----------------------------------------------------------------------------- small helpers

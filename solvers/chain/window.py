@@ -35,6 +35,7 @@ import numpy as np
 import scipy.integrate as _integrate
 
 from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, energy, make_rhs, make_solver, run_scipy
+from pulsemap.solvers.chain.front import memo, state_at
 from pulsemap.solvers.chain.peaks import PeakTracker, QuinticStep, scan_step, velocity_scale
 
 Array = np.ndarray
@@ -315,13 +316,14 @@ def simulate_windowed(
     engine: str = "auto",
     overtake_factor: float = 1.25,
     max_steps: int = 10**9,
+    front=None,
 ):
     """Moving-window integration of Eq. 1 (arguments validated by dns.simulate, which calls it).
 
     ``engine``: "fortran" (Hairer's DOP853/DOPRI5 through scipy.integrate.ode: the step loop
     runs in compiled code, about 2x less overhead per step on a small window), "scipy" (the
     scipy OdeSolver classes, needed for RK23 and the implicit methods) or "auto" (fortran when
-    the method has a Fortran code).
+    the method has a Fortran code). ``front``: a front.FrontRecorder (energies, snapshots).
     """
     first, last = int(contacts[0]), int(contacts[1])
     if engine == "auto":
@@ -355,8 +357,12 @@ def simulate_windowed(
                 return True
             run.drift = max(run.drift, abs(e - e0) / e0)
         local_last = min(last, run.hi - 1) - run.lo
-        track.record(scan_step(y_old, y_new, t_old, t_new, dense_factory, track.next_contact - run.lo,
-                               local_last, track.threshold, peak_fraction), offset=run.lo)
+        dense = memo(dense_factory)
+        found = scan_step(y_old, y_new, t_old, t_new, dense, track.next_contact - run.lo,
+                          local_last, track.threshold, peak_fraction)
+        track.record(found, offset=run.lo)
+        if found and front is not None:
+            front.record(found, state_at(dense()), offset=run.lo, extra_energy=run.e_gone)
         if track.check_progress(t_new, t_max, max_steps):
             run.action = "stop"
             return True
@@ -428,6 +434,10 @@ def simulate_windowed(
         t_end=float(t),
         blew_up=track.blew_up,
         steps=track.steps,
+        energy_initial=e0,
+        pulse_energy=None if front is None else front.pulse,
+        total_energy=None if front is None else front.total,
+        snapshots=() if front is None else tuple(front.snapshots),
         mode=f"window/{engine}",
         window_beads=int(widest),
         window_shifts=int(shifts),
