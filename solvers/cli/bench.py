@@ -20,7 +20,7 @@ def register(sub) -> None:
     )
     p.add_argument("scenes", nargs="*", metavar="SCENE", default=["default"],
                    help="built-in scene names or TOML paths (default: default)")
-    p.add_argument("--csv", metavar="FILE", help="one row per measured run")
+    p.add_argument("--csv", metavar="FILE", help="one row per measured run ('-' for stdout)")
     p.add_argument("--json", metavar="FILE", help="full report ('-' for stdout)")
     p.add_argument("--plot", metavar="FILE.png", help="log-log error against time (needs matplotlib)")
     p.add_argument("--repeats", type=int, default=None, metavar="K", help="timed runs after the warm-up (3; --quick: 1)")
@@ -35,7 +35,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from pulsemap.solvers.studies.bench import BenchError, Ladder, plot, quick_ladder, run_bench, to_csv, to_text
-    from pulsemap.solvers.cli.main import UsageError, progress_log, write_json
+    from pulsemap.solvers.cli.main import UsageError, progress_log, write_json, write_text
     from pulsemap.solvers.data.plotting import pyplot
 
     if args.repeats is not None and args.repeats < 1:
@@ -51,8 +51,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     reports = run_bench(args.scenes, ladder, log)
     print(to_text(reports))
     if args.csv:
-        with open(args.csv, "w", encoding="utf-8") as fh:
-            fh.write(to_csv(reports))
+        write_text(args.csv, to_csv(reports))
     if args.json:
         write_json(args.json, {"ladder": {k: v for k, v in vars(ladder).items()}, "scenes": reports})
     if args.plot:

@@ -7,14 +7,17 @@ Every error a user can cause is a one-line message on stderr and exit status 2.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import difflib
-import json
 import importlib
+import json
+import math
+import os
 import re
 import sys
 import time
 from pathlib import Path
-from typing import Callable, NoReturn, Sequence
+from typing import Callable, NoReturn, Sequence, TextIO
 
 EXIT_USAGE = 2
 
@@ -70,14 +73,83 @@ def number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
 
 
+_DOCUMENT_STREAMS: list[TextIO] = []  # the real stdout while a command's text goes to stderr (--json - / --csv -)
+
+
+def _document_stream() -> TextIO:
+    """Where a '-' document goes: the process's stdout, even while print() is sent to stderr."""
+    return _DOCUMENT_STREAMS[-1] if _DOCUMENT_STREAMS else sys.stdout
+
+
+def _json_safe(obj):
+    """``obj`` with every NaN or infinity replaced by None: JSON has no such numbers (strict parsers refuse them)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    return obj
+
+
 def write_json(path: str, payload: dict) -> None:
+    """Write ``payload`` as strict JSON to ``path`` ('-': stdout, which then holds nothing else)."""
+    write_text(path, json.dumps(_json_safe(payload), indent=2, sort_keys=False, allow_nan=False) + "\n")
+
+
+def write_text(path: str, text: str) -> None:
+    """Write a document (JSON, CSV) to ``path`` ('-': stdout, which then holds nothing else)."""
     if path == "-":
-        json.dump(payload, sys.stdout, indent=2, sort_keys=False)
-        sys.stdout.write("\n")
+        stream = _document_stream()
+        stream.write(text)
+        stream.flush()
         return
     with open(path, "w", encoding="utf-8") as fh:
-        json.dump(payload, fh, indent=2, sort_keys=False)
-        fh.write("\n")
+        fh.write(text)
+
+
+def _stdout_document(args: argparse.Namespace) -> bool:
+    """True when --json - or --csv - asks for the document on stdout (at most one of them may)."""
+    dashes = [f"--{option} -" for option in ("json", "csv") if getattr(args, option, None) == "-"]
+    if len(dashes) > 1:
+        raise UsageError(f"{' and '.join(dashes)} both ask for stdout: send one of them to a file")
+    return bool(dashes)
+
+
+def _fileno(stream) -> int | None:
+    try:
+        return stream.fileno()
+    except (AttributeError, OSError, ValueError):  # io.UnsupportedOperation is both; captured streams have none
+        return None
+
+
+@contextlib.contextmanager
+def _text_to_stderr():
+    """While a document goes to stdout, everything a command prints goes to stderr.
+
+    print() is redirected in Python; when stdout and stderr are real files, file descriptor 1 is
+    pointed at stderr too, so that output from C or Fortran code (LSODA's messages) and from worker
+    processes cannot reach the document either.
+    """
+    out_fd, err_fd = _fileno(sys.stdout), _fileno(sys.stderr)
+    document = sys.stdout
+    saved = None
+    if out_fd is not None and err_fd is not None:
+        sys.stdout.flush()
+        saved = os.dup(out_fd)
+        os.dup2(err_fd, out_fd)
+        document = os.fdopen(saved, "w", encoding="utf-8", closefd=False)
+    _DOCUMENT_STREAMS.append(document)
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+    finally:
+        _DOCUMENT_STREAMS.pop()
+        if saved is not None:
+            document.flush()
+            sys.stdout.flush()
+            os.dup2(saved, out_fd)
+            os.close(saved)
 
 
 def progress_enabled() -> bool:
@@ -151,8 +223,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.json:
         write_json(args.json, result)
     if args.csv:
-        with open(args.csv, "w", encoding="utf-8") as fh:
-            fh.write(to_csv(result))
+        write_text(args.csv, to_csv(result))
     if args.plot:
         plot(result, args.plot)
     return 0
@@ -267,7 +338,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--profile", help="exact or pade (default: the scene's, else exact)")
     p.add_argument("--variant", help="map variant: paper, corrected, 1d (default: the scene's, else paper)")
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-' for stdout)")
-    p.add_argument("--csv", metavar="OUT", help="write peaks per contact as CSV")
+    p.add_argument("--csv", metavar="OUT", help="write peaks per contact as CSV ('-' for stdout)")
     p.add_argument("--plot", metavar="OUT.png", help="plot in the paper's style (needs matplotlib)")
     p.add_argument("--seed-peak", type=number, default=None, metavar="PEAK",
                    help="seed map and law with this peak at contact first_perturbed - 1 (default: the DNS "
@@ -284,7 +355,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("table", help="ranking: every model's errors against the DNS for the paper's scenes")
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="default: all built-in scenes")
-    p.add_argument("--json", metavar="OUT", help="write the rows as JSON")
+    p.add_argument("--json", metavar="OUT", help="write the rows as JSON ('-' for stdout)")
     p.add_argument("--rows", metavar="FILE.jsonl", default="pulsemap-table.jsonl",
                    help="JSON-lines file each finished scene is appended to; a rerun skips the scenes "
                         "already there (default: pulsemap-table.jsonl)")
@@ -343,6 +414,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                                                       _option_strings(parser)))
         _check_outputs(args)
         func: Callable[[argparse.Namespace], int] = args.func
+        if _stdout_document(args):
+            with _text_to_stderr():
+                return func(args)
         return func(args)
     except BrokenPipeError:  # e.g. piped into `head`
         sys.stderr.close()

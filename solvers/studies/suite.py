@@ -45,6 +45,25 @@ def resolve(name: str) -> str:
     return str(path) if path.is_file() else name
 
 
+def check_names(names: Sequence[str]) -> None:
+    """Every name must be a suite scene, a built-in scene or an existing file: else a SuiteError
+    naming it (with the closest known name), before anything runs."""
+    import difflib
+
+    from pulsemap.solvers.data.scene import ALIASES, builtin_scenes
+
+    known = suite_scenes() + builtin_scenes() + list(ALIASES)
+    for name in names:
+        if not isinstance(name, str):
+            raise SuiteError(f"suite scene names must be strings, got {type(name).__name__}")
+        if name in known or Path(resolve(name)).expanduser().is_file():
+            continue
+        close = difflib.get_close_matches(Path(name).stem, known, n=1)
+        hint = f" (did you mean '{close[0]}'?)" if close else ""
+        raise SuiteError(f"unknown scene {name!r}{hint}: give a suite scene (pulsemap suite --list), "
+                         "a built-in name (pulsemap scenes) or the path of a .toml file")
+
+
 def non_finite(obj, where: str = "") -> list[str]:
     """Paths of every NaN or infinity inside a JSON-like object."""
     if isinstance(obj, float):
@@ -143,6 +162,7 @@ def run_suite(names: Sequence[str] | None = None, *, check: bool = True, repeats
               log: Callable[[str], None] = lambda s: None) -> dict:
     """Run the suite (all its scenes by default) and the stiff-damping time ratio."""
     names = list(names) if names else suite_scenes()
+    check_names(names)
     rows = []
     for name in names:
         log(f"[suite] {name} ...")

@@ -93,3 +93,15 @@ def test_whole_suite_runs_without_failure():
             assert row["dns_error"] is not None and row["dns_error"] < 1e-5, row["scene"]
     json.dumps(report, allow_nan=False)
     assert report["stiff_ratio"]["ratio"] is not None and "stiff damping" in text
+
+
+def test_unknown_names_are_refused_before_anything_runs(tmp_path):
+    from pulsemap.solvers.studies.suite import SuiteError, check_names
+
+    path = tmp_path / "mine.toml"
+    path.write_text("not even toml")  # exists: loading it is run_case's business (a refused row)
+    check_names(["damp-10", "fig8-eps0.1", "default", str(path)])
+    with pytest.raises(SuiteError, match=r"unknown scene 'damp-1000x'.*did you mean 'damp-1000'"):
+        run_suite(["damp-10", "damp-1000x"])  # refused before damp-10 runs
+    with pytest.raises(SuiteError, match="unknown scene"):
+        check_names([str(tmp_path / "absent.toml")])
