@@ -280,8 +280,8 @@ def test_zero_perturbation_gives_a_constant_law(model, capsys):
     from pulsemap.solvers.cli.main import main
 
     assert main(["derive", "0*u", "--model", model, "--json", "-"]) == 0
-    out = capsys.readouterr().out
-    assert "A constant" in out
-    data = json.loads(out[out.index("\n{") + 1:])
+    captured = capsys.readouterr()
+    assert "A constant" in captured.err  # with --json -, the text goes to stderr and stdout is the JSON
+    data = json.loads(captured.out)
     law = data.get("law") or data.get("longwave")
     assert law["kind"] == "constant" and law["law"] == "A_0"
