@@ -53,7 +53,12 @@ def _usage_message(prog: str, message: str) -> str:
 
 
 def _check_outputs(args: argparse.Namespace) -> None:
-    """Output files (--json, --csv, --plot) must be writable places: fail before a long run, not after."""
+    """Output files (--json, --csv, --plot) must be writable places, and --plot needs matplotlib:
+    fail before a long run, not after."""
+    if getattr(args, "plot", None):
+        from pulsemap.solvers.data.plotting import require_matplotlib
+
+        require_matplotlib(UsageError)
     for option in ("json", "csv", "plot"):
         value = getattr(args, option, None)
         if not isinstance(value, str) or value == "-":
@@ -225,7 +230,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.csv:
         write_text(args.csv, to_csv(result))
     if args.plot:
-        plot(result, args.plot)
+        plot(result, args.plot, log_y=args.log_y)
     return 0
 
 
@@ -340,6 +345,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-' for stdout)")
     p.add_argument("--csv", metavar="OUT", help="write peaks per contact as CSV ('-' for stdout)")
     p.add_argument("--plot", metavar="OUT.png", help="plot in the paper's style (needs matplotlib)")
+    p.add_argument("--log-y", action="store_true", help="--plot with a logarithmic peak axis (decaying pulses)")
     p.add_argument("--seed-peak", type=number, default=None, metavar="PEAK",
                    help="seed map and law with this peak at contact first_perturbed - 1 (default: the DNS "
                         "peak there, or v0 through kappa_n without the DNS)")

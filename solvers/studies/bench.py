@@ -417,7 +417,7 @@ def plot(reports: list[dict], path: str) -> None:
         for (kind, line), pts in lines.items():
             xs, ys = zip(*pts)
             ax.loglog(xs, ys, styles.get(kind, "o"), label=f"{kind} {line}" if kind != "model" else line, ms=4)
-        ax.axhline(r["target"], color="grey", lw=0.8)
+        ax.axhline(r["target"], color="grey", lw=0.8, label=f"target {r['target']:g}")
         ax.set_xlabel("run time [s] (best of K)")
         ax.set_ylabel("max relative peak error vs reference DNS")
         ax.set_title(r["scene"])

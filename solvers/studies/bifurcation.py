@@ -453,8 +453,9 @@ def plot(report: dict, path: str) -> None:
                 order = np.argsort(xs)
                 label = f"Eq. 41 {'stable' if want else 'unstable'} ({prof})"
                 ax.plot(np.array(xs)[order], np.array(ys)[order], ls=ls, color=color, lw=lw, label=label)
-        for f in pred["folds"]:
-            ax.plot([f["value"]], [f["peak"]], "o", color=color, ms=5)
+        if pred["folds"]:
+            ax.plot([f["value"] for f in pred["folds"]], [f["peak"] for f in pred["folds"]], "o", color=color,
+                    ms=5, label=f"fold ({prof})")
     dns = report.get("dns")
     if dns:
         markers = "s^Dv<>"
@@ -468,7 +469,8 @@ def plot(report: dict, path: str) -> None:
             ax.plot(xd, [0.0] * len(xd), "x", color=f"C{k}", label=f"DNS decays, v0 = {v0:g}" if xd else None)
         for k, t in enumerate(dns["thresholds"]):
             if t["threshold"] is not None:
-                ax.axvline(t["threshold"], color=f"C{k}", lw=0.8, ls=":")
+                ax.axvline(t["threshold"], color=f"C{k}", lw=0.8, ls=":",
+                           label=f"DNS threshold, v0 = {t['v0']:g}")
     ax.set_xlabel(name)
     ax.set_ylabel("stationary peak (A S(0))")
     ax.set_title(f"{report['scene']['name']}: stationary shocks")

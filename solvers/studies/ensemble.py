@@ -162,7 +162,7 @@ def plot(report: dict, path: str) -> None:
         std = np.array([s["std"] or 0.0 for s in st[key] if s["n"]])
         if xs:
             ax.plot(xs, mean, "-o" if key == "dns" else "--", color=color, ms=3, label=f"{label} mean")
-            ax.fill_between(xs, mean - std, mean + std, color=color, alpha=0.15)
+            ax.fill_between(xs, mean - std, mean + std, color=color, alpha=0.15, label=f"{label} mean +- 1 std")
     ax.set_xlabel("contact i")
     ax.set_ylabel("primary pulse peak")
     ax.set_title(f"{report['scene']['name']}: {report['realisations']} realisations")

@@ -417,38 +417,10 @@ def to_text(result: dict) -> str:
     return "\n".join(lines)
 
 
-def plot(result: dict, path: str) -> None:
-    """The paper's style: DNS as +, map as dots, long-wave law as a line (matplotlib, optional)."""
-    from pulsemap.solvers.data.plotting import pyplot
+def plot(result: dict, path: str, log_y: bool = False) -> None:
+    """The paper's style: DNS as +, map as dots, long-wave law as a line, the DNS's stop marked
+    (data/plotting.peaks_figure; matplotlib, optional)."""
+    from pulsemap.solvers.data.plotting import peaks_figure, pyplot, save
 
     plt = pyplot(RunError)
-    c = result["contacts"]
-    fig, ax = plt.subplots(figsize=(6, 4))
-
-    def series(name):
-        vals = result["peaks"][name]
-        if vals is None:
-            return None, None
-        pts = [(ci, v) for ci, v in zip(c, vals) if v is not None]
-        return ([p[0] for p in pts], [p[1] for p in pts]) if pts else (None, None)
-
-    x, y = series("dns")
-    if x:
-        ax.plot(x, y, "k+", label="DNS")
-    x, y = series("map")
-    if x:
-        ax.plot(x, y, "r.", label=f"map ({result['choices']['variant']}, {result['choices']['profile']})")
-    x, y = series("longwave")
-    if x:
-        ax.plot(x, y, "b-", lw=1, label="long-wave law")
-    for name in _columns(result)[3:]:
-        x, y = series(name)
-        if x:
-            ax.plot(x, y, "--" if name.endswith("law") else ":", lw=1, label=name)
-    ax.set_xlabel("contact i")
-    ax.set_ylabel("primary pulse peak")
-    ax.set_title(result["scene"]["name"])
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save(peaks_figure(result, plt, log_y), plt, path)

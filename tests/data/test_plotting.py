@@ -18,7 +18,7 @@ def test_missing_matplotlib_is_a_one_line_user_error(monkeypatch, module):
     monkeypatch.setitem(sys.modules, module, None)  # import raises ImportError
     with pytest.raises(_Error) as info:
         pyplot(_Error)
-    assert str(info.value) == NEEDS_MATPLOTLIB and "pip install 'pulsemap[plot]'" in str(info.value)
+    assert str(info.value) == NEEDS_MATPLOTLIB and 'pip install "pulsemap[plot]"' in str(info.value)
     assert info.value.__cause__ is None and info.value.__suppress_context__
 
 
@@ -43,3 +43,62 @@ def test_pyplot_is_headless():
     pytest.importorskip("matplotlib")
     plt = pyplot()
     assert plt.get_backend().lower() == "agg"
+
+
+@pytest.mark.parametrize("command", [["run", "default"], ["bench", "default", "--quick"],
+                                     ["bifurcation", "vdp-mu3-v2.3", "--param", "mu", "--range", "1", "2"],
+                                     ["ensemble", "fig13-seed1", "--realisations", "2"]])
+def test_plot_without_matplotlib_fails_before_the_run(monkeypatch, tmp_path, capsys, command):
+    """One hint everywhere, exit 2, and nothing computed (the studies would raise if called)."""
+    from pulsemap.solvers.cli import main as cli
+    from pulsemap.solvers.studies import bench, bifurcation, ensemble, run
+
+    def never(*args, **kwargs):
+        raise AssertionError("the run started before --plot was checked")
+
+    for module, name in ((run, "run_scene"), (bench, "run_bench"), (bifurcation, "bifurcation"),
+                         (ensemble, "ensemble")):
+        monkeypatch.setattr(module, name, never)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    assert cli.main(command + ["--plot", str(tmp_path / "f.png")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"pulsemap: error: {NEEDS_MATPLOTLIB}"
+    assert not (tmp_path / "f.png").exists()
+
+
+def _run_result(alive: list[bool]) -> dict:
+    contacts = list(range(16, 16 + len(alive)))
+    dns = [0.7 * 0.8 ** k if a else None for k, a in enumerate(alive)]
+    return {"scene": {"name": "t"}, "contacts": contacts, "choices": {"variant": "paper", "profile": "exact"},
+            "peaks": {"dns": dns, "map": [0.7 * 0.85 ** k for k in range(len(alive))], "longwave": None,
+                      "energy-law": [0.7 * 0.82 ** k for k in range(len(alive))]},
+            "dns": {"alive": alive, "stop_reason": "pulse died at contact 21 (peak below 0.001 x peak)"}}
+
+
+def test_run_figure_has_a_legend_entry_per_line_and_marks_the_stop():
+    from pulsemap.solvers.data.plotting import peaks_figure
+
+    plt = pyplot()
+    fig = peaks_figure(_run_result([True] * 5 + [False] * 3), plt, log_y=True)
+    ax = fig.axes[0]
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert len(labels) == len(ax.lines) == 4  # dns, map, energy-law, stop marker (no longwave values)
+    assert labels[0] == "DNS" and labels[1] == "map (paper, exact)" and labels[2] == "energy-law"
+    assert labels[3].startswith("DNS pulse lost after contact 20: pulse died at contact 21")
+    stop = ax.lines[3]
+    assert list(stop.get_xdata()) == [20] and stop.get_ydata()[0] == pytest.approx(0.7 * 0.8 ** 4)
+    assert ax.get_yscale() == "log"
+    plt.close(fig)
+    fig = peaks_figure(_run_result([True] * 8), plt)
+    assert fig.axes[0].get_yscale() == "linear"
+    assert all("lost" not in t.get_text() for t in fig.axes[0].get_legend().get_texts())  # no stop: no marker
+    plt.close(fig)
+
+
+def test_run_plot_writes_a_png(tmp_path):
+    from pulsemap.solvers.studies.run import plot
+
+    pyplot()
+    path = tmp_path / "run.png"
+    plot(_run_result([True] * 5 + [False] * 3), str(path), log_y=True)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
