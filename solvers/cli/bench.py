@@ -28,6 +28,7 @@ def register(sub) -> None:
     p.add_argument("--target", type=number, default=1e-6, help="accuracy for the speed ratios (1e-6)")
     p.add_argument("--no-baselines", action="store_true", help="skip baselines (a) and (b)")
     p.add_argument("--no-models", action="store_true", help="skip the map and the laws")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=cmd_bench)
 
 
@@ -47,7 +48,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
                      baselines=not args.no_baselines, models=not args.no_models)
     if args.plot:
         pyplot(BenchError)  # fail before the runs, not after
-    log = progress_log()
+    log = progress_log(args.quiet)
     reports = run_bench(args.scenes, ladder, log)
     print(to_text(reports))
     if args.csv:

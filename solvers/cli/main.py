@@ -157,16 +157,11 @@ def _text_to_stderr():
             os.close(saved)
 
 
-def progress_enabled() -> bool:
-    """Progress is shown only when stderr is a terminal."""
-    return sys.stderr.isatty()
-
-
-def progress_log() -> Callable[[str], None]:
-    """Progress lines to stderr when it is a terminal; otherwise a no-op."""
-    if progress_enabled():
-        return lambda s: print(s, file=sys.stderr, flush=True)
-    return lambda s: None
+def progress_log(quiet: bool = False) -> Callable[[str], None]:
+    """Progress lines to stderr, plain and flushed (they read the same in a log file); a no-op with --quiet."""
+    if quiet:
+        return lambda s: None
+    return lambda s: print(s, file=sys.stderr, flush=True)
 
 
 # ----------------------------------------------------------------------------- profile
@@ -223,7 +218,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene)
     methods = args.methods.split(",") if args.methods else None
     result = run_scene(scene, methods=methods, profile=args.profile, variant=args.variant,
-                       progress=progress_enabled() and not args.quiet, seed_peak=args.seed_peak)
+                       progress=not args.quiet, seed_peak=args.seed_peak)
     print(to_text(result))
     if args.json:
         write_json(args.json, result)

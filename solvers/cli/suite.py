@@ -21,6 +21,7 @@ def register(sub) -> None:
     p.add_argument("--no-check", action="store_true", help="skip the second (error) DNS run")
     p.add_argument("--repeats", type=int, default=1, metavar="K", help="DNS timings: best of K (1)")
     p.add_argument("--json", metavar="FILE", help="full report ('-' for stdout)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=cmd_suite)
 
 
@@ -33,7 +34,7 @@ def cmd_suite(args: argparse.Namespace) -> int:
         return 0
     if args.repeats < 1:
         raise UsageError(f"--repeats must be >= 1, got {args.repeats}")
-    log = progress_log()
+    log = progress_log(args.quiet)
     report = run_suite(args.scenes, check=not args.no_check, repeats=args.repeats, log=log)
     print(to_text(report))
     if args.json:

@@ -82,13 +82,18 @@ def iterate_balance_map(
 def evaluate_balance_law(module: ModuleType, A0: float, i0: float, contacts, eps: float, params) -> BalanceRun:
     """A(i) from K dB/di = eps sum C_p B^p, B = A^Q, at ``contacts`` from A(i0) = A0."""
     check_seed(A0, BalanceEvalError)
-    if not getattr(module, "UNIFORM", False) or module.LAW_KIND is None:
+    if not getattr(module, "UNIFORM", False):
         raise BalanceEvalError(
             f"the {module.MODEL}-balance law needs a uniform perturbation: use the {module.MODEL}-balance map"
         )
     contacts = np.asarray(contacts, dtype=float)
     args = contact_params(module, params, int(i0) + 1)
     S0, Q = module.S0, module.Q
+    if module.LAW_KIND is None:  # uniform, and R does no work / gives no impulse (e.g. R = 0): dB/di = 0
+        vals = [float(A0)] * contacts.size
+        return BalanceRun(module.MODEL, "law", contacts.astype(int), vals, [v * S0 for v in vals], "ok",
+                          "constant: R does not change the wave's " + module.MODEL, None, "constant",
+                          module.SOURCE["profile"])
     if hasattr(module, "law_closed"):
         with np.errstate(all="ignore"):
             A, base = module.law_closed(contacts, A0, i0, eps, *args)

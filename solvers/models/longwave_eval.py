@@ -27,18 +27,21 @@ class LawRun:
     contacts: np.ndarray
     A: list  # float, or None past the law's end
     peaks: list
-    kind: str  # "power law", "exponential", "quadrature"
+    kind: str  # "power law", "exponential", "quadrature", "constant" (R does not force the contact)
     ended_at: float | None  # continuous contact index where A reached 0 or infinity
     ended: str  # "", "extinction", "blow-up"
 
 
 def evaluate_law(module: ModuleType, A0: float, i0: float, contacts, eps: float, params) -> LawRun:
     """A(i) of Eq. 30 at ``contacts`` from A(i0) = A0."""
-    if not getattr(module, "UNIFORM", False) or module.LAW_KIND is None:
+    if not getattr(module, "UNIFORM", False):
         raise LongwaveEvalError(
             "the long-wave law (Eq. 30) needs a uniform perturbation: drop 'longwave' from the methods"
         )
     contacts = np.asarray(contacts, dtype=float)
+    if module.LAW_KIND is None:  # uniform, and no term of R forces contact i (e.g. R = 0): dB/di = 0
+        return LawRun(contacts.astype(int), [float(A0)] * contacts.size, [float(A0) * module.S0] * contacts.size,
+                      "constant", None, "")
     args = contact_params(module, params, int(i0) + 1)
     S0 = module.S0
     if hasattr(module, "longwave_law"):

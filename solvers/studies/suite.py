@@ -20,6 +20,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Callable, Sequence
 
+from pulsemap.solvers.studies.progress import Progress
+
 STIFF_SCENE, YARDSTICK = "damp-100", "nonstiff"
 STIFF_RATIO_TARGET = 5.0
 SILENT_ERROR = 0.5  # a model this far off the DNS (max relative error) must have been warned about
@@ -164,11 +166,12 @@ def run_suite(names: Sequence[str] | None = None, *, check: bool = True, repeats
     names = list(names) if names else suite_scenes()
     check_names(names)
     rows = []
+    report = Progress("suite", len(names), sink=log)
     for name in names:
-        log(f"[suite] {name} ...")
+        report.start(name)
         rows.append(run_case(name, check=check, repeats=repeats))
         r = rows[-1]
-        log(f"[suite] {name}: {r['status']} ({r.get('wall_s', 0):.1f} s)")
+        report.finish(name, r["status"], r.get("wall_s", 0))
     by = {r["scene"]: r for r in rows}
     ratio = None
     if STIFF_SCENE in by and YARDSTICK in by and by[YARDSTICK].get("dns_time_s"):

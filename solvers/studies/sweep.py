@@ -36,6 +36,7 @@ from types import ModuleType
 from typing import Any, Callable, Iterable, Mapping, TextIO
 
 from pulsemap.solvers.data.records import open_for_append, read_keyed, write_record
+from pulsemap.solvers.studies.progress import Progress, describe
 
 __all__ = [
     "SweepError",
@@ -258,6 +259,8 @@ def run_sweep(
 
     fh = open_for_append(path) if path is not None and pending else None
     computed = 0
+    report = Progress(label, len(pending), enabled=progress, sink=lambda s: print(s, file=err, flush=True))
+    names = dict(zip(order, describe([todo[k] for k in order]))) if progress else {}
 
     def finish(key: str, outcome: dict) -> None:
         nonlocal computed
@@ -266,9 +269,8 @@ def run_sweep(
         computed += 1
         if fh is not None:
             write_record(fh, rec)
-        if progress:
-            what = "ok" if rec["status"] == "ok" else "FAILED: " + rec["error"]
-            print(f"[{label}] {computed}/{len(pending)} key {key} ({rec.get('elapsed_s', 0):.2f} s) {what}", file=err)
+        what = "ok" if rec["status"] == "ok" else "FAILED: " + rec["error"]
+        report.finish(names.get(key, key), what, rec.get("elapsed_s"))
 
     own = None
     try:

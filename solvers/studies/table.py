@@ -17,12 +17,12 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 from pulsemap.solvers.data.records import append_record, read_keyed
+from pulsemap.solvers.studies.progress import Progress
 from pulsemap.solvers.studies.run import run_scene
 from pulsemap.solvers.data.scene import builtin_scenes, load_scene
 
@@ -143,16 +143,17 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
     if rows_file is not None and fresh and Path(rows_file).exists():
         Path(rows_file).unlink()
     rows = []
+    report = Progress("table", len(names), enabled=progress)
     for name in names:
         old = done.get(row_key(scenes[name].as_dict(), columns))
         if old is not None and old.get("scene") == name:
-            if progress:
-                print(f"table: {name} already done in {rows_file}", file=sys.stderr, flush=True)
+            report.finish(name, f"already in {rows_file}")
             rows.append(old)
             continue
-        if progress:
-            print(f"table: {name} ...", file=sys.stderr, flush=True)
+        report.start(name)
+        t0 = time.perf_counter()
         row = scene_row(name, columns=columns, eps=eps)
+        report.finish(name, "done", time.perf_counter() - t0)
         if rows_file is not None:  # repairs a line cut short first, flushed to disk
             append_record(rows_file, row)
         rows.append(row)

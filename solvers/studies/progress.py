@@ -1,0 +1,101 @@
+"""Progress of long commands on stderr: what, k of N, elapsed time and ETA, one plain line each.
+
+Plain lines (no carriage returns, no terminal codes) so the same output reads on a terminal and
+in a log file (``pulsemap table 2> table.log``); every line starts with ``[what]`` and is flushed.
+``--quiet`` gives a disabled reporter, which prints nothing.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+
+def duration(seconds: float) -> str:
+    """'8.2 s', '45 s', '2 min 05 s', '1 h 02 min'."""
+    if seconds < 10:
+        return f"{seconds:.1f} s"
+    s = int(round(seconds))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s // 3600} h {(s % 3600) // 60:02d} min"
+
+
+def _flat(value: object, prefix: str = "") -> dict[str, object]:
+    """Dotted keys -> scalars (lists kept whole) of a nested point."""
+    if isinstance(value, Mapping):
+        out: dict[str, object] = {}
+        for k, v in value.items():
+            out.update(_flat(v, f"{prefix}{k}."))
+        return out
+    return {prefix[:-1]: value}
+
+
+def _fmt(v: object) -> str:
+    return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+
+def describe(points: list[Mapping[str, object]]) -> list[str]:
+    """A label per sweep point from the values that vary across the points ('params.mu=1.5,
+    velocity=2.3'), not from its hash; 'point j' when nothing varies."""
+    flat = [_flat(p) for p in points]
+    keys = [k for k in dict.fromkeys(k for f in flat for k in f)
+            if len({repr(f.get(k)) for f in flat}) > 1]
+    labels = []
+    for j, f in enumerate(flat):
+        text = ", ".join(f"{k.removeprefix('params.')}={_fmt(f.get(k))}" for k in keys)
+        labels.append(text or f"point {j + 1}")
+    return labels
+
+
+@dataclass
+class Progress:
+    """A reporter for ``total`` items of one kind (``what``: 'table', 'suite', 'bisection', ...)."""
+
+    what: str
+    total: int
+    enabled: bool = True
+    sink: Callable[[str], None] | None = None  # default: a line on sys.stderr, flushed
+    clock: Callable[[], float] = time.monotonic
+    done: int = 0
+    started: float = field(default=0.0)
+
+    def __post_init__(self) -> None:
+        self.started = self.clock()
+
+    def say(self, text: str) -> None:
+        """One line '[what] text' (when enabled)."""
+        if not self.enabled:
+            return
+        if self.sink is not None:
+            self.sink(f"[{self.what}] {text}")
+        else:
+            print(f"[{self.what}] {text}", file=sys.stderr, flush=True)
+
+    def eta(self) -> str:
+        """Elapsed time and, once an item has finished, the estimated time left."""
+        elapsed = self.clock() - self.started
+        text = f"elapsed {duration(elapsed)}"
+        if 0 < self.done < self.total:
+            text += f", ETA {duration(elapsed / self.done * (self.total - self.done))}"
+        return text
+
+    def start(self, label: str) -> None:
+        """Item done+1 of total begins (so a slow item is never silent)."""
+        self.say(f"{self.done + 1}/{self.total} {label} ...")
+
+    def finish(self, label: str, status: str = "done", seconds: float | None = None) -> None:
+        """An item finished: k/N, its label and status, elapsed and ETA."""
+        self.done += 1
+        took = f" in {duration(seconds)}" if seconds is not None else ""
+        self.say(f"{self.done}/{self.total} {label}: {status}{took} ({self.eta()})")
+
+
+def log_lines(enabled: bool, what: str) -> Callable[[str], None]:
+    """A plain ``log(text)`` printing '[what] text' to stderr, or nothing when disabled."""
+    reporter = Progress(what, 0, enabled)
+    return reporter.say
