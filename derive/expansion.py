@@ -84,10 +84,19 @@ def exact_exponent(n: float | int | sympy.Rational | str) -> sympy.Rational:
     return value
 
 
+class BeadSymbol(sympy.Symbol):
+    """A site-dependent parameter at one bead (k_i, k_ip1, k_ip2): its own class, so it never
+    equals a user's parameter or an internal symbol of the same name."""
+
+
+#: The printed suffix of a bead symbol, by offset from bead i (each ends differently, so that
+#: name + suffix determines both the name and the offset).
+BEAD_SUFFIX = {0: "_i", 1: "_ip1", 2: "_ip2"}
+
+
 def bead_symbol(name: str, offset: int) -> sympy.Symbol:
     """Parameter ``name`` at bead i + offset (offset 0, 1, 2)."""
-    suffix = {0: "_i", 1: "_ip1", 2: "_ip2"}[offset]
-    return sympy.Symbol(name + suffix, real=True)
+    return BeadSymbol(name + BEAD_SUFFIX[offset], real=True)
 
 
 def _at_bead(R: sympy.Expr, offset: int, site_dependent: Iterable[str]) -> sympy.Expr:

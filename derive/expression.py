@@ -36,6 +36,7 @@ __all__ = [
     "MAX_LENGTH",
     "RESERVED",
     "SYMBOLS",
+    "UserSymbol",
     "check_parameter_name",
     "is_polynomial_in_state",
     "parse_expression",
@@ -91,9 +92,18 @@ class _Token:
     pos: int
 
 
+class UserSymbol(sympy.Symbol):
+    """A name the user wrote in R (u, v, i or a parameter), real.
+
+    A separate class, so that it never equals a symbol the derivation makes for itself
+    (f1, g1_0010, A, B, k, epsilon, ...) even when the names are the same: sympy compares the
+    type before the name. It prints as the user's own name.
+    """
+
+
 def symbol(name: str) -> sympy.Symbol:
-    """The sympy Symbol the parser creates for ``name`` (real)."""
-    return sympy.Symbol(name, real=True)
+    """The sympy symbol the parser creates for ``name`` (a real :class:`UserSymbol`)."""
+    return UserSymbol(name, real=True)
 
 
 def check_parameter_name(name: object) -> str:

@@ -19,6 +19,7 @@ import mpmath
 import sympy
 
 from .amplitude_map import EPS, F_SYMBOLS, AmplitudeMap
+from .expression import symbol
 from .timebox import bounded
 
 B = sympy.Symbol("B", positive=True)
@@ -129,7 +130,7 @@ class LongwaveLaw:
 
 def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> LongwaveLaw:
     """Form Eq. 30 from the map's first equation and solve it (closed form where possible)."""
-    if amap.expansion.site_dependent or sympy.Symbol("i", real=True) in amap.expansion.R.free_symbols:
+    if amap.expansion.site_dependent or symbol("i") in amap.expansion.R.free_symbols:
         raise LongwaveError(
             "the long-wave law (Eq. 30) needs a uniform perturbation; this R is site-dependent "
             "(per-bead parameters or i): iterate the map instead"

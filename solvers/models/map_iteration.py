@@ -76,15 +76,10 @@ def contact_params(module: ModuleType, params: Mapping[str, object], contact: in
     ``params`` maps parameter names to a scalar or a per-bead array (bead k at index k - 1).
     """
     out = []
-    for name in module.PARAMS:
-        if name == "i":
+    for base, offset in module.ARGS:  # (parameter, bead offset); ("i", 0) is the bead index
+        if base == "i":
             out.append(float(contact))
             continue
-        base, offset = name, 0
-        for suffix, off in (("_ip1", 1), ("_ip2", 2), ("_i", 0)):
-            if name.endswith(suffix) and name[: -len(suffix)] in params:
-                base, offset = name[: -len(suffix)], off
-                break
         if base not in params:
             raise MapIterationError(f"the map needs a value for parameter '{base}'")
         value = params[base]

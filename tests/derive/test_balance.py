@@ -21,6 +21,7 @@ from pulsemap.derive.balance import (
     to_text,
 )
 from pulsemap.derive.derivation import DerivationError, derive_model
+from pulsemap.derive.expression import symbol
 from pulsemap.derive.longwave import A0, I, I0
 from pulsemap.derive.perturbation import make_perturbation
 from pulsemap.derive.profile import exact_profile
@@ -245,7 +246,7 @@ def test_balance_map_equals_direct_numeric_evaluation(R, params, model, f):
 
 def test_site_dependent_balance_map_uses_each_beads_value():
     mod = balance_module("-k*u", ["k"], 1.5, "exact", "energy", ("k",))
-    assert mod.PARAMS == ("k_i",) and mod.UNIFORM is False
+    assert mod.PARAMS == ("k",) and mod.ARGS == (("k", 0),) and mod.UNIFORM is False
     k = np.linspace(0.0, 0.5, 140)
     run = iterate_balance_map(mod, 0.6, 15, 40, 0.3, {"k": k})
     direct = _direct_map(lambda u, v, i: -k[15 + i] * u, 0.6, 25, 0.3)  # step i: bead 16 + i
@@ -276,7 +277,7 @@ def test_momentum_balance_refuses_a_term_without_v():
     # no term without v: fine, and a constant force is refused for both models
     balance_expand(make_perturbation("-mu*(1 + u^2)*v", 0.1, {"mu": 1}).R, 1.5, "momentum")
     with pytest.raises(BalanceError, match="polynomial"):
-        balance_expand(sympy.sin(sympy.Symbol("u", real=True)), 1.5, "energy")
+        balance_expand(sympy.sin(symbol("u")), 1.5, "energy")
     with pytest.raises(DerivationError, match="map only"):
         derive_model(make_perturbation("-mu*v", 0.1, {"mu": 1}), "energy", fold="mu")
 
@@ -375,7 +376,7 @@ def test_generated_rate_equals_the_sympy_derivation():
     d = derive_balance(make_perturbation(VDP, 0.1, {"mu": 2.0}), "energy")
     mod = balance_module(VDP, ["mu"], 1.5, "exact", "energy")
     for a in (0.2, 0.7, 1.3):
-        direct = 0.1 * float(d.expansion.rate(sympy.Float(a), d.constants).xreplace({sympy.Symbol("mu", real=True): 2.0}))
+        direct = 0.1 * float(d.expansion.rate(sympy.Float(a), d.constants).xreplace({symbol("mu"): 2.0}))
         assert mod.balance_rate(a, 0.1, 2.0) == pytest.approx(direct, rel=1e-10)
     assert mod.E1 == pytest.approx(d.K, rel=1e-11)
 

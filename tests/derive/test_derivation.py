@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from pulsemap.derive.amplitude_map import A_I, A_NEXT, A_PREV, EPS, AmplitudeMap
 from pulsemap.derive.derivation import derive_all, to_json, to_latex, to_text
-from pulsemap.derive.expansion import D0, D1, W0, W1, ExpansionError, expand
+from pulsemap.derive.expansion import D0, D1, W0, W1, ExpansionError, bead_symbol, expand
 from pulsemap.derive.expression import parse_expression, symbol
 from pulsemap.derive.integrals import F_NAMES, constants
 from pulsemap.derive.longwave import A0, I, I0, longwave_law
@@ -110,7 +110,7 @@ def test_random_foundation_keeps_the_term_eq44_drops():
     """ERRATA item 8: g_i = -k_i delta_i + (k_{i+1} - k_i) delta_{i+1}."""
     R = parse_expression("-k*u", ["k"])
     ex = expand(R, 1.5, site_dependent=["k"])
-    ki, kip1 = sympy.Symbol("k_i", real=True), sympy.Symbol("k_ip1", real=True)
+    ki, kip1 = bead_symbol("k", 0), bead_symbol("k", 1)
     assert sympy.expand(ex.g1 - (-ki * D0 + (kip1 - ki) * D1)) == 0
     assert sympy.expand(ex.g2 + kip1 * D1) == 0
     assert "g1_0100" in ex.integrals()

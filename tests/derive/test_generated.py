@@ -164,7 +164,7 @@ def test_force_module_derivatives():
 
 def test_site_dependent_map_uses_per_bead_values():
     mod = map_module("-k*u", ["k"], 1.5, "exact", "paper", ("k",))
-    assert mod.PARAMS == ("k_i", "k_ip1")
+    assert mod.PARAMS == ("k",) and mod.ARGS == (("k", 0), ("k", 1))
     k = np.linspace(0.1, 0.9, 140)
     run = iterate_map(mod, 0.5, 15, 30, 0.5, {"k": k})
     # uniform k gives the same as the uniform map with that value

@@ -39,7 +39,7 @@ def test_roots_equal_the_pointwise_scan(profile):
 
 
 def test_roots_of_a_known_polynomial_and_of_a_constant():
-    cubic = SimpleNamespace(PARAMS=("c",), stationary=lambda A, c: (c * (A - 1) * (A - 10) * (A - 100), 0))
+    cubic = SimpleNamespace(PARAMS=("c",), ARGS=(("c", 0),), stationary=lambda A, c: (c * (A - 1) * (A - 10) * (A - 100), 0))
     assert roots(cubic, {"c": 2.0}) == pytest.approx([1.0, 10.0, 100.0], rel=1e-14)
-    constant = SimpleNamespace(PARAMS=("c",), stationary=lambda A, c: (c, 0))  # a scalar for any A
+    constant = SimpleNamespace(PARAMS=("c",), ARGS=(("c", 0),), stationary=lambda A, c: (c, 0))  # a scalar for any A
     assert roots(constant, {"c": 2.0}) == [] and roots(constant, {"c": 0.0}) == []

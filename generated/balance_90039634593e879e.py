@@ -3,15 +3,16 @@
     R(u, v) = -mu*v
     n = 3/2, profile = exact (mpmath dps 16)
 
-source: {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 1, "kind": "balance", "model": "momentum", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
-source-hash: 6ff20cffffe27ea61215d66ffd42b73bc70d1f9bb6ab151e5f6e32ee92d870b4
-content-hash: 9d2ce2392435cdfbcf66ead99050cb86298c380f28136869c55c92f10df50570
+source: {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "momentum", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
+source-hash: 90039634593e879e1ea36a26a49b0005368c329a32f2b03e550cff637e150ae9
+content-hash: 6c893b934886b6919ae86374c6e494fc87dc283a07c18289a1b50decc60fc32a
 """
 import numpy
 
-SOURCE = {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 1, "kind": "balance", "model": "momentum", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
+SOURCE = {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "momentum", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
 MODEL = 'momentum'
 PARAMS = ('mu',)
+ARGS = (('mu', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index
 Q = 1.25  # the balanced quantity is K A^Q
 N_EXPONENT = 1.5
 
@@ -21,24 +22,24 @@ K = p1
 j_01 = 2.71360995308
 S0 = 1.48735937435  # peak = A S(0), Eq. 32
 
-def balance_rate(A, eps, mu):
-    """J(A) = eps int R dt for one bead (its parameters). Parameters: eps, mu."""
-    return eps * (-A*j_01*mu)
+def balance_rate(A, eps, p_mu):
+    """J(A) = eps int R dt for one bead (its parameters). Parameters: eps, p_mu."""
+    return eps * (-A*j_01*p_mu)
 
-def balance_step(a_prev, eps, mu):
+def balance_step(a_prev, eps, p_mu):
     """(A_i, base): K A_i^Q = K a_prev^Q + rate(a_prev) at bead i; base = A_i^Q, <= 0 means the pulse died (A_i is then 0)."""
-    base = a_prev ** Q + balance_rate(a_prev, eps, mu) / K
+    base = a_prev ** Q + balance_rate(a_prev, eps, p_mu) / K
     return numpy.where(base > 0, numpy.abs(base) ** (1.0 / Q), 0.0), base
 
 UNIFORM = True
 LAW_KIND = 'power law'
-def law_rhs(B, eps, mu):
-    """dB/di = eps sum C_p B^p / K, B = A^Q. Parameters: eps, mu."""
-    return -B**(4/5)*eps*j_01*mu/K
+def law_rhs(B, eps, p_mu):
+    """dB/di = eps sum C_p B^p / K, B = A^Q. Parameters: eps, p_mu."""
+    return -B**(4/5)*eps*j_01*p_mu/K
 
 LAW_POWER = 0.8  # dB/di = k B^p
-def law_closed(i, A0, i0, eps, mu):
+def law_closed(i, A0, i0, eps, p_mu):
     """Closed-form A(i) (power law). Returns (A, base): base <= 0 means the law has ended (extinction for p < 1, blow-up for p > 1); A is then 0."""
-    k = -eps*j_01*mu/K
+    k = -eps*j_01*p_mu/K
     base = A0 ** (Q * 0.2) + 0.2 * k * (i - i0)
     return numpy.where(base > 0, numpy.abs(base) ** (4.0), 0.0), base

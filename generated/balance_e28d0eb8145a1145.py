@@ -3,15 +3,16 @@
     R(u, v) = -mu*v
     n = 3/2, profile = exact (mpmath dps 16)
 
-source: {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 1, "kind": "balance", "model": "energy", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
-source-hash: 60236746aba2bb0a58f2f9259c72d7356a0a03c27b975e527d8defe7c10118fa
-content-hash: 0b5f7da8fb3c1184f0c71b7b77d2633fcfb8ab9e8c7b5585a4e59cf21922fda6
+source: {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
+source-hash: e28d0eb8145a114507c80d67f42a9d9df3ad59a0eec44630e0c9b2ece8ca48b1
+content-hash: 17ab4070715163a1090048acd18d28cd8e5745bbec59971e407b7f248eeb3d5a
 """
 import numpy
 
-SOURCE = {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 1, "kind": "balance", "model": "energy", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
+SOURCE = {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
 MODEL = 'energy'
 PARAMS = ('mu',)
+ARGS = (('mu', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index
 Q = 2.5  # the balanced quantity is K A^Q
 N_EXPONENT = 1.5
 
@@ -23,24 +24,24 @@ K = E1
 w_01 = 3.13720743158
 S0 = 1.48735937435  # peak = A S(0), Eq. 32
 
-def balance_rate(A, eps, mu):
-    """W(A) = eps int R x' dt for one bead (its parameters). Parameters: eps, mu."""
-    return eps * (-A**(9/4)*mu*w_01)
+def balance_rate(A, eps, p_mu):
+    """W(A) = eps int R x' dt for one bead (its parameters). Parameters: eps, p_mu."""
+    return eps * (-A**(9/4)*p_mu*w_01)
 
-def balance_step(a_prev, eps, mu):
+def balance_step(a_prev, eps, p_mu):
     """(A_i, base): K A_i^Q = K a_prev^Q + rate(a_prev) at bead i; base = A_i^Q, <= 0 means the pulse died (A_i is then 0)."""
-    base = a_prev ** Q + balance_rate(a_prev, eps, mu) / K
+    base = a_prev ** Q + balance_rate(a_prev, eps, p_mu) / K
     return numpy.where(base > 0, numpy.abs(base) ** (1.0 / Q), 0.0), base
 
 UNIFORM = True
 LAW_KIND = 'power law'
-def law_rhs(B, eps, mu):
-    """dB/di = eps sum C_p B^p / K, B = A^Q. Parameters: eps, mu."""
-    return -B**(9/10)*eps*mu*w_01/K
+def law_rhs(B, eps, p_mu):
+    """dB/di = eps sum C_p B^p / K, B = A^Q. Parameters: eps, p_mu."""
+    return -B**(9/10)*eps*p_mu*w_01/K
 
 LAW_POWER = 0.9  # dB/di = k B^p
-def law_closed(i, A0, i0, eps, mu):
+def law_closed(i, A0, i0, eps, p_mu):
     """Closed-form A(i) (power law). Returns (A, base): base <= 0 means the law has ended (extinction for p < 1, blow-up for p > 1); A is then 0."""
-    k = -eps*mu*w_01/K
+    k = -eps*p_mu*w_01/K
     base = A0 ** (Q * 0.1) + 0.1 * k * (i - i0)
     return numpy.where(base > 0, numpy.abs(base) ** (4.0), 0.0), base

@@ -3,15 +3,16 @@
     R(u, v) = -mu*v
     n = 3/2, profile = exact (mpmath dps 16), variant = paper
 
-source: {"R": "-mu*v", "dps": 16, "generator": 1, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
-source-hash: 2e5289ec8930d2a9e0c17bf3cc305a451cdb7a2626f96ca7787993e03720c4c5
-content-hash: 8487e12c718718eb70ce3f0158da83a3e30e8ec70836be20f5b4236381ccfa9d
+source: {"R": "-mu*v", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
+source-hash: 84103cff0997ba12093ff2770ec30c58aa2b80bdbd7750ca3b1df45a85dfe4e4
+content-hash: e59b3a91fd24ca69e31fca1e56f9c631b9191e48350b21aeef827ae27dc56e47
 """
 import numpy
 
-SOURCE = {"R": "-mu*v", "dps": 16, "generator": 1, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
+SOURCE = {"R": "-mu*v", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
 VARIANT = 'paper'
 PARAMS = ('mu',)
+ARGS = (('mu', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index
 P = 1.25  # contact power (n + 1)/2
 N_EXPONENT = 1.5
 
@@ -27,39 +28,39 @@ g1_0010 = 1.48735937435
 g2_01 = 0.583929165289
 S0 = 1.48735937435  # peak = A S(0), Eq. 32
 
-def map_residual(a_prev, a_i, a_next, eps, mu):
-    """Residuals of Eq. 23 (paper variant). State: a_prev, a_i, a_next; parameters: eps, mu."""
-    F1 = -2*a_i**(5/4)*f2 - a_i*eps*g1_0010*mu + a_next**(5/4)*f3 + a_prev**(5/4)*f1
-    F2 = a_i**(5/4)*(-f4 + f5) - 2*a_next**(5/4)*f6 - a_next*eps*g2_01*mu
+def map_residual(a_prev, a_i, a_next, eps, p_mu):
+    """Residuals of Eq. 23 (paper variant). State: a_prev, a_i, a_next; parameters: eps, p_mu."""
+    F1 = -2*a_i**(5/4)*f2 - a_i*eps*g1_0010*p_mu + a_next**(5/4)*f3 + a_prev**(5/4)*f1
+    F2 = a_i**(5/4)*(-f4 + f5) - 2*a_next**(5/4)*f6 - a_next*eps*g2_01*p_mu
     return (F1, F2,)
 
-def map_jacobian(a_prev, a_i, a_next, eps, mu):
+def map_jacobian(a_prev, a_i, a_next, eps, p_mu):
     """d(F)/d(unknowns) as nested tuples, unknowns = (a_i, a_next), and dF/da_prev (for multipliers)."""
-    J11 = -5/2*a_i**(1/4)*f2 - eps*g1_0010*mu
+    J11 = -5/2*a_i**(1/4)*f2 - eps*g1_0010*p_mu
     J12 = (5/4)*a_next**(1/4)*f3
     D1 = (5/4)*a_prev**(1/4)*f1
     J21 = (5/4)*a_i**(1/4)*(-f4 + f5)
-    J22 = -5/2*a_next**(1/4)*f6 - eps*g2_01*mu
+    J22 = -5/2*a_next**(1/4)*f6 - eps*g2_01*p_mu
     D2 = 0
     return ((J11, J12,), (J21, J22,),), (D1, D2,)
 
 UNIFORM = True
 LAW_KIND = 'power law'
-def longwave_rhs(B, eps, mu):
-    """dB/di of Eq. 30, B = A^P. Parameters: eps, mu."""
-    return -B**(4/5)*eps*g1_0010*mu/(f1 - f3)
+def longwave_rhs(B, eps, p_mu):
+    """dB/di of Eq. 30, B = A^P. Parameters: eps, p_mu."""
+    return -B**(4/5)*eps*g1_0010*p_mu/(f1 - f3)
 
-def longwave_law(i, A0, i0, eps, mu):
+def longwave_law(i, A0, i0, eps, p_mu):
     """Closed-form A(i) of Eq. 30 (power law); nan-free: caller checks the base. Returns (A, base) where base <= 0 means the law has ended (extinction/blow-up)."""
-    k = -eps*g1_0010*mu/(f1 - f3)
+    k = -eps*g1_0010*p_mu/(f1 - f3)
     base = A0**(1/4) + (1/5)*k*(i - i0)
     safe = numpy.where(base > 0, base, 1.0)
     return safe ** (4.0), base
 
-def stationary(A, mu):
+def stationary(A, p_mu):
     """Phi(A) of Eq. 41 (eps divided out) and dPhi/dA."""
-    return -A*g1_0010*mu, -g1_0010*mu
+    return -A*g1_0010*p_mu, -g1_0010*p_mu
 
-def stationary_dparam(A, mu):
-    """dPhi/d(parameter) for each parameter, as a dict (for continuation)."""
+def stationary_dparam(A, p_mu):
+    """dPhi/d(parameter) for each parameter (by the user's name), as a dict (for continuation)."""
     return {'mu': -A*g1_0010}

@@ -3,15 +3,16 @@
     R(u, v) = beta*u**3
     n = 3/2, profile = exact (mpmath dps 16)
 
-source: {"R": "beta*u**3", "balance_method": 1, "dps": 16, "generator": 1, "kind": "balance", "model": "energy", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": []}
-source-hash: 4236b0534671491d4a0ce58e7653946b49a15f3d2a2bf28dff6b0fb4f3c37a91
-content-hash: 3d6c71404b09ecae6f30b2ae91176ec0ea03c2a89e9bd2db55d84f6450d23c47
+source: {"R": "beta*u**3", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": []}
+source-hash: 111646b30971756e995bf2d9ffef6ca19fafd6fe11c6d2f90b1d4f198a4cabc6
+content-hash: e45ddd9fcdbda5406fe044d3351975fb110bd4a10c93101a41af673a07e7b29d
 """
 import numpy
 
-SOURCE = {"R": "beta*u**3", "balance_method": 1, "dps": 16, "generator": 1, "kind": "balance", "model": "energy", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": []}
+SOURCE = {"R": "beta*u**3", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": []}
 MODEL = 'energy'
 PARAMS = ('beta',)
+ARGS = (('beta', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index
 Q = 2.5  # the balanced quantity is K A^Q
 N_EXPONENT = 1.5
 
@@ -23,24 +24,24 @@ K = E1
 w_30 = 13.5559420207
 S0 = 1.48735937435  # peak = A S(0), Eq. 32
 
-def balance_rate(A, eps, beta):
-    """W(A) = eps int R x' dt for one bead (its parameters). Parameters: eps, beta."""
-    return eps * (A**4*beta*w_30)
+def balance_rate(A, eps, p_beta):
+    """W(A) = eps int R x' dt for one bead (its parameters). Parameters: eps, p_beta."""
+    return eps * (A**4*p_beta*w_30)
 
-def balance_step(a_prev, eps, beta):
+def balance_step(a_prev, eps, p_beta):
     """(A_i, base): K A_i^Q = K a_prev^Q + rate(a_prev) at bead i; base = A_i^Q, <= 0 means the pulse died (A_i is then 0)."""
-    base = a_prev ** Q + balance_rate(a_prev, eps, beta) / K
+    base = a_prev ** Q + balance_rate(a_prev, eps, p_beta) / K
     return numpy.where(base > 0, numpy.abs(base) ** (1.0 / Q), 0.0), base
 
 UNIFORM = True
 LAW_KIND = 'power law'
-def law_rhs(B, eps, beta):
-    """dB/di = eps sum C_p B^p / K, B = A^Q. Parameters: eps, beta."""
-    return B**(8/5)*beta*eps*w_30/K
+def law_rhs(B, eps, p_beta):
+    """dB/di = eps sum C_p B^p / K, B = A^Q. Parameters: eps, p_beta."""
+    return B**(8/5)*eps*p_beta*w_30/K
 
 LAW_POWER = 1.6  # dB/di = k B^p
-def law_closed(i, A0, i0, eps, beta):
+def law_closed(i, A0, i0, eps, p_beta):
     """Closed-form A(i) (power law). Returns (A, base): base <= 0 means the law has ended (extinction for p < 1, blow-up for p > 1); A is then 0."""
-    k = beta*eps*w_30/K
+    k = eps*p_beta*w_30/K
     base = A0 ** (Q * -0.6) + -0.6 * k * (i - i0)
     return numpy.where(base > 0, numpy.abs(base) ** (-0.666666666667), 0.0), base

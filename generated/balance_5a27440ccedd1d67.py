@@ -3,15 +3,16 @@
     R(u, v) = alpha*u
     n = 3/2, profile = exact (mpmath dps 16)
 
-source: {"R": "alpha*u", "balance_method": 1, "dps": 16, "generator": 1, "kind": "balance", "model": "energy", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": []}
-source-hash: 6e17205d3851b1ae37392c7e6eab4427a447b252fb8c5927f945d37910cdf980
-content-hash: 86ad2e486b798b8e35ff17b7907d7d36a55e15101389fdefdb9de22c15806c03
+source: {"R": "alpha*u", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": []}
+source-hash: 5a27440ccedd1d67c6781e118d2a5878498c577b5a3b7de29a816cc6570a77a1
+content-hash: 2cc7bc7e54a41941184434c31012a0a3896da86574d1df6fb09581b787a8b0f5
 """
 import numpy
 
-SOURCE = {"R": "alpha*u", "balance_method": 1, "dps": 16, "generator": 1, "kind": "balance", "model": "energy", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": []}
+SOURCE = {"R": "alpha*u", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": []}
 MODEL = 'energy'
 PARAMS = ('alpha',)
+ARGS = (('alpha', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index
 Q = 2.5  # the balanced quantity is K A^Q
 N_EXPONENT = 1.5
 
@@ -23,24 +24,24 @@ K = E1
 w_10 = 3.68183948872
 S0 = 1.48735937435  # peak = A S(0), Eq. 32
 
-def balance_rate(A, eps, alpha):
-    """W(A) = eps int R x' dt for one bead (its parameters). Parameters: eps, alpha."""
-    return eps * (A**2*alpha*w_10)
+def balance_rate(A, eps, p_alpha):
+    """W(A) = eps int R x' dt for one bead (its parameters). Parameters: eps, p_alpha."""
+    return eps * (A**2*p_alpha*w_10)
 
-def balance_step(a_prev, eps, alpha):
+def balance_step(a_prev, eps, p_alpha):
     """(A_i, base): K A_i^Q = K a_prev^Q + rate(a_prev) at bead i; base = A_i^Q, <= 0 means the pulse died (A_i is then 0)."""
-    base = a_prev ** Q + balance_rate(a_prev, eps, alpha) / K
+    base = a_prev ** Q + balance_rate(a_prev, eps, p_alpha) / K
     return numpy.where(base > 0, numpy.abs(base) ** (1.0 / Q), 0.0), base
 
 UNIFORM = True
 LAW_KIND = 'power law'
-def law_rhs(B, eps, alpha):
-    """dB/di = eps sum C_p B^p / K, B = A^Q. Parameters: eps, alpha."""
-    return B**(4/5)*alpha*eps*w_10/K
+def law_rhs(B, eps, p_alpha):
+    """dB/di = eps sum C_p B^p / K, B = A^Q. Parameters: eps, p_alpha."""
+    return B**(4/5)*eps*p_alpha*w_10/K
 
 LAW_POWER = 0.8  # dB/di = k B^p
-def law_closed(i, A0, i0, eps, alpha):
+def law_closed(i, A0, i0, eps, p_alpha):
     """Closed-form A(i) (power law). Returns (A, base): base <= 0 means the law has ended (extinction for p < 1, blow-up for p > 1); A is then 0."""
-    k = alpha*eps*w_10/K
+    k = eps*p_alpha*w_10/K
     base = A0 ** (Q * 0.2) + 0.2 * k * (i - i0)
     return numpy.where(base > 0, numpy.abs(base) ** (2.0), 0.0), base
