@@ -161,7 +161,7 @@ def script_force(scene, beads: int) -> Callable[[int, float, float], float]:
     first_perturbed.
     """
     from pulsemap.solvers.models.codeload import force_module
-    from pulsemap.solvers.studies.run import _params
+    from pulsemap.solvers.studies.forcing import _params
 
     pert = scene.perturbation
     mod = force_module(pert.text, pert.used_parameters)

@@ -117,7 +117,7 @@ def ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = N
 
 
 def to_text(report: dict) -> str:
-    from pulsemap.solvers.studies.bifurcation import _f  # a number in a fixed-width column, '-' for None
+    from pulsemap.solvers.studies.bifurcation_report import _f  # a number in a fixed-width column, '-' for None
 
     sc = report["scene"]
     st = report["statistics"]

@@ -1,0 +1,78 @@
+"""A benchmark's reports: work-precision tables and ratios, CSV rows, and the log-log plot."""
+
+from __future__ import annotations
+
+from pulsemap.solvers.studies.bench_measure import BenchError, fmt
+
+__all__ = ["plot", "to_csv", "to_text"]
+
+
+def to_text(reports: list[dict]) -> str:
+    """Work-precision tables and the ratios, one block per scene."""
+    lines = []
+    for r in reports:
+        ref = r["reference"]
+        lines.append(f"scene {r['scene']}: {r['beads']} beads, contacts {r['contacts'][0]}..{r['contacts'][1]}, "
+                     f"{r['live_contacts']} live; reference DOP853 full chain rtol {ref['rtol']:g} "
+                     f"({ref['time_s']:.3g} s), converged to {fmt(ref['convergence'])} vs rtol {ref['check_rtol']:g}")
+        lines.append(f"  {'kind':10s} {'line':26s} {'setting':18s} {'max rel err':>11s} {'missing':>7s} "
+                     f"{'time [s]':>10s} {'nfev':>8s}")
+        for p in r["points"]:
+            lines.append(f"  {p['kind']:10s} {p['line']:26s} {p['setting']:18s} {fmt(p['error']):>11s} "
+                         f"{p['missing']:7d} {p['time_s']:10.4g} {'' if p['nfev'] is None else p['nfev']:>8}")
+        rat = r["ratios"]
+        t = rat["target"]
+        lines.append(f"  at max rel error {t:g} (log-log interpolation on each line; best line of each kind):")
+        for key, label in (("dns", "pulsemap DNS"), ("baseline_b", "baseline (b) full chain"),
+                           ("baseline_a", "baseline (a) user script")):
+            e = rat[key]
+            lines.append(f"    {label:26s} {fmt(e['time_s'], '.4g'):>10s} s  {e['line']}")
+        lines.append(f"    ratio (b)/DNS = {fmt(rat['dns_vs_b'], '.3g')}   ratio (a)/DNS = {fmt(rat['dns_vs_a'], '.3g')}")
+        if "models" in rat:
+            m = rat["models"]
+            lines.append(f"    map ({m['map_line']}): {fmt(m['map_time_s'], '.3g')} s, max rel err {fmt(m['map_error'])};"
+                         f" DNS of `pulsemap run` ({fmt(m['run_dns_time_s'], '.3g')} s) / map = "
+                         f"{fmt(m['run_dns_vs_map'], '.3g')}, DNS at {t:g} / map = {fmt(m['dns_at_target_vs_map'], '.3g')},"
+                         f" fastest DNS run / map = {fmt(m['fastest_dns_vs_map'], '.3g')}")
+            lines.append(f"    slowest model {m['slowest_model_time_s']:.3g} s (DNS of `pulsemap run` / it = "
+                         f"{fmt(m['run_dns_vs_slowest_model'], '.3g')}); most accurate model "
+                         f"{m['most_accurate']['line']} (max rel err {fmt(m['most_accurate']['error'])})")
+        lines.append(f"  (benchmark took {r['bench_time_s']:.1f} s)")
+    return "\n".join(lines)
+
+
+def to_csv(reports: list[dict]) -> str:
+    """One row per measured run."""
+    rows = ["scene,kind,line,setting,rtol,max_rel_error,missing,time_s,nfev"]
+    for r in reports:
+        for p in r["points"]:
+            rows.append(",".join([r["scene"], p["kind"], p["line"], p["setting"],
+                                  "" if p["rtol"] is None else repr(p["rtol"]),
+                                  "" if p["error"] is None else repr(p["error"]), str(p["missing"]),
+                                  repr(p["time_s"]), "" if p["nfev"] is None else str(p["nfev"])]))
+    return "\n".join(rows) + "\n"
+
+
+def plot(reports: list[dict], path: str) -> None:
+    """Log-log error against time, one panel per scene (matplotlib, optional)."""
+    from pulsemap.solvers.data.plotting import pyplot
+
+    plt = pyplot(BenchError)
+    fig, axes = plt.subplots(1, len(reports), figsize=(6.5 * len(reports), 4.8), squeeze=False)
+    styles = {"dns": "o-", "baseline-b": "s--", "baseline-a": "^:", "model": "x"}
+    for ax, r in zip(axes[0], reports):
+        lines: dict[str, list] = {}
+        for p in r["points"]:
+            if p["error"] is not None and p["error"] > 0 and p["missing"] == 0:
+                lines.setdefault((p["kind"], p["line"]), []).append((p["time_s"], p["error"]))
+        for (kind, line), pts in lines.items():
+            xs, ys = zip(*pts)
+            ax.loglog(xs, ys, styles.get(kind, "o"), label=f"{kind} {line}" if kind != "model" else line, ms=4)
+        ax.axhline(r["target"], color="grey", lw=0.8, label=f"target {r['target']:g}")
+        ax.set_xlabel("run time [s] (best of K)")
+        ax.set_ylabel("max relative peak error vs reference DNS")
+        ax.set_title(r["scene"])
+        ax.legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

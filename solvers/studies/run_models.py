@@ -1,0 +1,182 @@
+"""The reduced models of a run: derive their modules, seed them, iterate the maps and evaluate the laws.
+
+Each step fills the run's result (``state.out``): peaks per contact, a description per model,
+timings and warnings, exactly as :func:`pulsemap.solvers.studies.run.run_scene` reports them.
+"""
+
+from __future__ import annotations
+
+import time
+from types import ModuleType
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from pulsemap.solvers.models.balance_eval import evaluate_balance_law, iterate_balance_map
+from pulsemap.solvers.models.codeload import balance_module, map_module
+from pulsemap.solvers.models.longwave_eval import evaluate_law
+from pulsemap.solvers.models.map_iteration import contact_params, eps0_ratio, iterate_map
+from pulsemap.solvers.studies.forcing import _params
+from pulsemap.solvers.studies.methods import (
+    BALANCE_METHODS,
+    DRIFT_WARN,
+    FORCING_WARN,
+    MODEL_TITLES,
+    WIDTH_WARN,
+)
+from pulsemap.solvers.studies.points import on_contacts
+
+if TYPE_CHECKING:  # pragma: no cover
+    from pulsemap.solvers.studies.run import RunState
+
+
+def _eps0_drift(mod, seed_contact: int, last: int, prm: dict) -> float | None:
+    """Relative change of A over contacts seed_contact+1..last when eps = 0 (0 for 'corrected' and '1d')."""
+    ratio = eps0_ratio(mod, contact_params(mod, prm, seed_contact + 1))
+    return None if ratio is None else ratio ** (last - seed_contact) - 1.0
+
+
+def _width_warning(mod) -> str | None:
+    """Eq. 9 assumes delta_{i+2} = 0 while contact i is compressed: false for a wide pulse (n near 1)."""
+    ratio = float(mod.f7) / float(mod.f1)
+    if ratio <= WIDTH_WARN:
+        return None
+    return (f"the pulse spans more than two contacts at n = {float(mod.N_EXPONENT):g} (f7/f1 = {ratio:.3g} > "
+            f"{WIDTH_WARN:g}): Eq. 9's assumption delta_(i+2) = 0 fails and the reduced models lose accuracy")
+
+
+def derive_models(state: "RunState") -> tuple[ModuleType | None, dict[str, ModuleType]]:
+    """The generated map module (map, longwave) and balance modules the methods need; a balance model
+    undefined for R is reported as refused (pulsemap.derive.balance.BalanceError), not raised."""
+    scene, choice, methods, out = state.scene, state.choice, state.methods, state.out
+    pert = scene.perturbation
+    site = pert.site_dependent
+    mod = None
+    balance: dict[str, ModuleType] = {}
+    if "map" in methods or "longwave" in methods:
+        t0 = time.perf_counter()
+        mod = map_module(pert.text, pert.used_parameters, scene.exponent, choice.profile, choice.variant, site)
+        state.timings["derive_map"] = time.perf_counter() - t0
+        wide = _width_warning(mod)
+        if wide is not None:
+            state.warnings.append(wide)
+    for quantity in dict.fromkeys(BALANCE_METHODS[m][0] for m in methods if m in BALANCE_METHODS):
+        t0 = time.perf_counter()
+        try:
+            balance[quantity] = balance_module(pert.text, pert.used_parameters, scene.exponent, choice.profile,
+                                               quantity, site)
+        except ValueError as exc:  # the model is undefined for this R (pulsemap.derive.balance.BalanceError)
+            for m in methods:
+                if BALANCE_METHODS.get(m, ("",))[0] == quantity:
+                    state.warnings.append(f"{m} refused: {exc}")
+                    out[m] = {"model": MODEL_TITLES[m], "refused": str(exc)}
+        state.timings[f"derive_{quantity}"] = time.perf_counter() - t0
+    return mod, balance
+
+
+def seed_models(state: "RunState", S0: float) -> float:
+    """The amplitude A at contact first_perturbed - 1 that map and law start from (Eq. 32: peak / S0):
+    a given peak, else the DNS peak there, else the impulse v0 through kappa_n."""
+    scene = state.scene
+    seed_contact = scene.first_perturbed - 1
+    if state.given_seed is not None:
+        seed_peak, seed_from = float(state.given_seed), "given peak (--seed-peak)"
+    elif state.seed_peak is not None:
+        seed_peak, seed_from = state.seed_peak, f"DNS peak at contact {seed_contact}"
+    else:
+        from pulsemap.solvers.chain.kappa import peak_from_velocity
+
+        t0 = time.perf_counter()
+        seed_peak = float(peak_from_velocity(scene.velocity, scene.exponent))
+        state.timings["kappa"] = time.perf_counter() - t0
+        seed_from = "impulse v0 through kappa_n (unperturbed incoming peak)"
+    seed_A = seed_peak / S0
+    state.out["seed"] = {"contact": seed_contact, "peak": seed_peak, "A": seed_A, "from": seed_from}
+    return seed_A
+
+
+def run_balance(state: "RunState", balance: dict[str, ModuleType], seed_A: float, prm: dict) -> None:
+    """The energy- and momentum-balance maps and laws asked for (derive/balance.py)."""
+    scene, out = state.scene, state.out
+    pert = scene.perturbation
+    seed_contact, c1 = scene.first_perturbed - 1, scene.contacts[1]
+    for m in state.methods:
+        if m not in BALANCE_METHODS or BALANCE_METHODS[m][0] not in balance:
+            continue
+        bmod = balance[BALANCE_METHODS[m][0]]
+        t0 = time.perf_counter()
+        if BALANCE_METHODS[m][1] == "map":
+            br = iterate_balance_map(bmod, seed_A, seed_contact, c1, float(pert.eps), prm)
+        elif not bmod.UNIFORM:
+            state.warnings.append(f"{m} skipped: the perturbation is site-dependent ("
+                                  + ", ".join(pert.site_dependent or ("i",)) + "): use the balance map")
+            continue
+        else:
+            br = evaluate_balance_law(bmod, seed_A, float(seed_contact), state.contacts, float(pert.eps), prm)
+        state.timings[m] = time.perf_counter() - t0
+        out["peaks"][m] = on_contacts(state.contacts, br.contacts, br.peaks)
+        out[m] = {"model": MODEL_TITLES[m], "profile": br.profile, "status": br.status, "message": br.message,
+                  "ended_at": br.ended_at, "law_kind": br.law_kind, "generated": bmod.__name__}
+        if br.status != "ok":
+            state.warnings.append(f"{m}: {br.message}")
+
+
+def run_map(state: "RunState", mod: ModuleType, seed_A: float, prm: dict) -> None:
+    """The amplitude map (Eq. 23) from the seed, with the warnings on its assumptions."""
+    scene, out, warnings = state.scene, state.out, state.warnings
+    seed_contact, c1 = scene.first_perturbed - 1, scene.contacts[1]
+    t0 = time.perf_counter()
+    mr = iterate_map(mod, seed_A, seed_contact, c1, float(scene.perturbation.eps), prm)
+    state.timings["map"] = time.perf_counter() - t0
+    out["peaks"]["map"] = on_contacts(state.contacts, mr.contacts, mr.peaks)
+    out["map"] = {"model": MODEL_TITLES["map"], "variant": mr.variant, "profile": mr.profile, "status": mr.status,
+                  "message": mr.message, "newton_fallbacks": mr.fallbacks,
+                  "generated": mod.__name__}
+    out["map"]["max_forcing_ratio"] = mr.max_forcing_ratio  # |eps term| / contact term (map_iteration)
+    if mr.status != "ok":
+        warnings.append(f"map: {mr.message}")
+    if mr.variant == "paper":
+        drift = _eps0_drift(mod, seed_contact, c1, prm)
+        out["map"]["eps0_drift"] = drift
+        if drift is not None and abs(drift) > DRIFT_WARN:
+            warnings.append(f"map: the 'paper' variant drifts by {100 * drift:+.3g} % over contacts "
+                            f"{seed_contact + 1}..{c1} even at eps = 0 (ERRATA item 5): use --variant corrected or 1d")
+    if mr.max_forcing_ratio is not None and mr.max_forcing_ratio > FORCING_WARN:
+        k = int(np.argmax(mr.forcing_ratio > FORCING_WARN))
+        warnings.append(f"map: at contact {int(mr.contacts[k])} the eps term of Eq. 23 exceeds "
+                        f"{FORCING_WARN:g} of the contact term (max {mr.max_forcing_ratio:.3g} over the run): "
+                        "outside the map's assumption eps*R << contact forces")
+
+
+def run_longwave(state: "RunState", mod: ModuleType, seed_A: float, prm: dict) -> None:
+    """The long-wave law (Eq. 30) from the seed; skipped for a site-dependent perturbation."""
+    scene, out = state.scene, state.out
+    site = scene.perturbation.site_dependent
+    if site:
+        state.warnings.append("long-wave law skipped: the perturbation is site-dependent (" + ", ".join(site) + ")")
+        return
+    t0 = time.perf_counter()
+    law = evaluate_law(mod, seed_A, float(scene.first_perturbed - 1), state.contacts,
+                       float(scene.perturbation.eps), prm)
+    state.timings["longwave"] = time.perf_counter() - t0
+    out["peaks"]["longwave"] = on_contacts(state.contacts, law.contacts, law.peaks)
+    out["longwave"] = {"model": MODEL_TITLES["longwave"], "kind": law.kind, "ended_at": law.ended_at,
+                       "ended": law.ended or None,
+                       "profile": state.choice.profile}
+    if law.ended:
+        state.warnings.append(f"long-wave law: {law.ended} at contact index {law.ended_at:.4g}")
+
+
+def run_models(state: "RunState") -> None:
+    """Derive, seed and run every reduced model among the methods."""
+    mod, balance = derive_models(state)
+    if mod is None and not balance:
+        return
+    S0 = float(mod.S0 if mod is not None else next(iter(balance.values())).S0)
+    seed_A = seed_models(state, S0)
+    prm = _params(state.scene, state.scene.beads)
+    run_balance(state, balance, seed_A, prm)
+    if "map" in state.methods:
+        run_map(state, mod, seed_A, prm)
+    if "longwave" in state.methods:
+        run_longwave(state, mod, seed_A, prm)
