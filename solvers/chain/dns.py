@@ -24,6 +24,7 @@ from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the 
     make_solver, run_scipy)
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
 from pulsemap.solvers.chain.front import SNAPSHOT_SPAN, FrontRecorder, check_snapshot_contacts, memo, state_at
+from pulsemap.solvers.chain.launch import Launch
 from pulsemap.solvers.chain.peaks import PeakTracker, contact_rate, scan_step, velocity_scale  # noqa: F401
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -115,8 +116,14 @@ def simulate(
     max_steps: int | None = None,
     snapshots: "Sequence[int] | None" = None,
     snapshot_span: tuple[int, int] = SNAPSHOT_SPAN,
+    launch: "Launch | None" = None,
 ) -> DNSResult:
     """Integrate Eq. 1 and return the leading-edge peaks of contacts[0]..contacts[1].
+
+    ``launch`` (solvers/chain/launch.py): start from an exact solitary wave of amplitude A
+    centred on a contact instead of the impact v0 on bead 1 (default None: the impact). With a
+    launch, ``velocity`` is not used: the wave's velocity scale A^((n+1)/2) takes its place in
+    the thresholds, and only contacts after the centre are tracked.
 
     ``window=None`` (default) integrates the whole chain. ``window="auto"`` integrates only a
     moving window of beads around the leading edge (solvers/window.py), sized so that the
@@ -145,6 +152,11 @@ def simulate(
     first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol,
                            peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps)
     beads, exponent, velocity = int(beads), float(exponent), float(velocity)
+    if launch is not None:
+        if not isinstance(launch, Launch):
+            raise TypeError(f"launch must be a solvers.chain.launch.Launch or None, got {type(launch).__name__}")
+        launch.check(exponent, first, beads)
+        velocity = launch.velocity_scale(exponent)
     front = FrontRecorder(first, last, exponent, check_snapshot_contacts(snapshots, first, last),
                           _check_span(snapshot_span))
     chosen = choose_method(force, velocity, exponent) if method == "auto" else method
@@ -155,15 +167,16 @@ def simulate(
             method=chosen, rtol=rtol, atol=atol, peak_fraction=peak_fraction,
             death_fraction=death_fraction, t_max=t_limit, stall_factor=stall_factor,
             progress=progress, engine=window_engine, overtake_factor=overtake_factor,
-            max_steps=default_max_steps(last) if max_steps is None else int(max_steps), front=front)
-    y0 = initial_state(beads, velocity)
+            max_steps=default_max_steps(last) if max_steps is None else int(max_steps), front=front,
+            launch=launch)
+    y0 = initial_state(beads, velocity) if launch is None else launch.state(exponent, beads)
     e0 = energy(y0[0::2], y0[1::2], exponent)
 
     wall0 = _time.perf_counter()
     solver = make_solver(chosen, beads, exponent, force, y0, t_limit, rtol, atol)
     track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
                               death_fraction=death_fraction, overtake_factor=overtake_factor,
-                              stall_factor=stall_factor)
+                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1)
     budget = default_max_steps(last) if max_steps is None else max_steps
     drift = 0.0
     wall_report = wall0

@@ -11,6 +11,11 @@ force every peak is A S(0) to the integrator's accuracy. c must exceed the profi
 wave must fit in the chain behind contact c; ``min_centre``). The whole chain is integrated with
 DOP853 and dense output; the leading-edge peak of each contact is the maximum of delta_k(t) near
 its predicted time, refined as the root of delta_k' = v_k - v_{k+1} on the dense output.
+
+``Launch`` gives the same initial state to ``dns.simulate(..., launch=Launch(A, c))``, so the
+moving window (and its peak tracking and stop rules) can run from the travelling wave: contacts
+1..c have peaked by t = 0 and only contacts after c are tracked; the wave's velocity scale
+A^((n+1)/2) plays the part of v0 in the thresholds.
 """
 
 from __future__ import annotations
@@ -37,6 +42,46 @@ class LaunchResult:
     centre: int
     rtol: float
     nfev: int
+
+
+@dataclass(frozen=True)
+class Launch:
+    """Start ``dns.simulate`` from the exact solitary wave of scale ``amplitude`` (peak A S(0))
+    with contact ``centre`` at its peak (``soliton_state``), instead of the impact v0 on bead 1."""
+
+    amplitude: float
+    centre: int
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.amplitude, (int, float)) and math.isfinite(self.amplitude) and self.amplitude > 0):
+            raise ValueError(f"launch amplitude must be a finite number > 0, got {self.amplitude!r}")
+        if isinstance(self.centre, bool) or not isinstance(self.centre, (int, np.integer)) or self.centre < 1:
+            raise ValueError(f"launch centre must be an integer contact >= 1, got {self.centre!r}")
+
+    def velocity_scale(self, exponent: float) -> float:
+        """The wave's velocity scale A^((n+1)/2) (plays v0's part in thresholds and step sizes)."""
+        return float(self.amplitude) ** ((exponent + 1.0) / 2.0)
+
+    def front(self, exponent: float) -> int:
+        """Last bead (1-based) the wave moves at t = 0 (beyond it: at rest to 1e-15 of the peak)."""
+        return int(self.centre) + min_centre(exponent)
+
+    def check(self, exponent: float, first_contact: int, beads: int) -> None:
+        """One-line ValueErrors: the whole wave must fit on the chain and precede ``first_contact``."""
+        lo = min_centre(exponent)
+        if self.centre < lo:
+            raise ValueError(f"launch centre {self.centre} must be >= {lo}: the wave's tail must fit on the chain "
+                             "behind it")
+        if first_contact <= self.centre:
+            raise ValueError(f"with a launch centred on contact {self.centre} the first tracked contact must come "
+                             f"after it, got {first_contact}")
+        if self.front(exponent) + 1 > beads:
+            raise ValueError(f"a launch centred on contact {self.centre} needs beads >= {self.front(exponent) + 1}, "
+                             f"got {beads}")
+
+    def state(self, exponent: float, beads: int) -> np.ndarray:
+        """The interleaved initial state of ``beads`` beads (soliton_state)."""
+        return soliton_state(int(beads), float(exponent), float(self.amplitude), int(self.centre))
 
 
 def min_centre(n: float = 1.5) -> int:

@@ -254,12 +254,16 @@ class PeakTracker:
 
     @classmethod
     def start(cls, first: int, last: int, velocity: float, exponent: float, *, peak_fraction: float,
-              death_fraction: float, overtake_factor: float, stall_factor: float) -> "PeakTracker":
-        """Tracker at t = 0; the first stall window is stall_factor contact times (~A^-s)."""
+              death_fraction: float, overtake_factor: float, stall_factor: float,
+              next_contact: int = 1) -> "PeakTracker":
+        """Tracker at t = 0; the first stall window is stall_factor contact times (~A^-s).
+
+        ``next_contact``: the first contact still to peak (1 for an impact on bead 1; past the
+        centre of a launched solitary wave, solvers/chain/launch.py)."""
         return cls(first, last, peak_fraction, death_fraction, overtake_factor, stall_factor,
                    np.full(last, np.nan), np.full(last, np.nan),
                    first_threshold(velocity, exponent, peak_fraction),
-                   stall_factor / contact_rate(velocity, exponent))
+                   stall_factor / contact_rate(velocity, exponent), next_contact=int(next_contact))
 
     def record(self, found: list[Peak], offset: int = 0) -> None:
         """Store peaks found in one step (contacts relative to ``offset``); stop at a lost pulse."""

@@ -317,8 +317,12 @@ def simulate_windowed(
     overtake_factor: float = 1.25,
     max_steps: int = 10**9,
     front=None,
+    launch=None,
 ):
     """Moving-window integration of Eq. 1 (arguments validated by dns.simulate, which calls it).
+
+    ``launch`` (a solvers.chain.launch.Launch, checked by dns.simulate): start from that exact
+    solitary wave instead of the impact v0 on bead 1 (``velocity`` is then its velocity scale).
 
     ``engine``: "fortran" (Hairer's DOP853/DOPRI5 through scipy.integrate.ode: the step loop
     runs in compiled code, about 2x less overhead per step on a small window), "scipy" (the
@@ -331,12 +335,16 @@ def simulate_windowed(
     if engine not in ("fortran", "scipy") or (engine == "fortran" and method not in FORTRAN_CODES):
         raise ValueError(f"engine {engine!r} cannot run method {method!r}; use engine='scipy'")
     scale_x, scale_v = velocity_scale(velocity, exponent), velocity
-    run = _Run(lo=0, hi=min(beads, rule.ahead + rule.chunk + 2))
+    moving = 1 if launch is None else launch.front(exponent)  # beads in motion at t = 0
+    run = _Run(lo=0, hi=min(beads, moving + rule.ahead + rule.chunk + 1))
     track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
                               death_fraction=death_fraction, overtake_factor=overtake_factor,
-                              stall_factor=stall_factor)
-    y = np.zeros(2 * run.hi)
-    y[1] = velocity
+                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1)
+    if launch is None:
+        y = np.zeros(2 * run.hi)
+        y[1] = velocity
+    else:
+        y = launch.state(exponent, run.hi)
     t = 0.0
     e0 = window_energy(y, exponent, None)
     nfev = njev = shifts = 0

@@ -1,0 +1,263 @@
+"""Segment runs and the tables of the relaxed transfer map (issue 17), cached on disk.
+
+A canonical segment run (``segment_peaks``) launches the exact solitary wave of amplitude A
+(solvers/chain/launch.py) on contact c = launch.min_centre(n) of a chain perturbed from bead
+c + GAP on, and records the leading-edge peaks P_0 (contact c + GAP - 1, the pulse entering the
+perturbed region bare, as at the scenes' contact first_perturbed - 1) through P_CONTACTS.
+
+A ``SegmentTable`` holds such runs on a lattice of launch amplitudes A_j = 2^(j / LATTICE) and
+turns them into two interpolants (natural log of the per-contact ratio r = P_{k+1}/P_k):
+
+* onset: for k = 1..ONSET, log(P_k / P_{k-1}) as a function of log P_0 (a cubic spline across
+  the lattice): the memory of the bare entry, read off runs that enter exactly like a scene;
+* bulk: log(P_{k+1}/P_k) for k >= ONSET as a function of log P_k, pooled over all runs (a
+  smoothing spline, GCV): the relaxed map P_{k+1} = F(P_k), valid once the pulse's shape is
+  slaved to its amplitude.
+
+Each run is cached by a key naming everything it depends on (R, parameters, eps, n, lattice
+point, geometry, tolerances, engine), so a table grows run by run and is shared by every scene
+that needs the same runs (pulsemap.derive.cache, namespace "relaxed").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pulsemap.derive import cache
+
+NAMESPACE = "relaxed"
+VERSION = 1
+GAP = 6  # beads between the launch contact and the first perturbed bead (S < 1e-15 S(0) there)
+CONTACTS = 20  # contacts recorded after the entry contact
+ONSET = 5  # contacts after the entry read from the onset table; the bulk map from then on
+LATTICE = 3  # lattice points per factor 2 in the launch amplitude
+DEATH = 1e-3  # a segment stops when its peak falls below this fraction of P_0
+MAX_RUNS = 80  # segment runs one table may hold (a bound on the build cost)
+
+
+@dataclass(frozen=True)
+class SegmentSpec:
+    """Everything a segment run depends on but the launch amplitude.
+
+    ``R`` the perturbation text, ``params`` its scalar values, ``eps``, ``n``; DNS ``rtol``,
+    ``method`` and ``engine`` (the moving window's: "auto", "fortran", "scipy"); the window is
+    sized for ``window_accuracy``. atol is rtol/100 times the amplitude's scales.
+    """
+
+    R: str
+    params: tuple[tuple[str, float], ...]
+    eps: float
+    n: float
+    rtol: float = 1e-9
+    method: str = "DOP853"
+    engine: str = "auto"
+    window_accuracy: float = 1e-8
+
+    def geometry(self) -> tuple[int, int, int]:
+        """(launch contact, first perturbed bead, entry contact) of the segment runs."""
+        from pulsemap.solvers.chain.launch import min_centre
+
+        centre = min_centre(self.n)
+        return centre, centre + GAP, centre + GAP - 1
+
+    def key(self, j: int) -> str:
+        prm = ",".join(f"{k}={v!r}" for k, v in self.params)
+        centre, fp, entry = self.geometry()
+        return (f"relaxed-segment|v{VERSION}|R={self.R}|params={prm}|eps={self.eps!r}|n={self.n!r}"
+                f"|A=2^({j}/{LATTICE})|centre={centre}|fp={fp}|contacts={entry}..{entry + CONTACTS}"
+                f"|death={DEATH}|rtol={self.rtol!r}|atol=rtol/100*scale|method={self.method}|engine={self.engine}"
+                f"|window={self.window_accuracy!r}")
+
+
+def lattice_amplitude(j: int) -> float:
+    return 2.0 ** (j / LATTICE)
+
+
+def chain_force(module, beads: int, first_perturbed: int, eps: float, values) -> "OnSiteForce":
+    """eps_i R_i(x_i, v_i) on beads 1..beads (zero before first_perturbed) from a generated force
+    module; ``values`` maps its parameters to scalars or per-bead arrays (Eq. 1)."""
+    from pulsemap.solvers.chain.equations import OnSiteForce
+
+    idx = np.arange(1, beads + 1, dtype=float)
+    e = np.where(idx >= first_perturbed, float(eps), 0.0)
+    args = tuple(np.asarray(values[k], float) if np.ndim(values[k]) else float(values[k]) for k in module.PARAMS)
+    return OnSiteForce(force=lambda x, v: module.force(x, v, idx, e, *args),
+                       dforce_dx=lambda x, v: module.force_dx(x, v, idx, e, *args),
+                       dforce_dv=lambda x, v: module.force_dv(x, v, idx, e, *args))
+
+
+def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
+    """Peaks P_0.. of one canonical segment run (DNS with a moving window, no cache)."""
+    from pulsemap.solvers.chain.dns import simulate
+    from pulsemap.solvers.chain.launch import Launch
+    from pulsemap.solvers.models.codeload import force_module
+
+    names = tuple(k for k, _ in spec.params)
+    centre, fp, entry = spec.geometry()
+    beads = entry + CONTACTS + 12
+    mod = force_module(spec.R, names)
+    force = chain_force(mod, beads, fp, spec.eps, dict(spec.params))
+    scale = min(1.0, amplitude, amplitude ** ((spec.n + 1.0) / 2.0))
+    res = simulate(beads, spec.n, 1.0, (entry, entry + CONTACTS), force, launch=Launch(float(amplitude), centre),
+                   method=spec.method, rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale, window="auto",
+                   window_accuracy=spec.window_accuracy, window_engine=spec.engine, death_fraction=DEATH)
+    out = []
+    for p, alive in zip(res.peaks, res.alive):
+        if not alive or not math.isfinite(p):
+            break
+        out.append(float(p))
+    return out
+
+
+def cached_segment(spec: SegmentSpec, j: int) -> list[float]:
+    """segment_peaks at lattice point j, through the on-disk cache."""
+    key = spec.key(j)
+    hit = cache.load(NAMESPACE, key)
+    if isinstance(hit, list) and all(isinstance(p, float) for p in hit):
+        return hit
+    peaks = segment_peaks(spec, lattice_amplitude(j))
+    cache.store(NAMESPACE, key, peaks)
+    return peaks
+
+
+@dataclass
+class SegmentTable:
+    """Segment runs on a contiguous lattice j_lo..j_hi and the onset and bulk interpolants."""
+
+    spec: SegmentSpec
+    runs: dict[int, list[float]] = field(default_factory=dict)
+    _bulk: object | None = None
+    _onset: list | None = None
+    closed: set = field(default_factory=set)  # "low"/"high": no relaxed pulse beyond the lattice's end
+
+    # ------------------------------------------------------------ runs
+    def add(self, j: int) -> list[float]:
+        if j not in self.runs:
+            self.runs[j] = cached_segment(self.spec, j)
+            self._bulk = self._onset = None
+        return self.runs[j]
+
+    def span(self) -> tuple[int, int]:
+        return min(self.runs), max(self.runs)
+
+    def ensure_entry(self, log_p0: float, margin: int = 3) -> None:
+        """Runs whose entry peaks bracket exp(log_p0) with ``margin`` lattice points each side."""
+        from pulsemap.derive.profile import exact_profile
+
+        S0 = exact_profile(self.spec.n).S0
+        j0 = int(math.floor((log_p0 - math.log(S0)) / math.log(2.0) * LATTICE))
+        for j in range(j0 - margin, j0 + margin + 2):
+            self.add(j)
+
+    def cover(self, log_p: float) -> bool:
+        """Add lattice runs until the bulk map's range holds log P = log_p. False when it cannot:
+        beyond the runs' range pulses die before they relax (the lattice's end is then closed),
+        or the run budget MAX_RUNS is spent."""
+        while True:
+            rng = self.bulk_range()
+            if rng is not None and rng[0] <= log_p <= rng[1]:
+                return True
+            side = "high" if rng is None or log_p > rng[1] else "low"
+            if side in self.closed or len(self.runs) >= MAX_RUNS:
+                return False
+            if not self.runs:
+                self.ensure_entry(log_p, margin=1)
+                continue
+            lo, hi = self.span()
+            peaks = self.add(hi + 1 if side == "high" else lo - 1)
+            if len(peaks) <= ONSET + 1:
+                self.closed.add(side)
+
+    # ------------------------------------------------------------ data
+    def bulk_points(self, runs: dict[int, list[float]] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(log P_k, log P_{k+1}/P_k) for k >= ONSET over the runs, sorted by log P_k."""
+        xs, ys = [], []
+        for peaks in (self.runs if runs is None else runs).values():
+            p = np.asarray(peaks)
+            if len(p) > ONSET + 1:
+                xs.append(np.log(p[ONSET:-1]))
+                ys.append(np.log(p[ONSET + 1:] / p[ONSET:-1]))
+        if not xs:
+            return np.zeros(0), np.zeros(0)
+        x, y = np.concatenate(xs), np.concatenate(ys)
+        order = np.argsort(x)
+        return x[order], y[order]
+
+    def bulk_range(self) -> tuple[float, float] | None:
+        x, _ = self.bulk_points()
+        return (float(x[0]), float(x[-1])) if x.size >= 4 else None
+
+    def bulk(self):
+        """log r(log P) of the relaxed map (smoothing spline through the pooled runs)."""
+        if self._bulk is None:
+            self._bulk = fit_bulk(*self.bulk_points())
+        return self._bulk
+
+    def onset(self) -> list:
+        """[(log P_0 of the runs alive at k, log P_k/P_{k-1})] for k = 1..ONSET, sorted by log P_0."""
+        if self._onset is None:
+            out = []
+            for k in range(1, ONSET + 1):
+                pts = sorted((math.log(p[0]), math.log(p[k] / p[k - 1])) for p in self.runs.values() if len(p) > k)
+                out.append((np.array([a for a, _ in pts]), np.array([b for _, b in pts])))
+            self._onset = out
+        return self._onset
+
+    def onset_ratios(self, log_p0: float) -> list[float] | None:
+        """log ratios of contacts 1..ONSET after entry at P_0 (cubic in log P_0); None where the
+        runs around P_0 died within the onset (the pulse dies there) or P_0 is off the lattice."""
+        from scipy.interpolate import CubicSpline
+
+        out = []
+        for x, y in self.onset():
+            if x.size < 4 or not x[0] <= log_p0 <= x[-1]:
+                return None
+            out.append(float(CubicSpline(x, y)(log_p0)))
+        return out
+
+
+BIN = math.log(2.0) / LATTICE / 4  # width in log P of the bins the bulk points are averaged over
+
+
+def fit_bulk(x: np.ndarray, y: np.ndarray):
+    """y(x) through the bulk points: means over bins of width BIN in x, then a smoothing spline
+    (GCV; PCHIP if that is ill-posed), linear for 2-4 bins, constant for one. None: no points."""
+    from scipy.interpolate import PchipInterpolator, make_smoothing_spline
+
+    if x.size == 0:
+        return None
+    edges = np.floor((x - x[0]) / BIN).astype(int)
+    groups = np.unique(edges, return_inverse=True)[1]
+    counts = np.bincount(groups)
+    xb = np.bincount(groups, weights=x) / counts
+    yb = np.bincount(groups, weights=y) / counts
+    if xb.size == 1:
+        value = float(yb[0])
+        return lambda t: np.full(np.shape(t), value) if np.ndim(t) else value
+    if xb.size < 5:
+        return lambda t: np.interp(t, xb, yb)
+    try:
+        return make_smoothing_spline(xb, yb, w=counts.astype(float))
+    except (np.linalg.LinAlgError, ValueError):
+        return PchipInterpolator(xb, yb)
+
+
+def leave_one_out(table: SegmentTable) -> float:
+    """Largest |error| in log r when each run's bulk points are predicted from the other runs'
+    fit, over the interior of the range: the bulk map's stated accuracy (interpolation plus the
+    memory the relaxed map ignores plus DNS error)."""
+    worst = 0.0
+    for j in list(table.runs):
+        others = {i: p for i, p in table.runs.items() if i != j}
+        fit = fit_bulk(*table.bulk_points(others))
+        xo, _ = table.bulk_points(others)
+        xj, yj = table.bulk_points({j: table.runs[j]})
+        if fit is None or xj.size == 0 or xo.size == 0:
+            continue
+        inside = (xj >= xo[0]) & (xj <= xo[-1])
+        if np.any(inside):
+            worst = max(worst, float(np.max(np.abs(fit(xj[inside]) - yj[inside]))))
+    return worst
