@@ -12,7 +12,8 @@ import pytest
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.models.relaxed import iterate_relaxed, model_for_scene
 from pulsemap.solvers.studies.live_range import live_contacts, rms_on
-from pulsemap.solvers.studies.run import _params, run_scene
+from pulsemap.solvers.studies.forcing import _params
+from pulsemap.solvers.studies.run import run_scene
 
 SCENES = ["fig6-eps0.1", "fig6-eps0.3", "fig7-eps0.1", "fig7-eps0.3", "fig8-eps0.1", "fig8-eps0.3",
           "vdp-mu1-v0.3", "vdp-mu1-v2.3", "vdp-mu3-v0.3", "vdp-mu3-v2.3"]
