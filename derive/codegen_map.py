@@ -79,6 +79,7 @@ def generate_map(source: MapSource) -> str:
     lines.append(f"S0 = {const(get_profile(source.profile, float(n)).S0)}  # peak = A S(0), Eq. 32")
     lines.append("")
     lines.extend(_residual_lines(source.variant, eqs, ren, sig))
+    lines.extend(_power_table_lines(amap, source.variant, args, ren))
     uniform = not source.site_dependent and "i" not in args
     lines.append(f"UNIFORM = {uniform!r}")
     law = None
@@ -119,6 +120,29 @@ def _residual_lines(variant: str, eqs, ren: dict, sig: str) -> list[str]:
     lines.append(f"    return ({', '.join(rows)},), ({', '.join(f'D{k}' for k in range(1, len(eqs) + 1))},)")
     lines.append("")
     return lines
+
+
+def _power_table_lines(amap: AmplitudeMap, variant: str, args: list[str], ren: dict) -> list[str]:
+    """Eq. 23 as data for the compiled map kernel (solvers/models/map_kernel.py): alpha, beta, the
+    powers of the eps sums and their coefficients K_k (functions of the parameters; eps not included)."""
+    alpha, beta = amap.alpha_beta(numeric=False)
+    terms1 = amap.power_terms(1, numeric=False)
+    terms2 = () if variant == "1d" else amap.power_terms(2, numeric=False)
+    return [
+        "# Eq. 23 as a power-term table: F1 = f1 a_prev^P - 2 f2 a_i^P + f3 a_next^P + eps sum_k K1_k a_i^p_k,",
+        "# F2 = ALPHA a_i^P - BETA a_next^P + eps sum_k K2_k a_next^q_k (1d: a_next -> a_i in F1, no F2)",
+        f"ALPHA = {code(alpha, ren)}",
+        f"BETA = {code(beta, ren)}",
+        f"MAP_POWERS1 = ({''.join(const(float(t.power)) + ', ' for t in terms1)})",
+        f"MAP_POWERS2 = ({''.join(const(float(t.power)) + ', ' for t in terms2)})",
+        "",
+        f"def map_power_coefficients({', '.join(args)}):",
+        '    """(K1, K2): the coefficients of the eps sums of Eq. 23, one per power (arguments as in map_residual after eps)."""',
+        f"    K1 = ({''.join(code(t.coefficient, ren) + ', ' for t in terms1)})",
+        f"    K2 = ({''.join(code(t.coefficient, ren) + ', ' for t in terms2)})",
+        "    return K1, K2",
+        "",
+    ]
 
 
 def _law_lines(law, amap: AmplitudeMap, ren: dict, sig: str, args: list[str], described) -> list[str]:

@@ -12,7 +12,7 @@ from dataclasses import dataclass, fields
 from fractions import Fraction
 from typing import ClassVar, Union
 
-GENERATOR_VERSION = 2  # 2: parameters are arguments p_<name>, b<offset>_<name>; ARGS in map and balance modules
+GENERATOR_VERSION = 3  # 2: parameters are arguments p_<name>, b<offset>_<name>; ARGS in map and balance modules
 #: Bump when the numerical method of the profile integrals changes (stale cache entries, generated code).
 INTEGRALS_METHOD = 1
 #: Bump when the numerical method of the balance constants changes (stale cache entries, generated code).

@@ -130,7 +130,7 @@ def run_map(state: "RunState", mod: ModuleType, seed_A: float, prm: dict) -> Non
     state.timings["map"] = time.perf_counter() - t0
     out["peaks"]["map"] = on_contacts(state.contacts, mr.contacts, mr.peaks)
     out["map"] = {"model": MODEL_TITLES["map"], "variant": mr.variant, "profile": mr.profile, "status": mr.status,
-                  "message": mr.message, "newton_fallbacks": mr.fallbacks,
+                  "message": mr.message, "newton_fallbacks": mr.fallbacks, "engine": mr.engine,
                   "generated": mod.__name__}
     out["map"]["max_forcing_ratio"] = mr.max_forcing_ratio  # |eps term| / contact term (map_iteration)
     if mr.status != "ok":

@@ -3,13 +3,13 @@
     R(u, v) = beta*u**3
     n = 3/2, profile = exact (mpmath dps 16), variant = paper
 
-source: {"R": "beta*u**3", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": [], "variant": "paper"}
-source-hash: 61a8c2a2c83acf8f28d6489498047409aba690a9eadee02cf41bced89aff0d7a
-content-hash: f0dc9ba11a9284f4aee441517d670845260cfb0b4ec71ac084e6d44a167d2209
+source: {"R": "beta*u**3", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": [], "variant": "paper"}
+source-hash: 1cf0b6486049882c269d83078c9194fd52a8b5090a5d132ef00eb4c83beb05bb
+content-hash: ea7721ce41858482307e829ccc80c002dfc3c8077e13b9351aa137660271377c
 """
 import numpy
 
-SOURCE = {"R": "beta*u**3", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": [], "variant": "paper"}
+SOURCE = {"R": "beta*u**3", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": [], "variant": "paper"}
 VARIANT = 'paper'
 PARAMS = ('beta',)
 ARGS = (('beta', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index
@@ -45,6 +45,19 @@ def map_jacobian(a_prev, a_i, a_next, eps, p_beta):
     J22 = (11/4)*a_next**(7/4)*eps*g2_30*p_beta - 5/2*a_next**(1/4)*f6
     D2 = 0
     return ((J11, J12,), (J21, J22,),), (D1, D2,)
+
+# Eq. 23 as a power-term table: F1 = f1 a_prev^P - 2 f2 a_i^P + f3 a_next^P + eps sum_k K1_k a_i^p_k,
+# F2 = ALPHA a_i^P - BETA a_next^P + eps sum_k K2_k a_next^q_k (1d: a_next -> a_i in F1, no F2)
+ALPHA = -f4 + f5
+BETA = 2*f6
+MAP_POWERS1 = (2.75, )
+MAP_POWERS2 = (2.75, )
+
+def map_power_coefficients(p_beta):
+    """(K1, K2): the coefficients of the eps sums of Eq. 23, one per power (arguments as in map_residual after eps)."""
+    K1 = (3*g1_1200*p_beta + 3*g1_2100*p_beta + g1_3000*p_beta, )
+    K2 = (g2_30*p_beta, )
+    return K1, K2
 
 UNIFORM = True
 LAW_KIND = 'power law'

@@ -3,13 +3,13 @@
     R(u, v) = alpha*u
     n = 3/2, profile = exact (mpmath dps 16), variant = paper
 
-source: {"R": "alpha*u", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": [], "variant": "paper"}
-source-hash: 3ec308ad0824e7e018d46fe2d1b32dcd4afd7d9e42756455d88456e1c7c71aaf
-content-hash: b5924a7a909b0349a0fe58ff3750ab9b479d826ae4da5db99e2aad6fc4afe12c
+source: {"R": "alpha*u", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": [], "variant": "paper"}
+source-hash: b84b339cb8952a9ccb5a2fee3e79db5d10aafd7c126ed2e1f700dab9ac71e668
+content-hash: 9257eb342dfe28083384db926fc79636ce8e90750b91578c460687a162bb8c80
 """
 import numpy
 
-SOURCE = {"R": "alpha*u", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": [], "variant": "paper"}
+SOURCE = {"R": "alpha*u", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": [], "variant": "paper"}
 VARIANT = 'paper'
 PARAMS = ('alpha',)
 ARGS = (('alpha', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index
@@ -43,6 +43,19 @@ def map_jacobian(a_prev, a_i, a_next, eps, p_alpha):
     J22 = -5/2*a_next**(1/4)*f6 + (3/4)*eps*g2_10*p_alpha/a_next**(1/4)
     D2 = 0
     return ((J11, J12,), (J21, J22,),), (D1, D2,)
+
+# Eq. 23 as a power-term table: F1 = f1 a_prev^P - 2 f2 a_i^P + f3 a_next^P + eps sum_k K1_k a_i^p_k,
+# F2 = ALPHA a_i^P - BETA a_next^P + eps sum_k K2_k a_next^q_k (1d: a_next -> a_i in F1, no F2)
+ALPHA = -f4 + f5
+BETA = 2*f6
+MAP_POWERS1 = (0.75, )
+MAP_POWERS2 = (0.75, )
+
+def map_power_coefficients(p_alpha):
+    """(K1, K2): the coefficients of the eps sums of Eq. 23, one per power (arguments as in map_residual after eps)."""
+    K1 = (g1_1000*p_alpha, )
+    K2 = (g2_10*p_alpha, )
+    return K1, K2
 
 UNIFORM = True
 LAW_KIND = 'power law'

@@ -3,13 +3,13 @@
     R(u, v) = beta*u**3
     n = 3/2, profile = exact (mpmath dps 16)
 
-source: {"R": "beta*u**3", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": []}
-source-hash: 111646b30971756e995bf2d9ffef6ca19fafd6fe11c6d2f90b1d4f198a4cabc6
-content-hash: e45ddd9fcdbda5406fe044d3351975fb110bd4a10c93101a41af673a07e7b29d
+source: {"R": "beta*u**3", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "energy", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": []}
+source-hash: a9c36d708418626374bad122b0b5bdd40456b069bef3d2efd158753fb89bedd4
+content-hash: 047b9204301559cc602ececfc0f62c7dd6b2fbe3be663b0e90faff2fdecfe5b7
 """
 import numpy
 
-SOURCE = {"R": "beta*u**3", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": []}
+SOURCE = {"R": "beta*u**3", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "energy", "n": "3/2", "params": ["beta"], "profile": "exact", "site_dependent": []}
 MODEL = 'energy'
 PARAMS = ('beta',)
 ARGS = (('beta', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index

@@ -3,13 +3,13 @@
     R(u, v) = -k*u
     n = 3/2, profile = exact (mpmath dps 16), variant = paper
 
-source: {"R": "-k*u", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["k"], "profile": "exact", "site_dependent": ["k"], "variant": "paper"}
-source-hash: 9b0e032a153aa949bb6962331d53c0bd28aeeaf7c815aba4d8ee796535cc72b1
-content-hash: 968c0a98d61f68085aed534e1bd271994d9bdae8ee2d1506df32bab3f2cc3be7
+source: {"R": "-k*u", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["k"], "profile": "exact", "site_dependent": ["k"], "variant": "paper"}
+source-hash: 886186ec59d2f607aa3f65b963e01dfc6cea9c6d0d4cd8c0ed2560a7ca00a2de
+content-hash: 0cd0c758ab5cb079026cc59368e6fbe72441b76745659f67572dbfae8b00526f
 """
 import numpy
 
-SOURCE = {"R": "-k*u", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["k"], "profile": "exact", "site_dependent": ["k"], "variant": "paper"}
+SOURCE = {"R": "-k*u", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["k"], "profile": "exact", "site_dependent": ["k"], "variant": "paper"}
 VARIANT = 'paper'
 PARAMS = ('k',)
 ARGS = (('k', 0), ('k', 1))  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index
@@ -44,6 +44,19 @@ def map_jacobian(a_prev, a_i, a_next, eps, b0_k, b1_k):
     J22 = -5/2*a_next**(1/4)*f6 - 3/4*b1_k*eps*g2_10/a_next**(1/4)
     D2 = 0
     return ((J11, J12,), (J21, J22,),), (D1, D2,)
+
+# Eq. 23 as a power-term table: F1 = f1 a_prev^P - 2 f2 a_i^P + f3 a_next^P + eps sum_k K1_k a_i^p_k,
+# F2 = ALPHA a_i^P - BETA a_next^P + eps sum_k K2_k a_next^q_k (1d: a_next -> a_i in F1, no F2)
+ALPHA = -f4 + f5
+BETA = 2*f6
+MAP_POWERS1 = (0.75, )
+MAP_POWERS2 = (0.75, )
+
+def map_power_coefficients(b0_k, b1_k):
+    """(K1, K2): the coefficients of the eps sums of Eq. 23, one per power (arguments as in map_residual after eps)."""
+    K1 = (-b0_k*g1_0100 - b0_k*g1_1000 + b1_k*g1_0100, )
+    K2 = (-b1_k*g2_10, )
+    return K1, K2
 
 UNIFORM = False
 LAW_KIND = None

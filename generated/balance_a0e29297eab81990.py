@@ -3,13 +3,13 @@
     R(u, v) = -mu*v
     n = 3/2, profile = exact (mpmath dps 16)
 
-source: {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "momentum", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
-source-hash: 90039634593e879e1ea36a26a49b0005368c329a32f2b03e550cff637e150ae9
-content-hash: 6c893b934886b6919ae86374c6e494fc87dc283a07c18289a1b50decc60fc32a
+source: {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "momentum", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
+source-hash: a0e29297eab819904655725d22e74cfb812c8766e5239846eba1868a42f6e2d2
+content-hash: 1fe47a56a25df09ca53213baef696e0e86fe330442c7a3db73dc68be6df0f966
 """
 import numpy
 
-SOURCE = {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "momentum", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
+SOURCE = {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "momentum", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
 MODEL = 'momentum'
 PARAMS = ('mu',)
 ARGS = (('mu', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index

@@ -3,13 +3,13 @@
     R(u, v) = -(u-mu*(1-u**2)*v)
     n = 3/2, profile = exact (mpmath dps 16), variant = paper
 
-source: {"R": "-(u-mu*(1-u**2)*v)", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
-source-hash: b672660e6d20d9ea1a550a4459511fc6ac90095914747c43a8efadee2326e9e6
-content-hash: 6da010bb97fdc207caea0b4b41f080d497495e0edc12545eac957adf2727c961
+source: {"R": "-(u-mu*(1-u**2)*v)", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
+source-hash: 6efca935334e942aba6b9affa6252a4480a6980330c35436a9f73c25ea4a8dc2
+content-hash: 4f89621a3e4f526251c17537511f5d68ca5bbfa1a37b682222644c1c1f89a4dd
 """
 import numpy
 
-SOURCE = {"R": "-(u-mu*(1-u**2)*v)", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
+SOURCE = {"R": "-(u-mu*(1-u**2)*v)", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
 VARIANT = 'paper'
 PARAMS = ('mu',)
 ARGS = (('mu', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index
@@ -51,6 +51,19 @@ def map_jacobian(a_prev, a_i, a_next, eps, p_mu):
     J22 = -5/2*a_next**(1/4)*f6 + eps*(-3*a_next**2*g2_21*p_mu + g2_01*p_mu - 3/4*g2_10/a_next**(1/4))
     D2 = 0
     return ((J11, J12,), (J21, J22,),), (D1, D2,)
+
+# Eq. 23 as a power-term table: F1 = f1 a_prev^P - 2 f2 a_i^P + f3 a_next^P + eps sum_k K1_k a_i^p_k,
+# F2 = ALPHA a_i^P - BETA a_next^P + eps sum_k K2_k a_next^q_k (1d: a_next -> a_i in F1, no F2)
+ALPHA = -f4 + f5
+BETA = 2*f6
+MAP_POWERS1 = (0.75, 1.0, 3.0, )
+MAP_POWERS2 = (0.75, 1.0, 3.0, )
+
+def map_power_coefficients(p_mu):
+    """(K1, K2): the coefficients of the eps sums of Eq. 23, one per power (arguments as in map_residual after eps)."""
+    K1 = (-g1_1000, g1_0010*p_mu, -g1_0210*p_mu - 2*g1_1101*p_mu - 2*g1_1110*p_mu - g1_2001*p_mu - g1_2010*p_mu, )
+    K2 = (-g2_10, g2_01*p_mu, -g2_21*p_mu, )
+    return K1, K2
 
 UNIFORM = True
 LAW_KIND = 'quadrature'

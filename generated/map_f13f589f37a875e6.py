@@ -3,13 +3,13 @@
     R(u, v) = -mu*v
     n = 3/2, profile = exact (mpmath dps 16), variant = paper
 
-source: {"R": "-mu*v", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
-source-hash: 84103cff0997ba12093ff2770ec30c58aa2b80bdbd7750ca3b1df45a85dfe4e4
-content-hash: e59b3a91fd24ca69e31fca1e56f9c631b9191e48350b21aeef827ae27dc56e47
+source: {"R": "-mu*v", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
+source-hash: f13f589f37a875e6401b94bff15a5ef62036aec324c5236b0c5d8110b4d820d7
+content-hash: 3838c1c52af1c042087b95e5a9526e0f524b512a69816c28f6397f4a01279fe9
 """
 import numpy
 
-SOURCE = {"R": "-mu*v", "dps": 16, "generator": 2, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
+SOURCE = {"R": "-mu*v", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
 VARIANT = 'paper'
 PARAMS = ('mu',)
 ARGS = (('mu', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index
@@ -43,6 +43,19 @@ def map_jacobian(a_prev, a_i, a_next, eps, p_mu):
     J22 = -5/2*a_next**(1/4)*f6 - eps*g2_01*p_mu
     D2 = 0
     return ((J11, J12,), (J21, J22,),), (D1, D2,)
+
+# Eq. 23 as a power-term table: F1 = f1 a_prev^P - 2 f2 a_i^P + f3 a_next^P + eps sum_k K1_k a_i^p_k,
+# F2 = ALPHA a_i^P - BETA a_next^P + eps sum_k K2_k a_next^q_k (1d: a_next -> a_i in F1, no F2)
+ALPHA = -f4 + f5
+BETA = 2*f6
+MAP_POWERS1 = (1.0, )
+MAP_POWERS2 = (1.0, )
+
+def map_power_coefficients(p_mu):
+    """(K1, K2): the coefficients of the eps sums of Eq. 23, one per power (arguments as in map_residual after eps)."""
+    K1 = (-g1_0010*p_mu, )
+    K2 = (-g2_01*p_mu, )
+    return K1, K2
 
 UNIFORM = True
 LAW_KIND = 'power law'

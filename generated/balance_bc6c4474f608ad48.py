@@ -3,13 +3,13 @@
     R(u, v) = -k*u
     n = 3/2, profile = exact (mpmath dps 16)
 
-source: {"R": "-k*u", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["k"], "profile": "exact", "site_dependent": ["k"]}
-source-hash: 29e8fee781336d2564b2525a2116c4b74fcd5cc9b182ffe98234ec0f8fdb40c5
-content-hash: 755279c5cef1d571e47972ae7279b10b1f9683e724b6ed7de28ff2aceea5c5bb
+source: {"R": "-k*u", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "energy", "n": "3/2", "params": ["k"], "profile": "exact", "site_dependent": ["k"]}
+source-hash: bc6c4474f608ad48678446b3ab87af5414f739a886afa342a6305a57cef443a8
+content-hash: 8bacf1dea05876b5019752e493afee076a68738da0b2de20fd5ecc386a22293b
 """
 import numpy
 
-SOURCE = {"R": "-k*u", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["k"], "profile": "exact", "site_dependent": ["k"]}
+SOURCE = {"R": "-k*u", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "energy", "n": "3/2", "params": ["k"], "profile": "exact", "site_dependent": ["k"]}
 MODEL = 'energy'
 PARAMS = ('k',)
 ARGS = (('k', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index

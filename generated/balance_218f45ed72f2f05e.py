@@ -3,13 +3,13 @@
     R(u, v) = alpha*u
     n = 3/2, profile = exact (mpmath dps 16)
 
-source: {"R": "alpha*u", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": []}
-source-hash: 5a27440ccedd1d67c6781e118d2a5878498c577b5a3b7de29a816cc6570a77a1
-content-hash: 2cc7bc7e54a41941184434c31012a0a3896da86574d1df6fb09581b787a8b0f5
+source: {"R": "alpha*u", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "energy", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": []}
+source-hash: 218f45ed72f2f05ed17374425d50403fe8fdbd84885514becb455ca390a48ac4
+content-hash: 6c7534beae87ce6eec581aa5c572f5d6cebde874fff7d33bb3b9864c7c348a00
 """
 import numpy
 
-SOURCE = {"R": "alpha*u", "balance_method": 1, "dps": 16, "generator": 2, "kind": "balance", "model": "energy", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": []}
+SOURCE = {"R": "alpha*u", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "energy", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": []}
 MODEL = 'energy'
 PARAMS = ('alpha',)
 ARGS = (('alpha', 0),)  # (parameter, bead offset) of each argument after eps; ('i', 0): bead index

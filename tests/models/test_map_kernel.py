@@ -1,0 +1,78 @@
+"""The compiled map kernel (map_kernel.py) against the reference Newton of map_iteration.py."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.models import codeload
+from pulsemap.solvers.models.map_iteration import MapIterationError, iterate_map, iterate_map_many
+from pulsemap.solvers.studies.forcing import _params
+
+VDP = "-(u - mu*(1-u**2)*v)"
+
+
+def _module(scene_name: str, variant: str):
+    scene = load_scene(scene_name)
+    pert = scene.perturbation
+    site = tuple(name for name, value in pert.params.items() if np.ndim(_params(scene, scene.beads)[name]) > 0)
+    mod = codeload.map_module(pert.R, list(pert.params), scene.exponent, "exact", variant, site)
+    return scene, mod, _params(scene, scene.beads)
+
+
+@pytest.mark.parametrize("variant", ["paper", "corrected", "1d"])
+@pytest.mark.parametrize("scene_name", ["vdp-mu3-v2.3", "fig6-eps0.3", "fig7-eps0.3", "fig13-seed1"])
+def test_compiled_map_equals_the_reference(scene_name, variant):
+    scene, mod, prm = _module(scene_name, variant)
+    eps = float(scene.perturbation.eps)
+    ref = iterate_map(mod, 0.6, 15, 120, eps, prm, engine="python")
+    fast = iterate_map(mod, 0.6, 15, 120, eps, prm, engine="compiled")
+    assert fast.engine == "compiled" and ref.engine == "python"
+    assert fast.status == ref.status and fast.message == ref.message
+    assert np.array_equal(fast.contacts, ref.contacts)
+    np.testing.assert_allclose(fast.A, ref.A, rtol=1e-10)
+    np.testing.assert_allclose(fast.forcing_ratio, ref.forcing_ratio, rtol=1e-8, atol=1e-14)
+
+
+def test_corrected_map_is_constant_at_eps_zero():
+    _, mod, prm = _module("vdp-mu3-v2.3", "corrected")
+    run = iterate_map(mod, 0.7, 15, 500, 0.0, prm, engine="compiled")
+    assert run.status == "ok"
+    # corrected variant: alpha = beta for the exact profile, so A_i = A_{i-1} solves Eq. 23 at eps = 0
+    np.testing.assert_allclose(run.A, 0.7, rtol=1e-9)
+
+
+def test_stop_reasons_match_the_reference():
+    statuses = set()
+    for scene_name, eps in (("fig7-eps0.3", -3.0), ("fig8-eps0.3", 3.0), ("fig7-eps0.3", 5.0)):
+        _, mod, prm = _module(scene_name, "paper")
+        ref = iterate_map(mod, 0.6, 15, 400, eps, prm, engine="python")
+        fast = iterate_map(mod, 0.6, 15, 400, eps, prm, engine="compiled")
+        assert (fast.status, fast.message) == (ref.status, ref.message)
+        np.testing.assert_allclose(fast.A, ref.A, rtol=1e-9)
+        statuses.add(fast.status)
+    assert statuses == {"no root", "died", "ok"}
+
+
+def test_many_chains_in_one_call_equal_single_runs():
+    scene, mod, prm = _module("vdp-mu3-v2.3", "paper")
+    mus = np.linspace(0.0, 4.0, 17)
+    seeds = np.linspace(0.3, 1.2, 17)
+    params = [{**prm, "mu": float(m)} for m in mus]
+    many = iterate_map_many(mod, seeds, 15, 200, 0.3, params)
+    assert {run.status for run in many} == {"ok", "died"}  # both kinds of chain in one call
+    for run, seed, p in zip(many, seeds, params):
+        one = iterate_map(mod, float(seed), 15, 200, 0.3, p, engine="python")
+        assert (run.status, run.message) == (one.status, one.message)
+        assert np.array_equal(run.contacts, one.contacts)
+        np.testing.assert_allclose(run.A, one.A, rtol=1e-10)
+        np.testing.assert_allclose(run.forcing_ratio, one.forcing_ratio, rtol=1e-8, atol=1e-14)
+
+
+def test_bad_engine_and_batch_shapes_are_refused():
+    _, mod, prm = _module("vdp-mu3-v2.3", "paper")
+    with pytest.raises(MapIterationError, match="engine 'gpu'"):
+        iterate_map(mod, 0.6, 15, 20, 0.1, prm, engine="gpu")
+    with pytest.raises(MapIterationError, match="one per chain"):
+        iterate_map_many(mod, np.ones(3), 15, 20, 0.1, [prm])
