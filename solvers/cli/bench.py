@@ -29,6 +29,9 @@ def register(sub) -> None:
     p.add_argument("--no-baselines", action="store_true", help="skip baselines (a) and (b)")
     p.add_argument("--no-models", action="store_true", help="skip the map and the laws")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    from pulsemap.solvers.cli.main import add_set_option
+
+    add_set_option(p)
     p.set_defaults(func=cmd_bench)
 
 
@@ -49,7 +52,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.plot:
         pyplot(BenchError)  # fail before the runs, not after
     log = progress_log(args.quiet)
-    reports = run_bench(args.scenes, ladder, log)
+    reports = run_bench(args.scenes, ladder, log, sets=args.sets)
     print(to_text(reports))
     if args.csv:
         write_text(args.csv, to_csv(reports))

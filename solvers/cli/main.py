@@ -164,6 +164,23 @@ def progress_log(quiet: bool = False) -> Callable[[str], None]:
     return lambda s: print(s, file=sys.stderr, flush=True)
 
 
+SET_HELP = ("change a scene key, as dotted in the scene file (repeatable): e.g. --set perturbation.eps=0.2 "
+            "--set excitation.velocity=2 --set perturbation.params.mu=3")
+
+
+def add_set_option(p: argparse.ArgumentParser) -> None:
+    """``--set KEY=VALUE`` (repeatable) on a command that loads scenes."""
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="sets", help=SET_HELP)
+
+
+def load_scene_with_sets(ref: str, sets: Sequence[str] = ()):
+    """The scene ``ref`` (a file or any named scene) with the --set assignments applied (data/overrides.py)."""
+    from pulsemap.solvers.data.overrides import with_sets
+    from pulsemap.solvers.data.scene import load_scene
+
+    return with_sets(load_scene(ref), sets)
+
+
 # ----------------------------------------------------------------------------- profile
 def cmd_profile(args: argparse.Namespace) -> int:
     """``pulsemap profile``: S(0), half width, Pade q's, f1..f7, Eq. 4 residual."""
@@ -213,9 +230,8 @@ def cmd_derive(args: argparse.Namespace) -> int:
 def cmd_run(args: argparse.Namespace) -> int:
     """``pulsemap run SCENE``: DNS, map and long-wave peaks per contact, errors, timings."""
     from pulsemap.solvers.studies.run import plot, run_scene, to_csv, to_text
-    from pulsemap.solvers.data.scene import load_scene
 
-    scene = load_scene(args.scene)
+    scene = load_scene_with_sets(args.scene, args.sets)
     methods = args.methods.split(",") if args.methods else None
     result = run_scene(scene, methods=methods, profile=args.profile, variant=args.variant,
                        progress=not args.quiet, seed_peak=args.seed_peak)
@@ -246,7 +262,8 @@ def cmd_table(args: argparse.Namespace) -> int:
     """``pulsemap table``: every model's errors against the DNS for the paper's scenes, and the winners."""
     from pulsemap.solvers.studies.table import markdown, table, wins
 
-    rows = table(args.scenes or None, progress=not args.quiet, rows_file=args.rows, fresh=args.fresh, eps=args.eps)
+    rows = table(args.scenes or None, progress=not args.quiet, rows_file=args.rows, fresh=args.fresh, eps=args.eps,
+                 sets=tuple(args.sets))
     print(markdown(rows))
     print("\nScenes won: " + ", ".join(f"{k} {v}" for k, v in wins(rows).items()))
     if args.json:
@@ -345,6 +362,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seed map and law with this peak at contact first_perturbed - 1 (default: the DNS "
                         "peak there, or v0 through kappa_n without the DNS)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    add_set_option(p)
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("generate", help="write the generated modules that scenes use (default: all built-in)")
@@ -364,6 +382,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--eps", type=number, default=None,
                    help="run every scene at this eps instead of its own (which model is right as eps -> 0)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    add_set_option(p)
     p.set_defaults(func=cmd_table)
 
     p = sub.add_parser("scenes", help="list the built-in scenes")

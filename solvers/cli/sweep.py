@@ -1,4 +1,4 @@
-"""``pulsemap bifurcation`` and ``pulsemap ensemble``: sweeps on a process pool or a Dask cluster.
+"""``pulsemap bifurcation``, ``pulsemap ensemble`` and ``pulsemap sweep``: sweeps on a process pool or a Dask cluster.
 
 Both run their points through solvers/sweep.py: ``--workers W`` processes (1: this process),
 or ``--scheduler ADDRESS`` for a running Dask scheduler (needs ``dask[distributed]``); each
@@ -78,6 +78,9 @@ def _add_sweep_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="OUT", help="write the report as JSON ('-' for stdout)")
     p.add_argument("--plot", metavar="FIG.png", help="plot (needs matplotlib)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    from pulsemap.solvers.cli.main import add_set_option
+
+    add_set_option(p)
 
 
 def _report(args: argparse.Namespace, report: dict, to_text, plot) -> int:
@@ -95,10 +98,10 @@ def _report(args: argparse.Namespace, report: dict, to_text, plot) -> int:
 def cmd_bifurcation(args: argparse.Namespace) -> int:
     """``pulsemap bifurcation``: Eq. 41 branches and fold vs the DNS, thresholds."""
     from pulsemap.solvers.studies.bifurcation import bifurcation, plot, to_text
-    from pulsemap.solvers.cli.main import UsageError
-    from pulsemap.solvers.data.scene import PROFILES, load_scene
+    from pulsemap.solvers.cli.main import UsageError, load_scene_with_sets
+    from pulsemap.solvers.data.scene import PROFILES
 
-    scene = load_scene(args.scene)
+    scene = load_scene_with_sets(args.scene, args.sets)
     lo, hi = args.range
     profiles = PROFILES if args.profiles is None else tuple(p for p in args.profiles.split(",") if p)
     for p in profiles:
@@ -119,9 +122,9 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
 def cmd_ensemble(args: argparse.Namespace) -> int:
     """``pulsemap ensemble``: M random realisations, map and DNS of each, statistics per contact."""
     from pulsemap.solvers.studies.ensemble import ensemble, plot, to_text
-    from pulsemap.solvers.data.scene import load_scene
+    from pulsemap.solvers.cli.main import load_scene_with_sets
 
-    scene = load_scene(args.scene)
+    scene = load_scene_with_sets(args.scene, args.sets)
     if args.contacts:
         scene = scene.with_overrides(contacts=tuple(args.contacts))
     with executor_for(args) as (ex, workers):
@@ -131,8 +134,33 @@ def cmd_ensemble(args: argparse.Namespace) -> int:
     return _report(args, report, to_text, plot)
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """``pulsemap sweep``: a scene over a grid of values of any scene key."""
+    from pulsemap.solvers.cli.main import load_scene_with_sets, write_json
+    from pulsemap.solvers.studies.scene_sweep import scene_sweep, to_text
+
+    scene = load_scene_with_sets(args.scene, args.sets)
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else None
+    with executor_for(args) as (ex, workers):
+        report = scene_sweep(scene, args.over, methods=methods, out=args.out, executor=ex, max_workers=workers,
+                             progress=not args.quiet, retry_failed=args.retry_failed)
+    print(to_text(report))
+    if args.json:
+        write_json(args.json, report)
+    return 0
+
+
 def register(sub) -> None:
     from pulsemap.solvers.cli.main import number
+
+    p = sub.add_parser("sweep", help="run a scene over a grid of values of any scene key (--over KEY=A:B:K)")
+    p.add_argument("scene", metavar="SCENE", help="a TOML scene file or a scene name (see 'pulsemap scenes')")
+    p.add_argument("--over", action="append", default=[], required=True, metavar="KEY=A:B:K",
+                   help="a dotted scene key and its values: A:B:K (K values from A to B) or v1,v2,... "
+                        "(repeatable: the product grid), e.g. --over perturbation.eps=0.05:0.5:10")
+    p.add_argument("--methods", help="comma list overriding the scene's methods")
+    _add_sweep_options(p)
+    p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("bifurcation", help="stationary shocks vs a parameter: Eq. 41 branches, fold, DNS thresholds")
     p.add_argument("scene", metavar="SCENE", help="a TOML scene file or a built-in name (e.g. vdp-mu3-v2.3)")

@@ -153,12 +153,22 @@ def summarize(points: list[Point], costs: dict, default_dns: float | None, targe
     return out
 
 
-def run_bench(names: Sequence[str], ladder: Ladder, log: Callable[[str], None] = lambda s: None) -> list[dict]:
-    """Benchmark each scene (names or TOML paths) in turn."""
+def run_bench(names: Sequence[str], ladder: Ladder, log: Callable[[str], None] = lambda s: None,
+              sets: Sequence[str] = ()) -> list[dict]:
+    """Benchmark each scene (names or TOML paths, with the --set assignments ``sets``) in turn."""
+    from pulsemap.solvers.data.overrides import with_sets
     from pulsemap.solvers.data.scene import load_scene
+    from pulsemap.solvers.studies.progress import Progress
 
-    scenes = [load_scene(n) for n in names]  # all load errors before any work
-    return [bench_scene(s, ladder, log) for s in scenes]
+    scenes = [with_sets(load_scene(n), sets) for n in names]  # all load errors before any work
+    report = Progress("bench", len(scenes), sink=log)
+    out = []
+    for scene in scenes:
+        report.start(scene.name)
+        t0 = time.perf_counter()
+        out.append(bench_scene(scene, ladder, log))
+        report.finish(scene.name, "done", time.perf_counter() - t0)
+    return out
 
 
 __all__ = ["DNS_METHODS", "QUICK_METHODS", "TARGET", "Ladder", "Point", "BenchError", "bench_scene", "run_bench",

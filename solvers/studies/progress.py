@@ -43,8 +43,12 @@ def describe(points: list[Mapping[str, object]]) -> list[str]:
     """A label per sweep point from the values that vary across the points ('params.mu=1.5,
     velocity=2.3'), not from its hash; 'point j' when nothing varies."""
     flat = [_flat(p) for p in points]
-    keys = [k for k in dict.fromkeys(k for f in flat for k in f)
-            if len({repr(f.get(k)) for f in flat}) > 1]
+    keys, seen = [], set()
+    for k in dict.fromkeys(k for f in flat for k in f):
+        column = tuple(repr(f.get(k)) for f in flat)
+        if len(set(column)) > 1 and column not in seen:  # varies, and not a copy of a key already shown
+            keys.append(k)
+            seen.add(column)
     labels = []
     for j, f in enumerate(flat):
         text = ", ".join(f"{k.removeprefix('params.')}={_fmt(f.get(k))}" for k in keys)

@@ -216,6 +216,7 @@ def run_sweep(
     retry_failed: bool = False,
     label: str = "sweep",
     stream: TextIO | None = None,
+    name_of: Callable[[dict], str] | None = None,
 ) -> SweepResult:
     """Run ``task(params)`` for every point; record each as it finishes; skip recorded points.
 
@@ -223,7 +224,8 @@ def run_sweep(
     error, elapsed time, host, pid); points already in it are not run again (``retry_failed``
     reruns the ones recorded with an error; points the executor lost are always rerun). ``executor``: any concurrent.futures.Executor (it
     is not shut down here); otherwise a ProcessPoolExecutor of ``max_workers`` processes
-    (default: the CPU count), or this process alone when ``max_workers == 1``.
+    (default: the CPU count), or this process alone when ``max_workers == 1``. Progress names
+    each point by ``name_of(point)``, by default by the values that vary across the points.
     """
     if max_workers is not None and (isinstance(max_workers, bool) or not isinstance(max_workers, int) or max_workers < 1):
         raise SweepError(f"max_workers must be an integer >= 1, got {max_workers!r}")
@@ -260,7 +262,12 @@ def run_sweep(
     fh = open_for_append(path) if path is not None and pending else None
     computed = 0
     report = Progress(label, len(pending), enabled=progress, sink=lambda s: print(s, file=err, flush=True))
-    names = dict(zip(order, describe([todo[k] for k in order]))) if progress else {}
+    if not progress:
+        names = {}
+    elif name_of is not None:
+        names = {k: name_of(todo[k]) for k in order}
+    else:
+        names = dict(zip(order, describe([todo[k] for k in order])))
 
     def finish(key: str, outcome: dict) -> None:
         nonlocal computed

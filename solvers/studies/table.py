@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from pulsemap.solvers.data.overrides import with_sets
 from pulsemap.solvers.data.records import append_record, read_keyed
 from pulsemap.solvers.studies.progress import Progress
 from pulsemap.solvers.studies.run import run_scene
@@ -83,14 +84,16 @@ def winner(errors: dict) -> tuple[str | None, float | None, str | None, float | 
     return best[1], best[0], second[1], second[0]
 
 
-def _scene(name: str, eps: float | None):
-    scene = load_scene(name)
+def _scene(name: str, eps: float | None, sets: tuple = ()):
+    scene = with_sets(load_scene(name), sets)
     return scene if eps is None else scene.with_overrides(eps=eps)
 
 
-def scene_row(name: str, progress: bool = False, columns=COLUMNS, eps: float | None = None) -> dict:
-    """Errors of every column for one scene (one DNS, reused by every model); ``eps`` overrides the scene's."""
-    scene = _scene(name, eps)
+def scene_row(name: str, progress: bool = False, columns=COLUMNS, eps: float | None = None,
+              sets: tuple = ()) -> dict:
+    """Errors of every column for one scene (one DNS, reused by every model); ``eps`` overrides the
+    scene's, ``sets`` are --set assignments ('key=value', data/overrides.py)."""
+    scene = _scene(name, eps, sets)
     t0 = time.perf_counter()
     ref = run_scene(scene, methods=["dns"], progress=progress)
     row = {
@@ -129,7 +132,7 @@ def read_rows(path: str | os.PathLike) -> dict[str, dict]:
 
 
 def table(names=None, progress: bool = False, rows_file: str | os.PathLike | None = None,
-          fresh: bool = False, columns=COLUMNS, eps: float | None = None) -> list[dict]:
+          fresh: bool = False, columns=COLUMNS, eps: float | None = None, sets: tuple = ()) -> list[dict]:
     """Rows for ``names`` (default: every built-in scene), reusing finished rows of ``rows_file``.
 
     ``eps`` runs every scene at that eps instead of its own (e.g. to see which model is right as
@@ -138,7 +141,7 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
     if eps is not None and not (isinstance(eps, (int, float)) and 0 < eps < float("inf")):
         raise TableError(f"eps must be a finite number > 0, got {eps!r}")
     names = list(names or builtin_scenes())
-    scenes = {name: _scene(name, eps) for name in names}  # every name checked before any work
+    scenes = {name: _scene(name, eps, sets) for name in names}  # every name and --set checked before any work
     done = read_rows(rows_file) if (rows_file is not None and not fresh) else {}
     if rows_file is not None and fresh and Path(rows_file).exists():
         Path(rows_file).unlink()
@@ -152,7 +155,7 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
             continue
         report.start(name)
         t0 = time.perf_counter()
-        row = scene_row(name, columns=columns, eps=eps)
+        row = scene_row(name, columns=columns, eps=eps, sets=sets)
         report.finish(name, "done", time.perf_counter() - t0)
         if rows_file is not None:  # repairs a line cut short first, flushed to disk
             append_record(rows_file, row)

@@ -1,0 +1,108 @@
+"""``--set key=value``: change any scene key from the command line, with the scene file's names.
+
+Keys are dotted paths into the scene file (``perturbation.eps``, ``excitation.velocity``,
+``chain.beads``, ``output.contacts``, ``perturbation.params.mu``, ``dns.rtol``); values are TOML
+values (``0.2``, ``[16, 60]``, ``"exact"``, ``{uniform = [0, 1], seed = 3}``), and a value that
+is not TOML is taken as text (``--set perturbation.R=-mu*v``, ``--set model.profile=pade``).
+The scene is rebuilt through ``parse_scene``, so an override is checked exactly like the same
+value in a file. An unknown key is refused with the closest known key.
+"""
+
+from __future__ import annotations
+
+import difflib
+import sys
+from typing import Any, Iterable, Mapping, Sequence
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+from pulsemap.solvers.data.scene import Scene, SceneError, parse_scene
+
+PARAMS_PREFIX = "perturbation.params."
+#: Keys that name the scene rather than set it (not overridable).
+FIXED = ("source",)
+
+
+def _flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Dotted key -> value; a parameter (even a table such as a random draw) is one leaf."""
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        path = prefix + key
+        if isinstance(value, Mapping) and not path.startswith(PARAMS_PREFIX):
+            out.update(_flat(value, path + "."))
+        else:
+            out[path] = value
+    return out
+
+
+def scene_keys(scene: Scene) -> list[str]:
+    """Every key ``--set`` accepts for ``scene`` (its file's keys, defaults included)."""
+    return [k for k in _flat(scene.as_dict()) if k not in FIXED]
+
+
+def parse_assignment(text: str) -> tuple[str, Any]:
+    """'perturbation.eps=0.2' -> ('perturbation.eps', 0.2); the value as TOML, else as text."""
+    if not isinstance(text, str) or "=" not in text:
+        raise SceneError(f"--set {text!r}: expected KEY=VALUE with a dotted scene key, e.g. --set perturbation.eps=0.2")
+    key, raw = (part.strip() for part in text.split("=", 1))
+    if not key or not raw:
+        raise SceneError(f"--set {text!r}: expected KEY=VALUE with a dotted scene key, e.g. --set perturbation.eps=0.2")
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw  # plain text: R, a profile name, an expression of i
+    return key, value
+
+
+def check_key(key: str, scene: Scene) -> None:
+    """A one-line SceneError for a key the scene file does not have, naming the closest one."""
+    known = scene_keys(scene)
+    if key in known:
+        return
+    name = key[len(PARAMS_PREFIX):] if key.startswith(PARAMS_PREFIX) else ""
+    if name and "." not in name and name.isidentifier():
+        return  # a new parameter (for a new R); parse_scene says if R does not use it
+    close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
+    hint = f" (did you mean '{close[0]}'?)" if close else ""
+    tables = sorted({k.split(".")[0] for k in known if "." in k})
+    raise SceneError(f"--set {key}: unknown scene key{hint}; keys are dotted paths of the scene file "
+                     f"({', '.join(tables)}), e.g. perturbation.eps, excitation.velocity, perturbation.params.mu")
+
+
+def set_key(data: dict, key: str, value: Any) -> None:
+    """data[a][b]... = value for key 'a.b...' (parameters: the name after perturbation.params)."""
+    if key.startswith(PARAMS_PREFIX):
+        parts = ["perturbation", "params", key[len(PARAMS_PREFIX):]]
+    else:
+        parts = key.split(".")
+    node = data
+    for part in parts[:-1]:
+        node = node.setdefault(part, {})
+    node[parts[-1]] = value
+
+
+def with_sets(scene: Scene, assignments: Iterable[str | tuple[str, Any]]) -> Scene:
+    """``scene`` with each 'key=value' (or (key, value)) applied in order, validated like a scene file."""
+    items = [parse_assignment(a) if isinstance(a, str) else tuple(a) for a in assignments]
+    if not items:
+        return scene
+    data = scene.as_dict()
+    if data["chain"].get("beads") is None:
+        del data["chain"]["beads"]
+    for key, value in items:
+        check_key(key, scene)
+        set_key(data, key, value)
+    shown = ", ".join(f"{k}={v}" for k, v in items)
+    source = data.pop("source", scene.source) or scene.name
+    try:
+        return parse_scene(data, source)
+    except SceneError as exc:
+        raise SceneError(f"--set {shown}: {exc}") from None
+
+
+def describe_sets(assignments: Sequence[str]) -> str:
+    """'perturbation.eps=0.2, excitation.velocity=2' for reports."""
+    return ", ".join(f"{k}={v}" for k, v in (parse_assignment(a) for a in assignments))
