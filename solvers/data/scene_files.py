@@ -35,6 +35,7 @@ from pulsemap.solvers.data.scene_schema import (
     _unknown,
 )
 from pulsemap.solvers.data.scene_spec import Scene
+from pulsemap.solvers.data.toml_bounds import TomlBoundsError, check_size, check_toml_bounds
 
 
 def builtin_scenes() -> list[str]:
@@ -76,15 +77,24 @@ def load_scene(ref: str | Path) -> Scene:
             "name (pulsemap scenes lists them)"
         )
     try:
+        check_size(path.stat().st_size)  # before the file is read into memory
         data = path.read_bytes()
+    except TomlBoundsError as exc:
+        raise SceneError(f"{text}: {exc}") from None
     except OSError as exc:
         raise SceneError(f"{text}: cannot read the scene file ({exc.strerror or exc}): check its permissions") from None
     return parse_scene(_decode(data, text), text)
 
 
 def _decode(data: bytes, source: str) -> dict:
+    """TOML bytes -> table, within the bounds of :mod:`.toml_bounds` (checked before parsing)."""
     try:
-        return tomllib.loads(data.decode("utf-8"))
+        check_size(len(data))
+        text = data.decode("utf-8")
+        check_toml_bounds(text)
+        return tomllib.loads(text)
+    except TomlBoundsError as exc:
+        raise SceneError(f"{source}: {exc}") from None
     except UnicodeDecodeError as exc:
         raise SceneError(
             f"{source}: not UTF-8 text (byte {exc.start}): save the scene file as UTF-8 TOML"

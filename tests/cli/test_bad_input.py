@@ -192,6 +192,12 @@ SCENES = [
     ("lambda in R", edit('R = "-mu*v"', 'R = "(lambda: v)()"'), ["'lambda'", "not allowed"]),
     ("R a number", edit('R = "-mu*v"', "R = 0.5"), ["R must be a string"]),
     ("empty file", "", ["missing table [excitation]"]),
+    # bounds checked before parsing (issue 14): recursion and memory
+    ("arrays nested 500 deep", BASE + "x = " + "[" * 500 + "]" * 500 + "\n", ["nested more than 16 deep"]),
+    ("inline tables nested 500 deep", BASE + "x = " + "{a=" * 500 + "1" + "}" * 500 + "\n", ["nested more than 16 deep"]),
+    ("dotted key of 20000 parts", BASE + ".".join(["a"] * 20000) + " = 1\n", ["dotted key", "more than 8 parts"]),
+    ("table header of 20000 parts", BASE + "[" + ".".join(["a"] * 20000) + "]\n", ["dotted key", "more than 8 parts"]),
+    ("key of 5000 characters", BASE + "k" * 5000 + " = 1\n", ["key longer than 200 characters"]),
 ]
 
 
