@@ -8,29 +8,61 @@ used and never silently rebuilt).
 from __future__ import annotations
 
 import importlib.util
+import sys
 from pathlib import Path
 from types import ModuleType
 
 from pulsemap.derive.cache import cache_dir
 from pulsemap.derive.sources import (BALANCE_MODELS, PROFILE_KINDS, VARIANTS, BalanceSource, ForceSource, GeneratedCodeError,
-                            MapSource, module_name, verify_generated)
+                            MapSource, module_name, source_from_dict, verify_generated)
 
 PACKAGE_DIR = Path(__file__).resolve().parents[2] / "generated"
+
+
+class GeneratedModuleError(ValueError):
+    """A generated module that fails its checks where it cannot be regenerated (the package's generated/)."""
 
 
 def _dirs() -> list[Path]:
     return [PACKAGE_DIR, cache_dir() / "generated"]
 
 
-def _load_path(path: Path) -> ModuleType:
+def _verified_text(path: Path) -> str:
+    """The text of generated file ``path`` if it is whole and ours: UTF-8, both hashes right, and
+    named by its own source (a valid module copied under another name is refused too)."""
     try:
-        verify_generated(path.read_text(encoding="utf-8"))
-    except GeneratedCodeError as exc:
-        raise RuntimeError(f"generated module {path}: {exc}") from None
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise GeneratedCodeError(f"not UTF-8 text (byte {exc.start}), so not a generated module") from None
+    try:
+        source = source_from_dict(verify_generated(text))
+    except GeneratedCodeError:
+        raise
+    except (ValueError, TypeError, KeyError, AttributeError) as exc:  # a header that parses as JSON but is not a source
+        raise GeneratedCodeError(f"its header names no valid source ({type(exc).__name__})") from None
+    if module_name(source) != path.stem:
+        raise GeneratedCodeError(f"it holds the code of {module_name(source)}, not of {path.stem}")
+    return text
+
+
+def _exec(path: Path) -> ModuleType:
     spec = importlib.util.spec_from_file_location(f"pulsemap_generated_{path.stem}", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)  # our own generated, hash-checked file
     return module
+
+
+def _load_path(path: Path) -> ModuleType:
+    """Load a generated file after its checks; a failed check is a GeneratedModuleError naming the file."""
+    try:
+        _verified_text(path)
+    except GeneratedCodeError as exc:
+        raise GeneratedModuleError(f"generated module {path} is damaged: {_reason(exc)}") from None
+    return _exec(path)
+
+
+def _reason(exc: GeneratedCodeError) -> str:
+    return str(exc).split(":")[0]  # the finding, without the fix (the caller gives its own)
 
 
 def load_by_name(name: str) -> ModuleType:
@@ -43,11 +75,27 @@ def load_by_name(name: str) -> ModuleType:
 
 
 def _ensure(source) -> ModuleType:
-    try:
-        return load_by_name(module_name(source))
-    except FileNotFoundError:
-        pass
-    from pulsemap.derive import codegen  # only now: the code is missing and must be generated
+    """The module of ``source``: the package's copy (refused if damaged), else the cache's (regenerated,
+    with a one-line note on stderr, if damaged), else generated now."""
+    name = module_name(source)
+    shipped = PACKAGE_DIR / f"{name}.py"
+    if shipped.is_file():
+        try:
+            _verified_text(shipped)
+        except GeneratedCodeError as exc:
+            raise GeneratedModuleError(
+                f"generated module {shipped} shipped with pulsemap is damaged ({_reason(exc)}): reinstall "
+                "pulsemap, or rewrite it with 'pulsemap generate'") from None
+        return _exec(shipped)
+    cached = cache_dir() / "generated" / f"{name}.py"
+    if cached.is_file():
+        try:
+            _verified_text(cached)
+            return _exec(cached)
+        except GeneratedCodeError as exc:
+            print(f"pulsemap: note: cached module {cached} was damaged ({_reason(exc)}): regenerating it",
+                  file=sys.stderr, flush=True)
+    from pulsemap.derive import codegen  # only now: the code is missing or damaged and must be generated
 
     return _load_path(codegen.write(source))
 

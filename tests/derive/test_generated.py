@@ -15,7 +15,7 @@ from pulsemap.derive.expansion import expand
 from pulsemap.derive.expression import parse_expression, symbol
 from pulsemap.derive.integrals import METHOD_VERSION
 from pulsemap.derive.sources import INTEGRALS_METHOD, GeneratedCodeError, verify_generated
-from pulsemap.solvers.models.codeload import _load_path, force_module, map_module
+from pulsemap.solvers.models.codeload import GeneratedModuleError, _load_path, force_module, map_module
 from pulsemap.solvers.models.map_iteration import _fallback, _newton, iterate_map
 from pulsemap.solvers.models.stationary_shock import analyse, continue_roots
 
@@ -42,7 +42,7 @@ def test_hand_edited_module_is_refused(tmp_path):
     src = next(GENERATED.glob("map_*.py"))
     edited = tmp_path / src.name
     edited.write_text(src.read_text().replace("f1 = ", "f1 = 1.0 + "), encoding="utf-8")
-    with pytest.raises(RuntimeError, match="content-hash"):
+    with pytest.raises(GeneratedModuleError, match=f"{edited}.*content-hash"):
         _load_path(edited)
     with pytest.raises(GeneratedCodeError, match="content-hash"):
         verify_generated(edited.read_text())

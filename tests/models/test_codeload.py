@@ -1,0 +1,97 @@
+"""Damaged generated modules (issue 14): the cache's copy is regenerated with a note on stderr,
+the package's copy is refused with a message naming the file; nothing escapes as a traceback."""
+
+from __future__ import annotations
+
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+from pulsemap.derive import codegen
+from pulsemap.derive.sources import ForceSource, module_name
+from pulsemap.solvers.models import codeload
+from pulsemap.solvers.models.codeload import GeneratedModuleError, force_module, load_by_name
+
+R, PARAMS = "-mu*v - 0.25*u^3", ("mu",)
+
+
+@pytest.fixture()
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path / "cache"))
+    return tmp_path / "cache" / "generated"
+
+
+def _force_values(mod):
+    u, v = np.linspace(-1, 1, 7), np.linspace(-2, 2, 7)
+    return np.asarray(mod.force(u, v, np.arange(1, 8), 0.1, 1.3), dtype=float)
+
+
+def _damage(path, how):
+    text = path.read_bytes()
+    if how == "edited":
+        path.write_bytes(text.replace(b"0.25", b"0.5"))
+    elif how == "truncated":
+        path.write_bytes(text[: len(text) // 3])
+    elif how == "random bytes":
+        path.write_bytes(np.random.default_rng(0).integers(0, 256, 4000, dtype=np.uint8).tobytes())
+    elif how == "empty":
+        path.write_bytes(b"")
+    elif how == "another module":
+        other = next(codegen.PACKAGE_DIR.glob("force_*.py"))
+        shutil.copyfile(other, path)
+    else:  # pragma: no cover
+        raise AssertionError(how)
+
+
+HOW = ["edited", "truncated", "random bytes", "empty", "another module"]
+
+
+@pytest.mark.parametrize("how", HOW)
+def test_a_damaged_cached_module_is_regenerated_with_one_line_on_stderr(how, cache, capsys):
+    good = force_module(R, PARAMS)
+    expected = _force_values(good)
+    path = cache / (module_name(ForceSource.of(R, PARAMS)) + ".py")
+    assert path.is_file() and capsys.readouterr().err == ""
+    original = path.read_bytes()
+    _damage(path, how)
+    again = force_module(R, PARAMS)
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"pulsemap: note: cached module {path} was damaged (")
+    assert "regenerating it" in err
+    assert path.read_bytes() == original  # regenerated: the same text as before
+    np.testing.assert_array_equal(_force_values(again), expected)
+    force_module(R, PARAMS)
+    assert capsys.readouterr().err == ""  # repaired once, then quiet
+
+
+@pytest.mark.parametrize("how", HOW)
+def test_a_damaged_shipped_module_is_refused_naming_the_file(how, cache, tmp_path, monkeypatch):
+    shipped = tmp_path / "generated"
+    path = codegen.write(ForceSource.of(R, PARAMS), shipped)
+    monkeypatch.setattr(codeload, "PACKAGE_DIR", shipped)
+    np.testing.assert_allclose(_force_values(force_module(R, PARAMS)), _force_values(force_module(R, PARAMS)))
+    _damage(path, how)
+    with pytest.raises(GeneratedModuleError) as info:
+        force_module(R, PARAMS)
+    message = str(info.value)
+    assert "\n" not in message and str(path) in message and "shipped" in message and "reinstall" in message
+    assert not (cache / path.name).exists()  # refused, not silently replaced by a cache copy
+    with pytest.raises(GeneratedModuleError, match=f"{path} is damaged"):
+        load_by_name(path.stem)
+
+
+def test_the_cli_reports_a_damaged_shipped_module_in_one_line(cache, tmp_path, monkeypatch, capsys):
+    from conftest import scene_toml, write_scene
+    from pulsemap.solvers.cli.main import main
+
+    scene = write_scene(tmp_path, scene_toml("damaged", beads=40, methods=("dns",)))
+    shipped = tmp_path / "generated"
+    path = codegen.write(ForceSource.of("-mu*v", ("mu",)), shipped)
+    monkeypatch.setattr(codeload, "PACKAGE_DIR", shipped)
+    _damage(path, "truncated")
+    assert main(["run", str(scene), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("pulsemap: error: generated module ") and str(path) in err
+    assert os.path.getsize(path) > 0
