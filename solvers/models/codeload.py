@@ -78,6 +78,7 @@ def _ensure(source) -> ModuleType:
     """The module of ``source``: the package's copy (refused if damaged), else the cache's (regenerated,
     with a one-line note on stderr, if damaged), else generated now."""
     name = module_name(source)
+    cached = cache_dir() / "generated" / f"{name}.py"
     shipped = PACKAGE_DIR / f"{name}.py"
     if shipped.is_file():
         try:
@@ -87,7 +88,6 @@ def _ensure(source) -> ModuleType:
                 f"generated module {shipped} shipped with pulsemap is damaged ({_reason(exc)}): reinstall "
                 "pulsemap, or rewrite it with 'pulsemap generate'") from None
         return _exec(shipped)
-    cached = cache_dir() / "generated" / f"{name}.py"
     if cached.is_file():
         try:
             _verified_text(cached)
