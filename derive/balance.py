@@ -47,6 +47,7 @@ from .longwave import A0, I, I0, law_data, law_lines
 from .perturbation import Perturbation, param_data
 from .provenance import provenance
 from .profile import check_exponent, check_profile_kind, exact_profile, get_profile
+from .site_law import SiteLaw, coefficient_of_i, site_law
 from .sources import BALANCE_METHOD, DEFAULT_DPS
 from .sources import BALANCE_MODELS as MODELS
 from .timebox import bounded
@@ -361,6 +362,18 @@ def balance_law(ex: BalanceExpansion, constants: dict, params: dict, eps: float,
     return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None)
 
 
+def balance_site_law(ex: BalanceExpansion, pert: Perturbation, constants: dict, seconds: float = 2.0) -> SiteLaw:
+    """The balance law for a site-dependent R: K dB/di = eps sum_p C_p(i) B^p, bead i + 1/2 at index i
+    (derive/site_law.py)."""
+    K = constants["K1"] + constants["V1"] if ex.model == "energy" else constants["p1"]
+    groups: dict = {}
+    for t in ex.terms:
+        c = coefficient_of_i(t.coefficient, pert, ex.model) * sympy.Float(constants[t.integral], 17)
+        groups[t.power / ex.Q] = groups.get(t.power / ex.Q, sympy.Integer(0)) + c
+    name = "E_1" if ex.model == "energy" else "p_1"
+    return site_law(ex.model, ex.Q, name, K, float(pert.eps), {p: sympy.expand(c) for p, c in groups.items()}, seconds)
+
+
 # ------------------------------------------------------------------------ derivation
 @dataclass(frozen=True)
 class BalanceDerivation:
@@ -376,7 +389,7 @@ class BalanceDerivation:
     expansion: BalanceExpansion
     constants: dict
     errors: dict
-    law: BalanceLaw | None
+    law: BalanceLaw | SiteLaw | None
     law_note: str
     A0: float | None = None
     i0: float = 0.0
@@ -419,7 +432,10 @@ def derive_balance(
     t1 = time.perf_counter()
     law, note = None, ""
     try:
-        law = balance_law(ex, values, pert.scalar_params() if pert.is_uniform else {}, float(pert.eps), sympy_seconds)
+        if ex.uniform:
+            law = balance_law(ex, values, pert.scalar_params(), float(pert.eps), sympy_seconds)
+        else:
+            law = balance_site_law(ex, pert, values, sympy_seconds)
     except BalanceError as exc:
         note = str(exc)
     t2 = time.perf_counter()
@@ -457,7 +473,10 @@ def json_header(model: str, pert: Perturbation) -> dict:
 def to_json(d: BalanceDerivation) -> dict:
     """The balance derivation as JSON-serialisable data; ``model`` names it."""
     law = d.law
-    law_json = law_data(law, law.Q, ("K", law.K), d.A0, d.i0) if law is not None else None
+    if isinstance(law, SiteLaw):
+        law_json = law.data()
+    else:
+        law_json = law_data(law, law.Q, ("K", law.K), d.A0, d.i0) if law is not None else None
     c = d.constants
     wave = ({"E1": d.K, "K1": c["K1"], "V1": c["V1"], "kinetic_fraction": c["K1"] / d.K} if d.model == "energy"
             else {"p1": c["p1"]})
@@ -509,6 +528,8 @@ def to_text(d: BalanceDerivation) -> str:
     law = d.law
     if law is None:
         lines.append(f"Law: not available ({d.law_note})")
+    elif isinstance(law, SiteLaw):
+        lines += law.lines(f"Law, B = A^({law.Q}), bead i + 1/2 at contact index i (R varies along the chain):")
     else:
         lines += law_lines(law, f"Law, B = A^({law.Q}):", kname, d.A0, d.i0,
                            constant_reason="no work on the wave")

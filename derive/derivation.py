@@ -15,12 +15,13 @@ from dataclasses import dataclass, field
 import sympy
 
 from . import balance
-from .amplitude_map import EPS, AmplitudeMap, check_variant, latex_names
+from .amplitude_map import EPS, AmplitudeMap, check_variant, integral_symbol, latex_names
 from .expansion import Expansion, expand
 from .integrals import F_NAMES, constants
 from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, law_data, law_lines, longwave_law
 from .perturbation import Perturbation
 from .profile import check_exponent, check_profile_kind, get_profile
+from .site_law import SiteLaw, coefficient_of_i, site_law
 from .sources import DEFAULT_DPS
 from .stationary import Stationary, StationaryError, stationary
 
@@ -44,7 +45,7 @@ class Derivation:
     constants: dict
     errors: dict
     amap: AmplitudeMap
-    longwave: LongwaveLaw | None
+    longwave: LongwaveLaw | SiteLaw | None
     longwave_note: str
     stationary: Stationary | None
     stationary_note: str
@@ -88,7 +89,10 @@ def derive_all(
     amap = AmplitudeMap(ex.n, variant, ex, values, scalars)
     law, law_note = None, ""
     try:
-        law = longwave_law(amap, float(pert.eps), seconds=sympy_seconds)
+        if pert.is_uniform:
+            law = longwave_law(amap, float(pert.eps), seconds=sympy_seconds)
+        else:
+            law = longwave_site_law(amap, pert, sympy_seconds)
     except LongwaveError as exc:
         law_note = str(exc)
     times["longwave"] = time.perf_counter() - t2
@@ -131,6 +135,19 @@ def derive_all(
     )
 
 
+def longwave_site_law(amap: AmplitudeMap, pert: Perturbation, seconds: float = 2.0) -> SiteLaw:
+    """Eq. 30 for a site-dependent R: (f1 - f3) dB/di = eps sum_p C_p(i) B^p, the first map equation of
+    contact i with bead i + m's parameters at i + m (derive/site_law.py)."""
+    ints = {integral_symbol(k): sympy.Float(v, 17) for k, v in amap.constants.items() if not k.startswith("f")}
+    groups: dict = {}
+    for pt in amap.power_terms(1, numeric=False):
+        c = coefficient_of_i(pt.coefficient.xreplace(ints), pert, "longwave")
+        groups[pt.power / amap.P] = groups.get(pt.power / amap.P, sympy.Integer(0)) + c
+    f13 = float(amap.constants["f1"] - amap.constants["f3"])
+    return site_law("longwave", amap.P, "(f1 - f3)", f13, float(pert.eps),
+                    {p: sympy.expand(c) for p, c in groups.items()}, seconds)
+
+
 #: The models ``derive_model`` offers: the paper's map (with its law and Eq. 41) and the balances.
 MODELS = ("map",) + balance.MODELS
 
@@ -155,6 +172,8 @@ def _law_data(d: Derivation) -> dict | None:
     law = d.longwave
     if law is None:
         return None
+    if isinstance(law, SiteLaw):
+        return law.data()
     return law_data(law, law.P, ("f1_minus_f3", law.f1_minus_f3), d.A0, d.i0)
 
 
@@ -242,7 +261,10 @@ def to_text(d: Derivation) -> str:
         lines.append(f"  0 = {e}")
         lines.append(f"    = {en}")
     lines.append("")
-    if d.longwave is not None:
+    if isinstance(d.longwave, SiteLaw):
+        lines += d.longwave.lines(f"Long-wave ODE (Eq. 30), B = A^({d.longwave.Q}), "
+                                  "parameters of bead i + m at i + m (R varies along the chain):")
+    elif d.longwave is not None:
         lines += law_lines(d.longwave, f"Long-wave ODE (Eq. 30), B = A^({d.longwave.P}):", "(f1 - f3)",
                            d.A0, d.i0, cite="Eq. 31a ")
     else:

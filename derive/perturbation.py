@@ -145,6 +145,29 @@ class Perturbation:
             raise PerturbationError(f"no parameter named '{name}'{hint}; known: {', '.join(self.params) or 'none'}")
         return _bead_values(name, self.params[name], _check_beads(beads))
 
+    def values_at(self, name: str, positions) -> np.ndarray:
+        """Parameter ``name`` at continuous bead positions (for laws in the contact index): an
+        expression of i evaluated there; per-bead values (lists, draws) piecewise constant, bead
+        round(position) (clipped to the chain the list covers); a scalar everywhere."""
+        pos = np.atleast_1d(np.asarray(positions, dtype=np.float64))
+        value = self.params.get(name) if name in self.params else None
+        if value is None:
+            self.bead_values(name, 1)  # raises the one-line error naming the known parameters
+        if isinstance(value, float):
+            return np.full(pos.shape, value)
+        if isinstance(value, IndexExpression):
+            with np.errstate(all="ignore"):
+                out = np.broadcast_to(_numeric(value.expr, {symbol("i"): pos}, f"parameter '{name}'"), pos.shape)
+            out = np.asarray(out, dtype=np.float64)
+            if not np.all(np.isfinite(out)):
+                raise PerturbationError(f"parameter '{name}' = {value.text!r} is not finite at bead position "
+                                        f"{float(pos[~np.isfinite(out)][0]):g}")
+            return out
+        beads = len(value) if isinstance(value, tuple) else int(max(1, np.ceil(pos.max() + 0.5)))
+        arr = _bead_values(name, value, beads)
+        k = np.clip(np.floor(pos + 0.5).astype(int), 1, arr.size)
+        return arr[k - 1]
+
     def rest_force(self, beads: int) -> np.ndarray:
         """R_i(0, 0) for beads 1..beads, evaluated with the per-bead parameter values."""
         beads = _check_beads(beads)

@@ -1,0 +1,104 @@
+"""Laws for a site-dependent R evaluated along the chain: K dB/di = eps sum_p C_p(i) B^p.
+
+derive/site_law.py forms these laws (closed form when C_p(i) integrates); here they are solved
+as ODEs in the contact index with the generated per-bead functions, so no sympy runs per call:
+
+* energy / momentum law: dB/di = balance_rate(A, params of bead i + 1/2) / K  (the balance map's
+  step from contact i-1 to i is bead i's work, centred at i - 1/2);
+* long-wave law (Eq. 30): dB/di = F1(A, A, A; params of beads i, i+1) / (f1 - f3), the first map
+  equation at equal amplitudes (its contact terms cancel: f1 - 2 f2 + f3 = 0).
+
+A parameter given as an expression of i is evaluated at the continuous position; per-bead lists
+and draws are piecewise constant (derive.perturbation.Perturbation.values_at).
+"""
+
+from __future__ import annotations
+
+from types import ModuleType
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from pulsemap.solvers.models.longwave_eval import LawRun
+
+if TYPE_CHECKING:  # pragma: no cover  (sympy-free at import time)
+    from pulsemap.derive.perturbation import Perturbation
+
+#: Bead position of a balance law's work at contact index i (derive/site_law.py BEAD_SHIFT).
+BALANCE_SHIFT = 0.5
+
+
+class SiteLawError(ValueError):
+    """A site-dependent law that cannot be evaluated as asked."""
+
+
+def _arg_values(module: ModuleType, pert: Perturbation, position: float, shift: float) -> list[float]:
+    """The generated functions' parameter arguments at contact index ``position``."""
+    out = []
+    for name in module.PARAMS:
+        if name == "i":
+            out.append(position + shift)
+            continue
+        base, off = name, 0
+        for suffix, o in (("_ip1", 1), ("_ip2", 2), ("_i", 0)):
+            if name.endswith(suffix) and name[: -len(suffix)] in pert.params:
+                base, off = name[: -len(suffix)], o
+                break
+        out.append(float(pert.values_at(base, [position + shift + off])[0]))
+    return out
+
+
+def rate_function(module: ModuleType, pert: Perturbation, kind: str):
+    """dB/di as a function (i, B) for ``kind`` "balance" (a balance module) or "longwave" (a map module)."""
+    eps = float(pert.eps)
+    if kind == "balance":
+        K, Q = float(module.K), float(module.Q)
+
+        def rhs(i: float, B: float) -> float:
+            A = max(B, 0.0) ** (1.0 / Q)
+            return float(module.balance_rate(A, eps, *_arg_values(module, pert, i, BALANCE_SHIFT))) / K
+
+        return rhs, Q
+    if kind == "longwave":
+        f13, P = float(module.f1) - float(module.f3), float(module.P)
+
+        def rhs(i: float, B: float) -> float:
+            A = max(B, 0.0) ** (1.0 / P)
+            amps = (A, A) if module.VARIANT == "1d" else (A, A, A)
+            return float(module.map_residual(*amps, eps, *_arg_values(module, pert, i, 0.0))[0]) / f13
+
+        return rhs, P
+    raise SiteLawError(f"unknown law kind {kind!r}: 'balance' or 'longwave'")
+
+
+def evaluate_site_law(module: ModuleType, pert: Perturbation, kind: str, A0: float, i0: float, contacts) -> LawRun:
+    """A(i) of the site-dependent law from A(i0) = A0 at ``contacts`` (LSODA, rtol 1e-11), with
+    events for extinction (B -> 1e-12 B0) and blow-up (B -> 1e12 B0); None past the law's end."""
+    if not (np.isfinite(A0) and A0 > 0):
+        raise SiteLawError(f"the initial amplitude must be a finite number > 0, got {A0!r}")
+    rhs, Q = rate_function(module, pert, kind)
+    contacts = np.asarray(contacts, dtype=float)
+    B0 = A0**Q
+
+    def die(i, y):
+        return y[0] - 1e-12 * B0
+
+    def blow(i, y):
+        return y[0] - 1e12 * B0
+
+    die.terminal = blow.terminal = True
+    end = max(float(contacts.max(initial=i0)), i0 + 1e-9)
+    sol = solve_ivp(lambda i, y: [rhs(i, y[0])], (i0, end), [B0], method="LSODA", rtol=1e-11, atol=1e-14 * B0,
+                    dense_output=True, events=(die, blow))
+    if sol.status < 0:
+        raise SiteLawError(f"the site-dependent law could not be integrated: {sol.message}")
+    ended_at, ended = None, ""
+    if sol.status == 1:
+        ended_at = float(sol.t[-1])
+        ended = "extinction" if sol.t_events[0].size else "blow-up"
+    stop = float(sol.t[-1])
+    vals = [max(float(sol.sol(c)[0]), 0.0) ** (1.0 / Q) if c <= stop + 1e-12 else None for c in contacts]
+    S0 = float(module.S0)
+    return LawRun(contacts.astype(int), vals, [v * S0 if v is not None else None for v in vals],
+                  "quadrature (site-dependent)", ended_at, ended)
