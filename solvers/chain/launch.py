@@ -128,6 +128,7 @@ def launch(beads: int, n: float, A: float, centre: int, contacts: tuple[int, int
     rhs = make_rhs(beads, n, force)
     T = 1.5 * (last - centre + 2) / A**s  # generous: a decaying pulse slows down
     sol = solve_ivp(rhs, (0.0, T), y0, method="DOP853", rtol=rtol, atol=atol, dense_output=True)
+    T = float(sol.t[-1])  # where the integration stopped (a failed step ends it early: later peaks are None)
     peaks: list = []
     times: list = []
     t_prev, gap = 0.0, 1.0 / A**s
@@ -164,4 +165,5 @@ def _peak(sol, k: int, t_from: float, T: float) -> tuple[float | None, float | N
 
     tk = brentq(rate, a, b, xtol=1e-14, rtol=1e-15) if rate(b) != 0 else b
     y = sol.sol(tk)
-    return float(y[2 * (k - 1)] - y[2 * k]), float(tk)
+    value = float(y[2 * (k - 1)] - y[2 * k])
+    return (value, float(tk)) if np.isfinite(value) and value > 0 else (None, None)

@@ -1,0 +1,213 @@
+"""Second-order ("dressed") coefficients of one monomial measured by DNS decrements (calibrated, not derived).
+
+For R = c u^a v^b the energy balance gives the first-order decay d ln A/di = -k1 x, x = c A^e,
+k1 = -w_ab / ((n + 1) E_1), e = a + (1 + s) b - 1 - 2 s (derive/balance.py, s = (n - 1)/2). The next
+order is measured here, never assumed:
+
+1. An exact solitary wave (solvers/chain/launch.py) of scale A0 = 1 is launched with contact
+   ``CENTRE`` at its peak; beads >= first = CENTRE + 8 carry eps R = c u^a v^b. No kick transient.
+2. For each c of a ladder of small |x0| = |c| A0^e, the peaks P_k give decrements
+   delta_k = ln(P_k / P_{k+1}) at the geometric mid-point A = sqrt(A_k A_{k+1}) (A = P / S(0)),
+   x = c A^e, and y = delta / (k1 x) - 1, over contacts >= first + SETTLE (the onset transient has
+   relaxed there: y is constant along the chain to 1e-4 for v, measured).
+3. Least squares over all points: y = r0 x + r1 x^2 when b >= 1 (smooth in x), and
+   y = r0 x + g |x|^(3/2) + r1 x^2 for a foundation (b = 0: the wake behind the pulse is displaced
+   by A D and the foundation acts on it). Only the sign of c where the pulse decays (k1 x > 0) is
+   used, except for pure velocity terms v^b (both signs): with the other sign the displaced wake is
+   unstable (R = +c u: exponential, R = +c u^2 v: blow-up in finite time). k2/k1 = r0 = lim y/x.
+   Its error: the larger of the fit's standard error and the change of r0 when the largest |x0| is
+   left out.
+4. Onset lag: the law d ln A/di = -k1 x (1 + y(x)) integrated from the DNS peak at contact
+   first - 1 (where a run seeds its models) runs ahead of the DNS by a lag: past the transient
+   ln A_DNS(i) = ln A_law(i - Delta), i.e. Delta = (ln A_DNS - ln A_law) / (k1 x (1 + y)) at the law's
+   own x (constant along the chain to 1e-4, measured); Delta_0 is the intercept of a straight line
+   in x0 (x at the seed) over the ladder. Its error adds the spread along the chain.
+
+Each monomial costs 6-10 launches (~10-30 s) and is cached on disk (namespace "dressed").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from pulsemap.derive import cache
+from pulsemap.derive.profile import exact_profile
+from pulsemap.solvers.chain.equations import OnSiteForce
+from pulsemap.solvers.chain.launch import launch, min_centre
+
+NAMESPACE = "dressed"
+METHOD_VERSION = 2
+SETTLE = 20  # contacts after the first perturbed bead before decrements are used
+SPAN = 40  # contacts measured after SETTLE
+RTOL = 1e-11
+SMOOTH_LADDER = (0.001, 0.002, 0.005, 0.01)  # |x0| for b >= 1: both signs, the growing one without the largest
+FOUNDATION_LADDER = (0.001, 0.002, 0.004, 0.008, 0.016)  # |x0| for b = 0, restoring sign only
+
+
+class CalibrationError(ValueError):
+    """A monomial that cannot be calibrated (the message says why)."""
+
+
+@dataclass(frozen=True)
+class MonomialFit:
+    """The measured second-order coefficients of c u^a v^b (n, k1 derived; the rest fitted)."""
+
+    a: int
+    b: int
+    n: float
+    k1: float  # derived: energy balance
+    e: float  # x = c A^e
+    k2_over_k1: float  # fitted: lim y/x
+    k2_over_k1_error: float
+    g: float | None  # fitted |x|^(3/2) coefficient of y (foundations), None for b >= 1
+    r1: float  # fitted x^2 coefficient of y
+    onset_lag: float  # fitted: Delta at x0 -> 0, contacts
+    onset_lag_error: float
+    onset_lag_slope: float  # dDelta/dx0
+    x_range: tuple[float, float]  # smallest and largest |x| of the points used
+    points: int
+    fit_rms: float  # rms residual of the y fit
+    method: str
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def exponent_e(a: int, b: int, n: float) -> float:
+    """x = c A^e: e = a + (1 + s) b - 1 - 2 s, s = (n - 1)/2 (n = 3/2: a + 5b/4 - 3/2)."""
+    s = (n - 1) / 2
+    return a + (1 + s) * b - 1 - 2 * s
+
+
+def first_order_rate(a: int, b: int, n: float) -> float:
+    """k1 = -w_ab / ((n + 1) E_1): d ln A/di = -k1 x (energy balance, derive/balance.py)."""
+    from pulsemap.derive.balance import balance_constants  # mpmath integrals, cached
+
+    name = f"w_{a}{b}" if max(a, b) < 10 else f"w_{a}_{b}"
+    c = balance_constants(["K1", "V1", name], n=n)
+    return -c[name].value / ((n + 1) * (c["K1"].value + c["V1"].value))
+
+
+def _ladder(a: int, b: int, k1: float) -> tuple[float, ...]:
+    sign = 1.0 if k1 > 0 else -1.0  # decaying (restoring): k1 x > 0
+    if b >= 1 and a == 0:  # the growing sign too: the wake at rest feels no force
+        return tuple(sign * v for v in SMOOTH_LADDER) + tuple(-sign * v for v in SMOOTH_LADDER[:-1])
+    if b >= 1:  # u^a v^b with a >= 1, growing sign: the displaced wake is anti-damped and blows up
+        return tuple(sign * v for v in SMOOTH_LADDER)
+    return tuple(sign * v for v in FOUNDATION_LADDER)
+
+
+def _run(a: int, b: int, n: float, c: float):
+    centre = min_centre(n) + 1
+    first = centre + 8
+    last = first + SETTLE + SPAN
+    beads = last + 6
+    mask = np.zeros(beads)
+    mask[first - 1:] = 1.0
+    force = OnSiteForce(force=lambda x, v: mask * (c * x**a * v**b))
+    res = launch(beads, n, 1.0, centre, (first - 1, last), force, rtol=RTOL)
+    if any(p is None for p in res.peaks):
+        raise CalibrationError(f"the launched pulse was lost with R = {c:g} u^{a} v^{b}: take a smaller |x|")
+    return first, np.array(res.contacts), np.array(res.peaks, dtype=float)
+
+
+def _design(x: np.ndarray, foundation: bool) -> np.ndarray:
+    cols = [x, np.abs(x) ** 1.5, x**2] if foundation else [x, x**2]
+    return np.stack(cols, axis=1)
+
+
+def _fit(x: np.ndarray, y: np.ndarray, foundation: bool) -> tuple[np.ndarray, float, float]:
+    M = _design(x, foundation)
+    coef, *_ = np.linalg.lstsq(M, y, rcond=None)
+    res = y - M @ coef
+    dof = max(1, len(y) - M.shape[1])
+    cov = np.linalg.inv(M.T @ M) * float(res @ res) / dof
+    return coef, float(math.sqrt(max(cov[0, 0], 0.0))), float(np.sqrt(np.mean(res**2)))
+
+
+def calibrate(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> MonomialFit:
+    """Measure k2/k1, g and the onset lag of c u^a v^b (module docstring); cached on disk."""
+    for name, val in (("a", a), ("b", b)):
+        if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or val < 0:
+            raise CalibrationError(f"monomial exponent {name} must be an integer >= 0, got {val!r}")
+    if a + b == 0:
+        raise CalibrationError("the constant monomial (a = b = 0) moves the chain at rest: it has no law")
+    a, b, n = int(a), int(b), float(n)
+    key = f"dressed-v{METHOD_VERSION}|n={n!r}|a={a}|b={b}|settle={SETTLE}|span={SPAN}|rtol={RTOL}"
+    if use_cache:
+        hit = cache.load(NAMESPACE, key)
+        if hit is not None:
+            hit["x_range"] = tuple(hit["x_range"])
+            return MonomialFit(**hit)
+    S0 = exact_profile(n).S0
+    k1 = first_order_rate(a, b, n)
+    if k1 == 0:
+        raise CalibrationError(f"u^{a} v^{b} does no work on the wave (k1 = 0): no decay law to dress")
+    e = exponent_e(a, b, n)
+    foundation = b == 0
+    runs = []
+    for x0 in _ladder(a, b, k1):
+        first, contacts, peaks = _run(a, b, n, x0)  # A0 = 1: c = x0
+        runs.append((x0, first, contacts, peaks))
+    xs, ys, tags = [], [], []
+    for x0, first, contacts, peaks in runs:
+        A = peaks / S0
+        use = contacts[:-1] >= first + SETTLE
+        d = np.log(peaks[:-1] / peaks[1:])[use]
+        xm = x0 * np.sqrt(A[:-1] * A[1:])[use] ** e
+        xs.append(xm)
+        ys.append(d / (k1 * xm) - 1.0)
+        tags.append(np.full(xm.size, abs(x0)))
+    x, y, tag = np.concatenate(xs), np.concatenate(ys), np.concatenate(tags)
+    coef, se, rms = _fit(x, y, foundation)
+    keep = tag < tag.max()
+    coef_small, _, _ = _fit(x[keep], y[keep], foundation)
+    r0 = float(coef[0])
+    r0_err = max(se, abs(float(coef_small[0]) - r0))
+    g = float(coef[1]) if foundation else None
+    r1 = float(coef[-1])
+
+    def y_of(xv: float) -> float:
+        return float((_design(np.array([xv]), foundation) @ coef)[0])
+
+    lags, x0s, drift = [], [], []
+    for x0, first, contacts, peaks in runs:
+        A = peaks / S0
+        i0 = first - 1
+        A_seed = A[0]  # contact first - 1: where a run seeds its models
+
+        def rhs(i, lnA, c=x0):
+            xv = c * math.exp(lnA[0] * e)
+            return [-k1 * xv * (1.0 + y_of(xv))]
+
+        sol = solve_ivp(rhs, (i0, float(contacts[-1])), [math.log(A_seed)], rtol=1e-12, atol=1e-14,
+                        t_eval=contacts.astype(float))
+        D = np.log(A) - sol.y[0]
+        tail = contacts >= first + SETTLE
+        x_law = x0 * np.exp(sol.y[0] * e)
+        rate = k1 * x_law * (1.0 + np.array([y_of(v) for v in x_law]))  # -d ln A/di of the law
+        shift = D[tail] / rate[tail]  # a lag Delta: ln A_DNS(i) = ln A_law(i - Delta)
+        lags.append(float(np.mean(shift)))
+        drift.append(float(np.ptp(shift)))
+        x0s.append(x0 * A_seed**e)
+    x0s, lags = np.array(x0s), np.array(lags)
+    M = np.stack([np.ones_like(x0s), x0s], axis=1)
+    (lag0, slope), *_ = np.linalg.lstsq(M, lags, rcond=None)
+    small = np.abs(x0s) < np.abs(x0s).max()
+    (lag0_s, _), *_ = np.linalg.lstsq(M[small], lags[small], rcond=None)
+    lag_err = (abs(float(lag0_s) - float(lag0)) + float(np.sqrt(np.mean((lags - M @ [lag0, slope]) ** 2)))
+               + max(drift))
+    fit = MonomialFit(
+        a=a, b=b, n=n, k1=float(k1), e=float(e), k2_over_k1=r0, k2_over_k1_error=float(r0_err), g=g, r1=r1,
+        onset_lag=float(lag0), onset_lag_error=float(lag_err), onset_lag_slope=float(slope),
+        x_range=(float(np.abs(x).min()), float(np.abs(x).max())), points=int(x.size), fit_rms=rms,
+        method=(f"calibrated: DNS of exact solitons (A0 = 1, rtol {RTOL:g}), {len(runs)} values of c, decrements "
+                f"over contacts first+{SETTLE}..first+{SETTLE + SPAN}, least squares y = "
+                + ("r0 x + g|x|^(3/2) + r1 x^2 (restoring sign only)" if foundation else "r0 x + r1 x^2")),
+    )
+    cache.store(NAMESPACE, key, fit.as_dict())
+    return fit
