@@ -36,16 +36,11 @@ class SiteLawError(ValueError):
 def _arg_values(module: ModuleType, pert: Perturbation, position: float, shift: float) -> list[float]:
     """The generated functions' parameter arguments at contact index ``position``."""
     out = []
-    for name in module.PARAMS:
-        if name == "i":
+    for base, off in module.ARGS:  # (parameter, bead offset); ("i", 0) is the bead index
+        if base == "i":
             out.append(position + shift)
-            continue
-        base, off = name, 0
-        for suffix, o in (("_ip1", 1), ("_ip2", 2), ("_i", 0)):
-            if name.endswith(suffix) and name[: -len(suffix)] in pert.params:
-                base, off = name[: -len(suffix)], o
-                break
-        out.append(float(pert.values_at(base, [position + shift + off])[0]))
+        else:
+            out.append(float(pert.values_at(base, [position + shift + off])[0]))
     return out
 
 

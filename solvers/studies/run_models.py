@@ -12,8 +12,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pulsemap.solvers.models.balance_eval import evaluate_balance_law, iterate_balance_map
-from pulsemap.solvers.models.codeload import balance_module, map_module
+from pulsemap.derive.profile import exact_profile
+from pulsemap.solvers.models.balance_eval import BalanceRun, evaluate_balance_law, iterate_balance_map
+from pulsemap.solvers.models.codeload import balance_module, force_module, map_module
+from pulsemap.solvers.models.energy_quadrature import bead_force, evaluate_energy_law, iterate_energy_map
+from pulsemap.solvers.models.site_law_eval import evaluate_site_law
 from pulsemap.solvers.models.longwave_eval import evaluate_law
 from pulsemap.solvers.models.map_iteration import contact_params, eps0_ratio, iterate_map
 from pulsemap.solvers.studies.forcing import _params
@@ -53,15 +56,29 @@ def derive_models(state: "RunState") -> tuple[ModuleType | None, dict[str, Modul
     site = pert.site_dependent
     mod = None
     balance: dict[str, ModuleType] = {}
+    from pulsemap.derive.expression import is_polynomial_in_state  # sympy, already loaded with the scene
+
+    polynomial = is_polynomial_in_state(pert.R)
     if "map" in methods or "longwave" in methods:
-        t0 = time.perf_counter()
-        mod = map_module(pert.text, pert.used_parameters, scene.exponent, choice.profile, choice.variant, site)
-        state.timings["derive_map"] = time.perf_counter() - t0
-        wide = _width_warning(mod)
-        if wide is not None:
-            state.warnings.append(wide)
+        if not polynomial:  # Eq. 23 and Eq. 30 integrate R monomial by monomial (Eq. 10)
+            why = (f"R = {pert.R} is not a polynomial in u, v: the map (Eq. 23) and the long-wave law (Eq. 30) "
+                   "integrate R monomial by monomial (Eq. 10); the DNS and the energy balance (by quadrature) still run")
+            for m in ("map", "longwave"):
+                if m in methods:
+                    state.warnings.append(f"{m} refused: {why}")
+                    out[m] = {"model": MODEL_TITLES[m], "refused": why}
+        else:
+            t0 = time.perf_counter()
+            mod = map_module(pert.text, pert.used_parameters, scene.exponent, choice.profile, choice.variant, site)
+            state.timings["derive_map"] = time.perf_counter() - t0
+            wide = _width_warning(mod)
+            if wide is not None:
+                state.warnings.append(wide)
     for quantity in dict.fromkeys(BALANCE_METHODS[m][0] for m in methods if m in BALANCE_METHODS):
         t0 = time.perf_counter()
+        if quantity == "energy" and not polynomial:
+            balance[quantity] = QUADRATURE  # W(A) by quadrature of R over the wave (energy_quadrature.py)
+            continue
         try:
             balance[quantity] = balance_module(pert.text, pert.used_parameters, scene.exponent, choice.profile,
                                                quantity, site)
@@ -105,18 +122,22 @@ def run_balance(state: "RunState", balance: dict[str, ModuleType], seed_A: float
             continue
         bmod = balance[BALANCE_METHODS[m][0]]
         t0 = time.perf_counter()
-        if BALANCE_METHODS[m][1] == "map":
+        if bmod is QUADRATURE:
+            br = _quadrature_energy(state, BALANCE_METHODS[m][1], seed_A, prm)
+        elif BALANCE_METHODS[m][1] == "map":
             br = iterate_balance_map(bmod, seed_A, seed_contact, c1, float(pert.eps), prm)
-        elif not bmod.UNIFORM:
-            state.warnings.append(f"{m} skipped: the perturbation is site-dependent ("
-                                  + ", ".join(pert.site_dependent or ("i",)) + "): use the balance map")
-            continue
+        elif not bmod.UNIFORM:  # coefficients varying along the chain (derive/site_law.py)
+            br = evaluate_site_law(bmod, pert, "balance", seed_A, float(seed_contact), state.contacts)
+            br = BalanceRun(bmod.MODEL, "law", br.contacts, br.A, br.peaks, br.ended or "ok",
+                            f"{br.ended} at contact index {br.ended_at:.6g}" if br.ended else "ODE solved (LSODA, rtol 1e-11)",
+                            br.ended_at, br.kind, bmod.SOURCE["profile"])
         else:
             br = evaluate_balance_law(bmod, seed_A, float(seed_contact), state.contacts, float(pert.eps), prm)
         state.timings[m] = time.perf_counter() - t0
         out["peaks"][m] = on_contacts(state.contacts, br.contacts, br.peaks)
         out[m] = {"model": MODEL_TITLES[m], "profile": br.profile, "status": br.status, "message": br.message,
-                  "ended_at": br.ended_at, "law_kind": br.law_kind, "generated": bmod.__name__}
+                  "ended_at": br.ended_at, "law_kind": br.law_kind,
+                  "generated": bmod.__name__ if bmod is not QUADRATURE else None}
         if br.status != "ok":
             state.warnings.append(f"{m}: {br.message}")
 
@@ -151,13 +172,13 @@ def run_map(state: "RunState", mod: ModuleType, seed_A: float, prm: dict) -> Non
 def run_longwave(state: "RunState", mod: ModuleType, seed_A: float, prm: dict) -> None:
     """The long-wave law (Eq. 30) from the seed; skipped for a site-dependent perturbation."""
     scene, out = state.scene, state.out
-    site = scene.perturbation.site_dependent
-    if site:
-        state.warnings.append("long-wave law skipped: the perturbation is site-dependent (" + ", ".join(site) + ")")
-        return
     t0 = time.perf_counter()
-    law = evaluate_law(mod, seed_A, float(scene.first_perturbed - 1), state.contacts,
-                       float(scene.perturbation.eps), prm)
+    if not mod.UNIFORM:  # coefficients varying along the chain (derive/site_law.py)
+        law = evaluate_site_law(mod, scene.perturbation, "longwave", seed_A, float(scene.first_perturbed - 1),
+                                state.contacts)
+    else:
+        law = evaluate_law(mod, seed_A, float(scene.first_perturbed - 1), state.contacts,
+                           float(scene.perturbation.eps), prm)
     state.timings["longwave"] = time.perf_counter() - t0
     out["peaks"]["longwave"] = on_contacts(state.contacts, law.contacts, law.peaks)
     out["longwave"] = {"model": MODEL_TITLES["longwave"], "kind": law.kind, "ended_at": law.ended_at,
@@ -172,11 +193,39 @@ def run_models(state: "RunState") -> None:
     mod, balance = derive_models(state)
     if mod is None and not balance:
         return
-    S0 = float(mod.S0 if mod is not None else next(iter(balance.values())).S0)
+    modules = [m for m in (mod, *balance.values()) if m is not None and m is not QUADRATURE]
+    S0 = float(modules[0].S0 if modules else exact_profile(state.scene.exponent).S0)
     seed_A = seed_models(state, S0)
     prm = _params(state.scene, state.scene.beads)
     run_balance(state, balance, seed_A, prm)
-    if "map" in state.methods:
+    if "map" in state.methods and mod is not None:
         run_map(state, mod, seed_A, prm)
-    if "longwave" in state.methods:
+    if "longwave" in state.methods and mod is not None:
         run_longwave(state, mod, seed_A, prm)
+
+
+class _Quadrature:
+    """Stands for the energy balance by quadrature (no generated module: R is not a polynomial)."""
+
+    def __repr__(self) -> str:
+        return "QUADRATURE"
+
+
+QUADRATURE = _Quadrature()
+
+
+def _quadrature_energy(state: "RunState", form: str, seed_A: float, prm: dict) -> BalanceRun:
+    """Energy map or law for a non-polynomial R: W(A) by quadrature over the wave with the DNS's force
+    module (solvers/models/energy_quadrature.py); bead parameters from the scene."""
+    scene = state.scene
+    pert = scene.perturbation
+    fmod = force_module(pert.text, pert.used_parameters)
+
+    def params_at(bead: float) -> tuple:
+        return tuple(float(pert.values_at(name, [bead])[0]) for name in fmod.PARAMS)
+
+    F = bead_force(fmod, float(pert.eps), params_at)
+    seed_contact = scene.first_perturbed - 1
+    if form == "map":
+        return iterate_energy_map(F, scene.exponent, seed_A, seed_contact, scene.contacts[1])
+    return evaluate_energy_law(F, scene.exponent, seed_A, float(seed_contact), state.contacts)

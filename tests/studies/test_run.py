@@ -54,10 +54,11 @@ def test_map_and_law_agree_with_each_other_for_small_eps():
     assert np.max(np.abs(m - lw) / lw) < 0.05
 
 
-def test_site_dependent_scene_skips_the_law():
+def test_site_dependent_scene_solves_the_law_with_bead_coefficients():
     res = run_scene(_small("fig13-seed1", 30), methods=["map", "longwave"])
-    assert res["peaks"]["longwave"] is None
-    assert any("site-dependent" in w for w in res["warnings"])
+    assert res["peaks"]["longwave"][0] is not None
+    assert res["longwave"]["kind"] == "quadrature (site-dependent)"
+    assert not any("skipped" in w for w in res["warnings"])
 
 
 def test_van_der_pol_mu3_both_impulses_approach_the_stable_root():
