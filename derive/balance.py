@@ -43,7 +43,7 @@ import sympy
 from .expansion import bead_symbol, check_polynomial_at_rest, exact_exponent
 from .expression import symbol
 from .integrals import Constant, _scalar_funcs, cached_constants
-from .longwave import A0, I, I0, law_data, law_lines
+from .longwave import A0, I, I0, check_law_inputs, law_data, law_lines
 from .perturbation import Perturbation, param_data
 from .provenance import provenance
 from .profile import check_exponent, check_profile_kind, exact_profile, get_profile
@@ -281,8 +281,9 @@ class BalanceLaw:
             return None
         return self.law.xreplace({K_RATE: sympy.Float(self.rate(), 17)})
 
-    def _rhs(self, b: float) -> float:
-        return sum(c * b ** float(p) for c, p in zip(self.coefficients, self.powers))
+    def _rhs(self, b: float):
+        """sum C_p B^p in mpmath (no overflow or underflow of B^p)."""
+        return sum(c * mpmath.mpf(b) ** float(p) for c, p in zip(self.coefficients, self.powers))
 
     def singular_index(self, a0: float, i0: float = 0.0) -> tuple[float | None, str]:
         """(index, what) where A(i) reaches 0 ("extinction") or infinity ("blow-up"), else None and why."""
@@ -294,7 +295,9 @@ class BalanceLaw:
             p, k = float(self.powers[0]), self.rate()
             if k == 0 or p == 1.0:
                 return None, "exponential law: no finite-index singularity" if k else "zero coefficient: A constant"
-            index = i0 - a0 ** (float(self.Q) * (1 - p)) / ((1 - p) * k)
+            index = float(i0 - mpmath.mpf(a0) ** (float(self.Q) * (1 - p)) / ((1 - p) * k))
+            if not math.isfinite(index):
+                return None, "never singular at a finite index"
             if index <= i0:
                 return None, ("decays" if k < 0 else "grows") + " algebraically, never singular"
             return index, "extinction (A -> 0)" if p < 1 else "blow-up (A -> inf)"
@@ -421,6 +424,7 @@ def derive_balance(
 ) -> BalanceDerivation:
     """Derive the energy- or momentum-balance map and law for ``pert`` (module docstring)."""
     t0 = time.perf_counter()
+    A0_value, i0, sympy_seconds = check_law_inputs(A0_value, i0, sympy_seconds, BalanceError)
     model = check_model(model)
     n = check_exponent(n)
     profile = check_profile_kind(profile)

@@ -18,7 +18,7 @@ from . import balance
 from .amplitude_map import EPS, AmplitudeMap, check_variant, integral_symbol, latex_names
 from .expansion import Expansion, expand
 from .integrals import F_NAMES, constants
-from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, law_data, law_lines, longwave_law
+from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, check_law_inputs, law_data, law_lines, longwave_law
 from .perturbation import Perturbation
 from .profile import check_exponent, check_profile_kind, get_profile
 from .site_law import SiteLaw, coefficient_of_i, site_law
@@ -69,6 +69,7 @@ def derive_all(
     """Derive the map, the long-wave law and the stationary equation for ``pert`` (Eqs. 9-41)."""
     times: dict[str, float] = {}
     t0 = time.perf_counter()
+    A0_value, i0, sympy_seconds = check_law_inputs(A0_value, i0, sympy_seconds, DerivationError)
     n = check_exponent(n)
     profile = check_profile_kind(profile)
     variant = check_variant(variant)

@@ -13,6 +13,7 @@ derived here, never copied from the paper (ERRATA items 1-3).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mpmath
@@ -32,6 +33,48 @@ I0 = sympy.Symbol("i_0", real=True)
 
 class LongwaveError(ValueError):
     """The long-wave law cannot be formed (site-dependent R, no perturbation)."""
+
+
+#: Initial amplitudes a law accepts: B = A0^P and the law's terms between A0/1e16 and 1e16 A0 stay
+#: within float range for every supported n (P <= 10.5).
+A0_RANGE = (1e-12, 1e12)
+#: Largest |i0| (a contact index).
+I0_LIMIT = 1e12
+#: Largest time bound for sympy's closed-form integration, in seconds.
+SYMPY_SECONDS_MAX = 3600.0
+
+
+def _real(what: str, value: object, error: type[ValueError], valid: str) -> float:
+    if isinstance(value, (bool, str)):
+        raise error(f"{what} must be a number ({valid}), got {value!r}")
+    try:
+        number = float(value)  # int, float, numpy scalars, Fractions
+    except (TypeError, ValueError):
+        raise error(f"{what} must be a number ({valid}), got {value!r}") from None
+    if not math.isfinite(number):
+        raise error(f"{what} = {number} is not a finite number: give {valid}")
+    return number
+
+
+def check_law_inputs(A0: float | None, i0: float, sympy_seconds: float,
+                     error: type[ValueError] = LongwaveError) -> tuple[float | None, float, float]:
+    """(A0, i0, sympy_seconds) as floats if each is a finite number in its range, else ``error`` naming
+    the option and the range (A0 in [1e-12, 1e12] or None, |i0| <= 1e12, 0 <= sympy_seconds <= 3600)."""
+    lo, hi = A0_RANGE
+    if A0 is not None:
+        a0 = _real("A0", A0, error, f"{lo:g} <= A0 <= {hi:g}")
+        if not lo <= a0 <= hi:
+            raise error(f"A0 = {a0:g} is outside {lo:g} <= A0 <= {hi:g}: the initial amplitude must be > 0, and "
+                        "the law's terms must stay finite floats")
+        A0 = a0
+    i0 = _real("i0", i0, error, f"|i0| <= {I0_LIMIT:g}")
+    if abs(i0) > I0_LIMIT:
+        raise error(f"i0 = {i0:g} is outside |i0| <= {I0_LIMIT:g}: i0 is the contact index of A0")
+    seconds = _real("sympy_seconds", sympy_seconds, error, f"0 <= sympy_seconds <= {SYMPY_SECONDS_MAX:g}")
+    if not 0 <= seconds <= SYMPY_SECONDS_MAX:
+        raise error(f"sympy_seconds = {seconds:g} is outside 0 <= sympy_seconds <= {SYMPY_SECONDS_MAX:g} "
+                    "(0 skips sympy's closed-form integration)")
+    return A0, i0, seconds
 
 
 @dataclass(frozen=True)
@@ -92,15 +135,18 @@ class LongwaveLaw:
                 return None, "zero coefficient: A stays constant"
             if p == 1.0:
                 return None, "exponential law: no finite-index singularity"
-            base0 = a0 ** (P * (1 - p))
-            index = i0 - base0 / ((1 - p) * k)
+            base0 = mpmath.mpf(a0) ** (P * (1 - p))  # mpmath: no overflow for large A0 or p
+            index = float(i0 - base0 / ((1 - p) * k))
+            if not math.isfinite(index):
+                return None, "never singular at a finite index"
             if index <= i0:
                 return None, ("decays algebraically" if k < 0 else "grows algebraically") + ", never singular"
             return index, "extinction (A -> 0)" if 1 - p > 0 else "blow-up (A -> inf)"
         return self._singular_by_quadrature(a0, i0)
 
     def _rhs(self, b):
-        return sum(c * b ** float(p) for c, p in zip(self.coefficients, self.powers))
+        """eps-free right-hand side sum C_p B^p in mpmath (no overflow or underflow of B^p)."""
+        return sum(c * mpmath.mpf(b) ** float(p) for c, p in zip(self.coefficients, self.powers))
 
     def _singular_by_quadrature(self, a0: float, i0: float):
         """Eq. 31a by quadrature: the index where B reaches 0 or infinity, if finite."""

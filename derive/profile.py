@@ -27,8 +27,13 @@ from .sources import PROFILE_KINDS
 
 #: Grid points per unit of tau; shifts by one are exact shifts of NPU nodes.
 NPU = 256
+#: Supported contact exponents: near 1 the wave is wide and slow to compute (n = 1.01: ~20 s).
+N_MIN, N_MAX = 1.01, 20.0
 #: Relative size below which the tails count as zero when sizing the domain.
 TAIL = 1e-15
+#: Profile values below this count as zero inside the iteration: the super-exponential tails
+#: otherwise become subnormal floats, on which numpy's power is ~100x slower (issue 14).
+FLUSH = 1e-250
 
 
 class ProfileError(ValueError):
@@ -47,8 +52,14 @@ def check_exponent(n: float) -> float:
         raise ProfileError(
             f"exponent n must be a finite number > 1 (Hertz: 1.5), got {n!r}"
         )
-    if value > 20.0:
-        raise ProfileError(f"exponent n = {n!r} is outside the supported range 1 < n <= 20")
+    if value < N_MIN:
+        raise ProfileError(
+            f"exponent n = {n!r} is too close to 1: supported {N_MIN:g} <= n <= {N_MAX:g} (the solitary wave "
+            "widens like (n - 1)^(-1/2) and its Petviashvili iteration needs ~1/(n - 1) steps; n = 1 is the "
+            "linear chain, which has no solitary wave)"
+        )
+    if value > N_MAX:
+        raise ProfileError(f"exponent n = {n!r} is outside the supported range {N_MIN:g} <= n <= {N_MAX:g}")
     return value
 
 
@@ -139,6 +150,15 @@ class Profile:
 
 
 # ---------------------------------------------------------------------- exact profile
+_DOT_BLOCK = 8192
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """Inner product in blocks of 8192: OpenBLAS threads a longer dot, which on a busy machine runs
+    up to 1000x slower (n near 1 needs a longer grid); one block is exactly ``np.dot``."""
+    return sum(float(np.dot(a[k : k + _DOT_BLOCK], b[k : k + _DOT_BLOCK])) for k in range(0, len(a), _DOT_BLOCK))
+
+
 def _petviashvili(n: float, half_length: float, tol: float, maxit: int):
     """Petviashvili iteration for S = Lambda * S_+^n on [-half_length, half_length)."""
     m = int(round(2 * half_length * NPU))
@@ -150,8 +170,10 @@ def _petviashvili(n: float, half_length: float, tol: float, maxit: int):
     s = np.exp(-(tau**2) / 2.0)
     step = np.inf
     for it in range(1, maxit + 1):
-        conv = np.fft.irfft(hat * np.fft.rfft(np.maximum(s, 0.0) ** n), n=m)
-        stab = np.dot(s, s) / np.dot(s, conv)  # Petviashvili stabilising factor
+        pos = np.maximum(s, 0.0)
+        pos[pos < FLUSH] = 0.0
+        conv = np.fft.irfft(hat * np.fft.rfft(pos**n), n=m)
+        stab = _dot(s, s) / _dot(s, conv)  # Petviashvili stabilising factor
         new = stab**gamma * conv
         step = float(np.max(np.abs(new - s)) / np.max(new))
         s = new
@@ -159,7 +181,7 @@ def _petviashvili(n: float, half_length: float, tol: float, maxit: int):
             break
     else:
         raise ProfileError(
-            f"Petviashvili iteration for n = {n:g} did not converge in {maxit} steps "
+            f"Petviashvili iteration for n = {n!r} did not converge in {maxit} steps "
             f"(last step {step:.1e})"
         )
     # Enforce the exact symmetry of the even solution (removes FFT round-off asymmetry).

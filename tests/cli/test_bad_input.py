@@ -81,7 +81,22 @@ CLI = [
     ("eps 1e400", ["derive", "-mu*v", "--param", "mu=1", "--eps", "1e400"], ["eps", "not finite"]),
     ("n = 1", ["derive", "-mu*v", "--param", "mu=1", "--n", "1"], ["exponent n", "> 1"]),
     ("n = inf", ["profile", "--n", "inf"], ["exponent n", "finite"]),
-    ("A0 negative", ["derive", "-mu*v", "--param", "mu=1", "--A0", "-1"], ["A0", "> 0"]),
+    ("A0 negative", ["derive", "-mu*v", "--param", "mu=1", "--A0", "-1"], ["A0", "1e-12 <= A0 <= 1e+12"]),
+    # derive's numeric options: never a nan/inf law with exit 0 (issue 14)
+    ("A0 nan", ["derive", "-mu*v", "--param", "mu=1", "--A0", "nan"], ["A0 = nan", "1e-12 <= A0 <= 1e+12"]),
+    ("A0 inf", ["derive", "-mu*v", "--param", "mu=1", "--A0", "inf"], ["A0 = inf", "1e-12 <= A0 <= 1e+12"]),
+    ("A0 too large", ["derive", "-mu*v+u^3", "--param", "mu=1", "--A0", "1e300"], ["A0 = 1e+300", "outside"]),
+    ("A0 underflows", ["derive", "-mu*v+u^3", "--param", "mu=1", "--A0", "1e-300"], ["A0 = 1e-300", "outside"]),
+    ("A0 nan, balance", ["derive", "-mu*v", "--param", "mu=1", "--A0", "nan", "--model", "energy"], ["A0 = nan"]),
+    ("i0 nan", ["derive", "-mu*v", "--param", "mu=1", "--i0", "nan"], ["i0 = nan", "|i0| <= 1e+12"]),
+    ("i0 inf", ["derive", "-mu*v", "--param", "mu=1", "--i0", "inf"], ["i0 = inf"]),
+    ("sympy-seconds nan", ["derive", "-mu*v", "--param", "mu=1", "--sympy-seconds", "nan"], ["sympy_seconds = nan"]),
+    ("sympy-seconds negative", ["derive", "-mu*v", "--param", "mu=1", "--sympy-seconds", "-1"],
+     ["sympy_seconds = -1", "0 <= sympy_seconds <= 3600"]),
+    ("n just above 1", ["derive", "-mu*v", "--param", "mu=1", "--n", "1.0000001"],
+     ["n = 1.0000001", "1.01 <= n <= 20", "(n - 1)^(-1/2)"]),
+    ("profile: n just above 1", ["profile", "--n", "1.0000001"], ["n = 1.0000001", "1.01 <= n <= 20"]),
+    ("profile: n too large", ["profile", "--n", "21"], ["n = 21.0", "1.01 <= n <= 20"]),
     ("dps not an integer", ["profile", "--dps", "many"], ["--dps", "invalid int value"]),
     # choices
     ("unknown profile", ["profile", "--profile", "spline"], ["unknown profile 'spline'", "exact, pade"]),
@@ -290,6 +305,12 @@ def _profile_error():
     return ProfileError
 
 
+def _derivation_error():
+    from pulsemap.derive.derivation import DerivationError
+
+    return DerivationError
+
+
 def _map_variant_error():
     from pulsemap.derive.amplitude_map import MapError
 
@@ -333,6 +354,10 @@ API: list[tuple[str, Callable[[], object], Callable[[], type], list[str]]] = [
     ("map: last contact before seed", lambda: _iterate(1.0, 15, 10), _map_error, ["last contact 10", "seed contact 15"]),
     ("derive: n <= 1", lambda: _derive(n=0.9), _profile_error, ["exponent n", "> 1"]),
     ("derive: unknown variant", lambda: _derive(variant="2d"), _map_variant_error, ["variant '2d'"]),
+    ("derive: A0 nan", lambda: _derive(A0_value=math.nan), _derivation_error, ["A0 = nan", "1e-12 <= A0"]),
+    ("derive: A0 a string", lambda: _derive(A0_value="1"), _derivation_error, ["A0 must be a number"]),
+    ("derive: i0 inf", lambda: _derive(i0=math.inf), _derivation_error, ["i0 = inf"]),
+    ("derive: n = 1 + 1e-7", lambda: _derive(n=1.0000001), _profile_error, ["n = 1.0000001", "1.01 <= n"]),
 ]
 
 

@@ -285,3 +285,26 @@ def test_zero_perturbation_gives_a_constant_law(model, capsys):
     data = json.loads(captured.out)
     law = data.get("law") or data.get("longwave")
     assert law["kind"] == "constant" and law["law"] == "A_0"
+
+
+@pytest.mark.parametrize("R, A0", [("-mu*v + u^7", 1e12), ("-mu*v + u^7", 1e-12), ("-mu*v", 1e12), ("-mu*v + v^9", 1e-12)])
+def test_singular_index_at_the_ends_of_the_A0_range_is_finite_or_none(R, A0):
+    """B = A0^P and B^p are taken in mpmath: no OverflowError, no 'stationary' from an underflow."""
+    d = derive_all(make_perturbation(R, 0.1, {"mu": 1.0}), A0_value=A0, sympy_seconds=0)
+    index, what = d.longwave.singular_index(A0)
+    assert index is None or np.isfinite(index)
+    assert "stationary amplitude" not in what or len(d.longwave.powers) > 1 and d.stationary.roots
+    assert "nan" not in to_text(d) and "inf " not in to_text(d)
+
+
+@pytest.mark.parametrize("kw, needle", [({"A0_value": float("nan")}, "A0 = nan"), ({"A0_value": 0.0}, "A0 = 0"),
+                                        ({"i0": float("inf")}, "i0 = inf"), ({"sympy_seconds": -1}, "sympy_seconds = -1")])
+def test_law_options_out_of_range_are_refused(kw, needle):
+    from pulsemap.derive.balance import BalanceError, derive_balance
+    from pulsemap.derive.derivation import DerivationError
+
+    pert = make_perturbation("-mu*v", 0.1, {"mu": 1.0})
+    with pytest.raises(DerivationError, match=needle.replace("(", r"\(")):
+        derive_all(pert, **kw)
+    with pytest.raises(BalanceError, match=needle):
+        derive_balance(pert, "energy", **kw)

@@ -107,3 +107,29 @@ def test_bad_exponent_is_a_clear_error(bad):
 def test_unknown_profile_name():
     with pytest.raises(ProfileError, match="unknown profile 'spline'.*exact, pade"):
         get_profile("spline", 1.5)
+
+
+def test_near_one_the_profile_is_wide_and_still_solves_eq4():
+    """n = 1.05 needs a grid longer than 8192 nodes (tail ~ 15): the blocked inner product keeps it fast."""
+    p = exact_profile(1.05)
+    assert p.residual < 1e-9 and p.tail > 12.0
+    tau = np.linspace(-10.0, 10.0, 2001) + 0.0031
+    assert np.max(np.abs(equation4_residual(p, tau))) < 1e-9
+    # wider than the Hertz wave (width ~ (n - 1)^(-1/2))
+    assert p.half_width > 1.5 * exact_profile(1.5).half_width
+
+
+def test_blocked_inner_product_is_np_dot_for_one_block():
+    from pulsemap.derive.profile import _dot
+
+    rng = np.random.default_rng(3)
+    a, b = rng.normal(size=8192), rng.normal(size=8192)
+    assert _dot(a, b) == float(np.dot(a, b))
+    a, b = rng.normal(size=3 * 8192 + 5), rng.normal(size=3 * 8192 + 5)
+    assert _dot(a, b) == pytest.approx(float(np.dot(a, b)), rel=1e-12)
+
+
+@pytest.mark.parametrize("n", [1.0000001, 1.009])
+def test_exponent_too_close_to_one_states_the_bound(n):
+    with pytest.raises(ProfileError, match=r"n = 1\.0.* is too close to 1: supported 1\.01 <= n <= 20"):
+        get_profile("exact", n)
