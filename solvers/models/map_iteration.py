@@ -76,25 +76,8 @@ def contact_params(module: ModuleType, params: Mapping[str, object], contact: in
 
     ``params`` maps parameter names to a scalar or a per-bead array (bead k at index k - 1).
     """
-    out = []
-    for base, offset in module.ARGS:  # (parameter, bead offset); ("i", 0) is the bead index
-        if base == "i":
-            out.append(float(contact))
-            continue
-        if base not in params:
-            raise MapIterationError(f"the map needs a value for parameter '{base}'")
-        value = params[base]
-        if np.ndim(value) == 0:
-            out.append(float(value))
-        else:
-            arr = np.asarray(value, dtype=float)
-            k = contact + offset  # bead index (1-based)
-            if k > arr.size:
-                raise MapIterationError(
-                    f"parameter '{base}' has values for {arr.size} beads; contact {contact} needs bead {k}"
-                )
-            out.append(float(arr[k - 1]))
-    return tuple(out)
+    values = contact_params_table(module, params, np.array([contact]))
+    return tuple(float(v) if np.ndim(v) == 0 else float(v[0]) for v in values)
 
 
 def _newton(module, a_prev: float, guess: tuple[float, ...], eps: float, args: tuple) -> tuple[float, ...] | None:
@@ -200,9 +183,9 @@ def has_power_table(module: ModuleType) -> bool:
 def contact_params_table(module: ModuleType, params: Mapping[str, object], contacts: Array) -> tuple:
     """:func:`contact_params` for many contacts at once: a scalar per uniform parameter, an array
     (one value per contact) per site-dependent one and for ``i``."""
-    contacts = np.asarray(contacts, dtype=int)
+    contacts = np.asarray(contacts, dtype=int).reshape(-1)
     if contacts.size == 0:
-        return contact_params(module, params, 1)
+        contacts = np.array([1])
     out = []
     for base, offset in module.ARGS:
         if base == "i":
