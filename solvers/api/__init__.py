@@ -1,0 +1,16 @@
+"""The public Python API of pulsemap: derive a law, load a scene, run it, list the built-in scenes.
+
+``pulsemap.derive``, ``pulsemap.scene``, ``pulsemap.run`` and ``pulsemap.scenes`` are these
+functions; :class:`Derivation` and :class:`Result` are what they return. Every other module
+of the package is internal and may change between versions.
+
+Importing this package is cheap: sympy, scipy and numpy are imported when a function first
+needs them.
+"""
+
+from pulsemap.solvers.api.derivation import Derivation, derive
+from pulsemap.solvers.api.result import Result
+from pulsemap.solvers.api.running import run
+from pulsemap.solvers.api.scenes import scene, scenes
+
+__all__ = ["Derivation", "Result", "derive", "run", "scene", "scenes"]

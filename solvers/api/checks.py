@@ -1,0 +1,42 @@
+"""Argument checks of the public API: TypeError for a wrong type, ValueError for a wrong value,
+each naming the argument and, for a choice, the closest allowed value."""
+
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+import re
+from typing import Any, Iterable
+
+
+def closest(word: str, known: Iterable[str]) -> str:
+    """' (did you mean 'x'?)' for the closest of ``known``, or ''."""
+    match = difflib.get_close_matches(str(word), list(known), n=1)
+    return f" (did you mean '{match[0]}'?)" if match else ""
+
+
+def number(value: Any, name: str) -> float:
+    """``value`` as a finite float; TypeError unless it is a real number (not a bool)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__} {value!r}")
+    out = float(value)
+    if not math.isfinite(out):
+        raise ValueError(f"{name} = {out} is not finite: give a finite number")
+    return out
+
+
+def choice(value: Any, name: str, choices: Iterable[str]) -> str:
+    """``value`` if it is one of ``choices``; TypeError for a non-string, ValueError naming the closest."""
+    choices = tuple(choices)
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be a string, one of {', '.join(choices)}; got {type(value).__name__} {value!r}")
+    if value not in choices:
+        raise ValueError(f"unknown {name} {value!r}{closest(value, choices)}: choose one of {', '.join(choices)}")
+    return value
+
+
+def api_hint(message: str) -> str:
+    """Rewrite command-line advice for a Python caller (``--param mu=VALUE`` -> ``mu=VALUE``)."""
+    message = re.sub(r"--param (\w+)=VALUE", r"\1=VALUE as a keyword argument", message)
+    return " ".join(message.split())

@@ -1,0 +1,102 @@
+"""``pulsemap.scene`` and ``pulsemap.scenes``: load a scene (built-in, file or dict) with overrides.
+
+Overrides name a key of the scene file, dotted (``**{"perturbation.eps": 0.2}``,
+``**{"perturbation.params.mu": 3}``) or by its last part when that is unambiguous (``eps=0.2``,
+``contacts=(16, 60)``, ``mu=3`` for a parameter of R). The scene is then validated as a file is.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+from pulsemap.solvers.api.checks import closest
+from pulsemap.solvers.data.scene import Scene, builtin_scenes, load_scene, parse_scene
+
+__all__ = ["scene", "scenes"]
+
+#: Every key of a scene file, dotted, except the parameters of R (perturbation.params.NAME).
+KEYS = (
+    "name",
+    "chain.beads", "chain.exponent", "chain.first_perturbed",
+    "excitation.velocity",
+    "perturbation.R", "perturbation.eps", "perturbation.params",
+    "output.contacts", "output.methods",
+    "model.profile", "model.variant",
+    "dns.rtol", "dns.atol", "dns.method",
+)
+#: Short names: the last part of each dotted key.
+SHORT = {key.rsplit(".", 1)[-1]: key for key in KEYS}
+
+
+def scenes() -> list[str]:
+    """Names of the built-in scenes (the paper's figures and the Van der Pol chains), sorted."""
+    return builtin_scenes()
+
+
+def scene(name_or_path: "str | Path | Mapping[str, Any] | Scene", **overrides: Any) -> Scene:
+    """A validated scene: a built-in name (:func:`scenes`; "default" too), a path to a ``.toml`` file,
+    a dict laid out as a scene file, or a Scene; with ``overrides`` applied (see the module docstring).
+
+    >>> sc = scene("fig8-eps0.3", **{"perturbation.eps": 0.2, "output.contacts": [16, 40]})  # doctest: +SKIP
+
+    Raises TypeError for a wrong type, ValueError (pulsemap's SceneError) naming the key for an
+    unknown key (with the closest one) or a bad value.
+    """
+    if isinstance(name_or_path, Scene):
+        base = name_or_path
+    elif isinstance(name_or_path, (str, Path)):
+        base = load_scene(name_or_path)
+    elif isinstance(name_or_path, Mapping):
+        base = parse_scene(name_or_path, str(name_or_path.get("source") or "<dict>"))
+    else:
+        raise TypeError(f"name_or_path must be a built-in scene name, a path, a dict or a Scene, "
+                        f"got {type(name_or_path).__name__}")
+    if not overrides:
+        return base
+    data = base.as_dict()
+    params = data["perturbation"]["params"]
+    dotted = {_resolve(key, params): value for key, value in overrides.items()}
+    for key, value in dotted.items():
+        _set(data, key, value)
+    if "perturbation.R" in dotted and not any(k.startswith("perturbation.params") for k in dotted):
+        _drop_unused(data)
+    return parse_scene(data, data.get("source") or "<dict>")
+
+
+def _resolve(key: str, params: Mapping[str, Any]) -> str:
+    """The dotted key an override names; ValueError with the closest key when it names none."""
+    if key in KEYS:
+        return key
+    if key in SHORT:
+        return SHORT[key]
+    if key.startswith("perturbation.params.") and key.count(".") == 2:
+        return key
+    if key in params:
+        return f"perturbation.params.{key}"
+    known = list(KEYS) + list(SHORT) + [f"perturbation.params.{p}" for p in params] + list(params)
+    raise ValueError(f"unknown scene key {key!r}{closest(key, known)}: give a key of the scene file, dotted "
+                     "(e.g. 'perturbation.eps', 'perturbation.params.mu') or its last part (eps, mu)")
+
+
+def _set(data: dict, dotted: str, value: Any) -> None:
+    parts = dotted.split(".")
+    node = data
+    for part in parts[:-1]:
+        node = node.setdefault(part, {})
+    if isinstance(value, tuple):
+        value = list(value)
+    node[parts[-1]] = value
+
+
+def _drop_unused(data: dict) -> None:
+    """A new R without new parameters keeps the parameters it still uses (as Scene.with_overrides)."""
+    from pulsemap.derive.expression import ExpressionError
+    from pulsemap.derive.perturbation import PerturbationError, make_perturbation
+
+    pert = data["perturbation"]
+    try:
+        used = make_perturbation(pert["R"], float(pert["eps"]), pert["params"]).used_parameters
+    except (PerturbationError, ExpressionError, TypeError, ValueError):
+        return  # parse_scene reports the problem in the scene's words
+    pert["params"] = {k: v for k, v in pert["params"].items() if k in used}
