@@ -1,8 +1,10 @@
 """On-disk cache for expensive, deterministic results (integrals, kappa_n, generated code).
 
-The location is ``$PULSEMAP_CACHE_DIR`` if set, else ``~/.cache/pulsemap``. Entries are small
-JSON files keyed by a string that names everything the value depends on; a corrupt or
-unreadable entry is treated as missing.
+The location is the user's cache directory, never the installed package: ``$PULSEMAP_CACHE_DIR``
+if set, else ``$XDG_CACHE_HOME/pulsemap`` (the XDG rule; only an absolute path counts), else
+``~/.cache/pulsemap``. Entries are small JSON files keyed by a string that names everything the
+value depends on; a corrupt or unreadable entry is treated as missing. Generated code the
+shipped ``generated/`` folder lacks is written to its ``generated/`` subfolder.
 """
 
 from __future__ import annotations
@@ -15,11 +17,31 @@ from pathlib import Path
 from typing import Any
 
 
+class CacheDirError(OSError):
+    """The cache directory cannot be created; the message names it and the fix."""
+
+
+def cache_root() -> Path:
+    """Where the cache lives (not created): $PULSEMAP_CACHE_DIR, $XDG_CACHE_HOME/pulsemap, ~/.cache/pulsemap."""
+    root = os.environ.get("PULSEMAP_CACHE_DIR")
+    if root:
+        return Path(root).expanduser()
+    xdg = os.environ.get("XDG_CACHE_HOME", "")
+    if xdg and Path(xdg).is_absolute():  # the XDG spec: a relative value is invalid and ignored
+        return Path(xdg) / "pulsemap"
+    return Path.home() / ".cache" / "pulsemap"
+
+
 def cache_dir() -> Path:
     """The cache directory (created on demand)."""
-    root = os.environ.get("PULSEMAP_CACHE_DIR")
-    path = Path(root) if root else Path.home() / ".cache" / "pulsemap"
-    path.mkdir(parents=True, exist_ok=True)
+    path = cache_root()
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CacheDirError(
+            f"cannot create the cache directory {path} ({exc.strerror or exc}): "
+            "set PULSEMAP_CACHE_DIR to a writable folder"
+        ) from None
     return path
 
 

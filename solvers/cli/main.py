@@ -298,7 +298,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
                 continue
             written.add(key)
             try:  # write() builds the text before it touches the disk: a refused model writes no file
-                path = codegen.write(src, args.into or codegen.PACKAGE_DIR)
+                path = codegen.write(src, args.into)  # default: the user cache, never the installed package
             except ValueError as exc:
                 if not isinstance(src, codegen.BalanceSource):
                     raise
@@ -367,7 +367,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("generate", help="write the generated modules that scenes use (default: all built-in)")
     p.add_argument("scenes", nargs="*", metavar="SCENE")
-    p.add_argument("--into", metavar="DIR", help="target directory (default: the package's generated/)")
+    p.add_argument("--into", metavar="DIR",
+                   help="target directory (default: the user cache, $PULSEMAP_CACHE_DIR/generated; the shipped "
+                        "generated/ is read-only: maintainers regenerate it with --into generated)")
     p.add_argument("--profile", help="exact or pade (default: the scene's)")
     p.add_argument("--variant", help="paper, corrected or 1d (default: the scene's)")
     p.set_defaults(func=cmd_generate)
