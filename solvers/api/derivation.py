@@ -19,7 +19,7 @@ class Derivation:
     """Everything derived for one perturbation eps R(u, v), with the choices that produced it.
 
     Equations are text in sympy's notation (``str``); :attr:`latex` has them in LaTeX. Integrals
-    of the solitary-wave profile appear as symbols (f1 ... f7, g1_..., g2_...) whose values are in
+    of the solitary-wave profile appear as symbols (``f1`` ... ``f7``, ``g1_klmq``, ``g2_pr``) whose values are in
     :attr:`constants`. Build one with :func:`pulsemap.derive`.
     """
 

@@ -11,20 +11,14 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from pulsemap.solvers.api.checks import closest
+from pulsemap.solvers.data.overrides import set_key
 from pulsemap.solvers.data.scene import Scene, builtin_scenes, load_scene, parse_scene
+from pulsemap.solvers.data.scene_schema import _SCHEMA, _TABLES
 
 __all__ = ["scene", "scenes"]
 
-#: Every key of a scene file, dotted, except the parameters of R (perturbation.params.NAME).
-KEYS = (
-    "name",
-    "chain.beads", "chain.exponent", "chain.first_perturbed",
-    "excitation.velocity",
-    "perturbation.R", "perturbation.eps", "perturbation.params",
-    "output.contacts", "output.methods",
-    "model.profile", "model.variant",
-    "dns.rtol", "dns.atol", "dns.method",
-)
+#: Every key of a scene file, dotted (the scene file's schema), except the parameters of R.
+KEYS = ("name",) + tuple(f"{table}.{key}" for table in _TABLES for key in _SCHEMA[table])
 #: Short names: the last part of each dotted key.
 SHORT = {key.rsplit(".", 1)[-1]: key for key in KEYS}
 
@@ -58,7 +52,7 @@ def scene(name_or_path: "str | Path | Mapping[str, Any] | Scene", **overrides: A
     params = data["perturbation"]["params"]
     dotted = {_resolve(key, params): value for key, value in overrides.items()}
     for key, value in dotted.items():
-        _set(data, key, value)
+        set_key(data, key, list(value) if isinstance(value, tuple) else value)
     if "perturbation.R" in dotted and not any(k.startswith("perturbation.params") for k in dotted):
         _drop_unused(data)
     return parse_scene(data, data.get("source") or "<dict>")
@@ -77,16 +71,6 @@ def _resolve(key: str, params: Mapping[str, Any]) -> str:
     known = list(KEYS) + list(SHORT) + [f"perturbation.params.{p}" for p in params] + list(params)
     raise ValueError(f"unknown scene key {key!r}{closest(key, known)}: give a key of the scene file, dotted "
                      "(e.g. 'perturbation.eps', 'perturbation.params.mu') or its last part (eps, mu)")
-
-
-def _set(data: dict, dotted: str, value: Any) -> None:
-    parts = dotted.split(".")
-    node = data
-    for part in parts[:-1]:
-        node = node.setdefault(part, {})
-    if isinstance(value, tuple):
-        value = list(value)
-    node[parts[-1]] = value
 
 
 def _drop_unused(data: dict) -> None:
