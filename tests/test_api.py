@@ -135,6 +135,8 @@ def test_scene_overrides_dotted_and_short():
     assert dict(d.perturbation.params) == {"mu": 1.0, "nu": 0.5}
     e = pulsemap.scene("default", R="-u*v")  # parameters the new R does not use are dropped
     assert dict(e.perturbation.params) == {}
+    f = pulsemap.scene("default", R="alpha*u", **{"perturbation.params.alpha": -1})
+    assert dict(f.perturbation.params) == {"alpha": -1.0}
     assert pulsemap.scene(a.as_dict()) == a
 
 

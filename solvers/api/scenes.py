@@ -7,6 +7,7 @@ Overrides name a key of the scene file, dotted (``**{"perturbation.eps": 0.2}``,
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -53,8 +54,9 @@ def scene(name_or_path: "str | Path | Mapping[str, Any] | Scene", **overrides: A
     dotted = {_resolve(key, params): value for key, value in overrides.items()}
     for key, value in dotted.items():
         set_key(data, key, list(value) if isinstance(value, tuple) else value)
-    if "perturbation.R" in dotted and not any(k.startswith("perturbation.params") for k in dotted):
-        _drop_unused(data)
+    if "perturbation.R" in dotted and "perturbation.params" not in dotted:
+        given = {key.rsplit(".", 1)[-1] for key in dotted if key.startswith("perturbation.params.")}
+        _drop_unused(data, given)
     return parse_scene(data, data.get("source") or "<dict>")
 
 
@@ -73,14 +75,10 @@ def _resolve(key: str, params: Mapping[str, Any]) -> str:
                      "(e.g. 'perturbation.eps', 'perturbation.params.mu') or its last part (eps, mu)")
 
 
-def _drop_unused(data: dict) -> None:
-    """A new R without new parameters keeps the parameters it still uses (as Scene.with_overrides)."""
-    from pulsemap.derive.expression import ExpressionError
-    from pulsemap.derive.perturbation import PerturbationError, make_perturbation
-
+def _drop_unused(data: dict, given: set[str]) -> None:
+    """A new R keeps the old parameters whose names it still contains and the ones given with it
+    (as Scene.with_overrides); parse_scene then checks that R uses every parameter left."""
     pert = data["perturbation"]
-    try:
-        used = make_perturbation(pert["R"], float(pert["eps"]), pert["params"]).used_parameters
-    except (PerturbationError, ExpressionError, TypeError, ValueError):
-        return  # parse_scene reports the problem in the scene's words
-    pert["params"] = {k: v for k, v in pert["params"].items() if k in used}
+    R = pert.get("R")
+    names = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", R)) if isinstance(R, str) else set()
+    pert["params"] = {k: v for k, v in pert["params"].items() if k in names or k in given}
