@@ -5,7 +5,7 @@ With P = (n + 1)/2 and A_{i-1} known, contact i gives (Eqs. 19, 22, 23)
     F1 = f1 A_{i-1}^P - 2 f2 A_i^P + f3 A_{i+1}^P + eps sum_j c_j g^(1)_j A_i^{e_j}      = 0
     F2 = alpha A_i^P - beta A_{i+1}^P            + eps sum_j d_j g^(2)_j A_{i+1}^{e_j}  = 0
 
-Variants (ERRATA item 5 and the remark after Eq. 23):
+Variants (erratum 5, docs/errata.rst and the remark after Eq. 23):
 
 * ``paper``     alpha = f5 - f4, beta = 2 f6 (Eq. 23 as printed; drifts slowly even at eps = 0)
 * ``corrected`` alpha = f5, beta = f4 + 2 f6 - f7 (inertia of contact i+1 taken at A_{i+1}, and

@@ -2,7 +2,7 @@
 
 ``derive_all`` runs the pipeline expression -> expansion -> integrals (only those that occur)
 -> map -> law -> stationary equation and returns a :class:`Derivation`; ``to_json``,
-``to_text`` and ``to_latex`` render it. The JSON follows DESIGN.md ("derive" contract).
+``to_text`` and ``to_latex`` render it. The JSON is described in docs/design.rst ("The derivation").
 ``derive_model`` also offers the energy- and momentum-balance models (derive/balance.py); the
 renderers accept either kind of derivation and name the model.
 """
@@ -179,7 +179,7 @@ def _law_data(d: Derivation) -> dict | None:
 
 
 def to_json(d: Derivation) -> dict:
-    """The derivation as JSON-serialisable data (DESIGN.md "derive" contract)."""
+    """The derivation as JSON-serialisable data (docs/design.rst, "The derivation")."""
     if isinstance(d, balance.BalanceDerivation):
         return balance.to_json(d)
     pert = d.perturbation

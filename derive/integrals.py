@@ -2,7 +2,7 @@
 
     f1 = int_{-inf}^0 S(t+1)^n dt      f2 = f5 = int_{-inf}^0 S(t)^n dt
     f3 = f6 = int_{-inf}^0 S(t-1)^n dt f4 = int_{-inf}^0 S''(t-1) dt  (= S'(-1))
-    f7 = int_{-inf}^0 S(t-2)^n dt      (the delta_{i+2} term Eq. 22 drops; ERRATA item 5)
+    f7 = int_{-inf}^0 S(t-2)^n dt      (the delta_{i+2} term Eq. 22 drops; erratum 5, docs/errata.rst)
     g^(1)_klmq = int_{-inf}^0 S(t)^k S(t-1)^l S'(t)^m S'(t-1)^q dt
     g^(2)_pr   = int_{-inf}^0 S(t-1)^p S'(t-1)^r dt
 

@@ -8,7 +8,7 @@ first map equation (the contact terms cancel since f1 - 2 f2 + f3 = 0):
 One power: separation of variables gives a power law (or an exponential for p = 1) in closed
 form. Several powers: i - i0 = (f1 - f3)/eps int_{B0}^{B} dB / sum_p C_p B^p (Eq. 31a), in
 closed form when sympy integrates it within a time bound, else by quadrature. Every law is
-derived here, never copied from the paper (ERRATA items 1-3).
+derived here, never copied from the paper (errata 1-3, docs/errata.rst).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The on-site perturbation eps * R_i(u, v) of paper Eq. 1 and the values of its parameters.
 
 ``R`` is a sympy expression in ``u`` (x_i), ``v`` (x_i'), ``i`` (1-based bead index) and named
-parameters. A parameter value is one of (see DESIGN.md, Conventions):
+parameters. A parameter value is one of (docs/perturbation.rst, "Parameters"):
 
 * a scalar (float), the same for every bead;
 * a tuple of N per-bead values (bead k is element k-1);

@@ -10,7 +10,7 @@ the spectrum; between nodes the profile is a quintic Hermite interpolant of (S, 
 
 Pade form (Eq. 5, n = 3/2 in the paper, any n here)
     S(tau) ~ (q0 + q2 tau^2 + q4 tau^4 + q6 tau^6 + q8 tau^8)^(-2),
-with q0 = S(0)^(-1/2) and q2..q8 fitted to the exact profile (ERRATA item 10).
+with q0 = S(0)^(-1/2) and q2..q8 fitted to the exact profile (erratum 10, docs/errata.rst).
 
 Only numpy (never scipy): derive/ is the symbolic side.
 """

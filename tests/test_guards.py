@@ -128,7 +128,7 @@ def test_paper_drift_warning_matches_the_closed_form():
     per_contact = (1 + mod.f7 / (2 * mod.f1)) ** (-1 / mod.P)
     expected = per_contact ** (60 - 15) - 1
     assert res["map"]["eps0_drift"] == pytest.approx(expected, rel=1e-6)
-    assert any("drifts by" in w and "ERRATA item 5" in w for w in res["warnings"])
+    assert any("drifts by" in w and "erratum 5" in w and "docs/errata.rst" in w for w in res["warnings"])
     assert any("spans more than two contacts" in w for w in res["warnings"])
 
 

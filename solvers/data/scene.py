@@ -1,4 +1,4 @@
-"""Scene files: a chain, an excitation, a perturbation and what to report (DESIGN.md, "Scene file").
+"""Scene files: a chain, an excitation, a perturbation and what to report (the format: docs/design.rst, "Scene files").
 
 A scene is TOML data, parsed with :mod:`tomllib` and validated here; nothing in it is ever
 executed (R is parsed by :mod:`pulsemap.derive.expression`'s whitelisting parser). Every problem is a

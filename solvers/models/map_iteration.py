@@ -65,7 +65,7 @@ def eps0_ratio(module: ModuleType, args: tuple) -> float | None:
     """A_i / A_{i-1} of one step of Eq. 23 at eps = 0 (None if it has no root).
 
     At eps = 0 the map is homogeneous of degree P in the amplitudes, so every step scales A by
-    this same factor: 1 for 'corrected' and '1d', (1 + f7/(2 f1))^(-1/P) for 'paper' (ERRATA 5).
+    this same factor: 1 for 'corrected' and '1d', (1 + f7/(2 f1))^(-1/P) for 'paper' (erratum 5, docs/errata.rst).
     """
     sol, _ = step(module, 1.0, 0.0, args)
     return None if sol is None else float(sol[0])

@@ -2,7 +2,7 @@
 
 * roots of Phi(A) = 0 (generated ``stationary``) on a log grid, refined by brentq;
 * the fixed point of the chosen map variant near each root (for the 1d variant it is the root
-  itself; the paper's map is shifted by its eps-independent drift, ERRATA item 5) and its
+  itself; the paper's map is shifted by its eps-independent drift, erratum 5, docs/errata.rst) and its
   multiplier dA_i/dA_{i-1} from the implicit-function theorem on the generated Jacobian;
 * continuation of the roots in a parameter, and the fold (saddle-node) where two roots meet,
   refined by Newton on Phi = dPhi/dA = 0.

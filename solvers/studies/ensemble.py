@@ -5,7 +5,7 @@ is run M times, realisation j with the draw's seed replaced by a derived seed
 ``SeedSequence([seed, j, q]).generate_state(1)[0]`` (q: the parameter's place among the random
 parameters, sorted by name). Realisation j's seed does not depend on M, so a larger ensemble
 reuses the points of a smaller one. Each realisation is one sweep point (solvers/sweep.py):
-the DNS of Eq. 1 and the map of Eq. 23 (site-dependent form, ERRATA item 8) seeded from the DNS
+the DNS of Eq. 1 and the map of Eq. 23 (site-dependent form, erratum 8, docs/errata.rst) seeded from the DNS
 peak at contact first_perturbed - 1, exactly as ``pulsemap run`` does for one scene.
 
 Statistics per contact, over the realisations: mean, standard deviation (ddof 1), min and max

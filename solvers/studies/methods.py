@@ -10,7 +10,7 @@ __all__ = ["BALANCE_METHODS", "MODELS", "MODEL_TITLES", "Choice", "RunError"]
 
 EPS_WARN = 0.3  # eps above this is outside the map's asymptotic assumption (eps << 1)
 FORCING_WARN = 0.3  # eps term of Eq. 23 above this fraction of the contact term: same assumption, per contact
-DRIFT_WARN = 0.05  # the 'paper' map's own drift at eps = 0 over the contacts run (ERRATA item 5)
+DRIFT_WARN = 0.05  # the 'paper' map's own drift at eps = 0 over the contacts run (erratum 5, docs/errata.rst)
 WIDTH_WARN = 0.01  # f7/f1: the delta_{i+2} integral Eq. 9 drops, relative to the contact term f1
 
 #: Every reduced model run_scene offers (all methods but the DNS), in canonical order.

@@ -1,4 +1,4 @@
-"""Run a scene: DNS, map and long-wave law side by side, with errors and timings (DESIGN.md).
+"""Run a scene: DNS, map and long-wave law side by side, with errors and timings (docs/design.rst, "The result of a run").
 
 Only what the scene asks for is computed: no DNS unless "dns" is among its methods (the map is
 then seeded from v0 through kappa_n), no long-wave law for a site-dependent perturbation, and a
@@ -183,7 +183,7 @@ def run_scene(
     reuse_dns: dict | None = None,
     seed_peak: float | None = None,
 ) -> dict:
-    """Run ``scene`` and return the result as JSON-serialisable data (DESIGN.md contract).
+    """Run ``scene`` and return the result as JSON-serialisable data (docs/design.rst, "The result of a run").
 
     ``reuse_dns``: the result of an earlier run of the same scene with the DNS; its peaks (and
     its seed) are used instead of running the DNS again (for comparing profiles and variants).

@@ -161,7 +161,8 @@ def run_map(state: "RunState", mod: ModuleType, seed_A: float, prm: dict) -> Non
         out["map"]["eps0_drift"] = drift
         if drift is not None and abs(drift) > DRIFT_WARN:
             warnings.append(f"map: the 'paper' variant drifts by {100 * drift:+.3g} % over contacts "
-                            f"{seed_contact + 1}..{c1} even at eps = 0 (ERRATA item 5): use --variant corrected or 1d")
+                            f"{seed_contact + 1}..{c1} even at eps = 0 (erratum 5 in the docs, docs/errata.rst): "
+                            "use --variant corrected or 1d")
     if mr.max_forcing_ratio is not None and mr.max_forcing_ratio > FORCING_WARN:
         k = int(np.argmax(mr.forcing_ratio > FORCING_WARN))
         warnings.append(f"map: at contact {int(mr.contacts[k])} the eps term of Eq. 23 exceeds "

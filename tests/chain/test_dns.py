@@ -183,7 +183,7 @@ def test_damped_peaks_decrease_and_pulse_dies():
     live = res.peaks[res.alive]
     assert len(live) > 10
     assert np.all(np.diff(live) < 0)
-    # at v0 = 1 this pulse stops advancing a few tens of contacts in (ERRATA: "many pulses die")
+    # at v0 = 1 this pulse stops advancing a few tens of contacts in (docs/figures.rst, "How close is the map?": many pulses die)
     assert res.stop_reason.startswith("pulse died")
     assert not res.alive[-1] and np.isnan(res.peaks[-1])
     dead = ~res.alive

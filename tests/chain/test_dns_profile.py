@@ -9,7 +9,7 @@ from pulsemap.solvers.chain.dns import simulate
 
 @pytest.mark.parametrize("n", [1.5, 2.5])
 def test_unperturbed_pulse_speed_and_peak_match_the_profile(n):
-    """Delay between contacts = A^(-s) with A = peak / S(0) (ERRATA item 4: not Eq. 6 as printed)."""
+    """Delay between contacts = A^(-s) with A = peak / S(0) (erratum 4, docs/errata.rst: not Eq. 6 as printed)."""
     res = simulate(50, n, 1.0, (25, 40), rtol=1e-11, atol=1e-13)
     s = (n - 1) / 2
     S0 = exact_profile(n).S0

@@ -15,7 +15,7 @@ def test_launched_soliton_keeps_its_peak(n, A):
     peaks = np.array(r.peaks, dtype=float)
     assert np.all(np.isfinite(peaks))
     assert np.max(np.abs(peaks / (A * S0) - 1)) < 1e-9
-    # peak times advance by the delay A^-s between contacts (ERRATA item 4)
+    # peak times advance by the delay A^-s between contacts (erratum 4, docs/errata.rst)
     gaps = np.diff(np.array(r.times))
     assert np.allclose(gaps, A ** (-(n - 1) / 2), rtol=1e-8)
 

@@ -65,7 +65,7 @@ def test_builtin_physics():
     assert load_scene("fig7-eps1").perturbation.params["beta"] == -1.0
     vdp = load_scene("vdp-mu3-v0.3")
     assert vdp.velocity == 0.3 and vdp.perturbation.eps == 0.1 and vdp.perturbation.params["mu"] == 3.0
-    assert vdp.perturbation.text == "-(u - mu*(1 - u^2)*v)"  # ERRATA item 6
+    assert vdp.perturbation.text == "-(u - mu*(1 - u^2)*v)"  # erratum 6, docs/errata.rst
     fig13 = load_scene("fig13-seed3")
     assert fig13.beads == 140 and "longwave" not in fig13.methods
     k = fig13.perturbation.bead_values("k", fig13.beads)

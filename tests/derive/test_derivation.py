@@ -107,7 +107,7 @@ def test_van_der_pol_gives_eqs_38_39_41_read_as_errata_6_7():
 
 
 def test_random_foundation_keeps_the_term_eq44_drops():
-    """ERRATA item 8: g_i = -k_i delta_i + (k_{i+1} - k_i) delta_{i+1}."""
+    """erratum 8, docs/errata.rst: g_i = -k_i delta_i + (k_{i+1} - k_i) delta_{i+1}."""
     R = parse_expression("-k*u", ["k"])
     ex = expand(R, 1.5, site_dependent=["k"])
     ki, kip1 = bead_symbol("k", 0), bead_symbol("k", 1)
@@ -145,7 +145,7 @@ def test_closed_form_law_solves_its_ode_exactly(text, n):
 
 
 def test_linear_foundation_law_is_not_the_printed_31b():
-    """ERRATA item 1: the printed A = (A0^2 + 8/5 k' t)^(1/2) does not solve B' = k B^(3/5)."""
+    """erratum 1, docs/errata.rst: the printed A = (A0^2 + 8/5 k' t)^(1/2) does not solve B' = k B^(3/5)."""
     _, amap = _map_for("alpha*u", {"alpha": -1})
     law = longwave_law(amap, 0.1)
     k = sympy.Symbol("k", real=True)
@@ -157,7 +157,7 @@ def test_linear_foundation_law_is_not_the_printed_31b():
 
 
 def test_cubic_foundation_with_negative_beta_decays():
-    """ERRATA item 2: with beta < 0 the amplitude must decay, not blow up."""
+    """erratum 2, docs/errata.rst: with beta < 0 the amplitude must decay, not blow up."""
     _, amap = _map_for("beta*u^3", {"beta": -1})
     law = longwave_law(amap, 0.1)
     f = sympy.lambdify(I, law.numeric_law().subs({A0: 1, I0: 0}))

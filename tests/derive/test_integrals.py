@@ -31,7 +31,7 @@ def test_f4_is_a_point_value_and_eq4_integrated():
     f = f_constants()
     # f4 = int S''(t-1) dt = S'(-1)
     assert f["f4"].value == pytest.approx(float(p.dS(-1.0)), abs=1e-9)
-    # Integrating Eq. 4 over (-inf, -1]: S'(-1) = f7 - 2 f6 + f5 (ERRATA item 5)
+    # Integrating Eq. 4 over (-inf, -1]: S'(-1) = f7 - 2 f6 + f5 (erratum 5, docs/errata.rst)
     assert f["f4"].value == pytest.approx(f["f7"].value - 2 * f["f6"].value + f["f5"].value, abs=1e-9)
     assert f["f7"].value > 1e-5  # the dropped term is small but not zero
 

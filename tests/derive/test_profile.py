@@ -86,7 +86,7 @@ def test_pade_agrees_with_exact_to_its_reported_error():
     dev = np.max(np.abs(pade.S(tau) - exact.S(tau))) / exact.S0
     assert dev <= pade.accuracy * 1.05
     assert dev > 0.2 * pade.accuracy  # the reported error is not a loose bound
-    # Pade decays algebraically (ERRATA item 9): far tails are larger than the exact ones.
+    # Pade decays algebraically (erratum 9, docs/errata.rst): far tails are larger than the exact ones.
     assert float(pade.S(8.0)) > 1e3 * max(float(exact.S(8.0)), 1e-300)
 
 

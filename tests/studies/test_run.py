@@ -1,4 +1,4 @@
-"""Scene runs: DNS, map and long-wave law side by side (DESIGN.md run contract)."""
+"""Scene runs: DNS, map and long-wave law side by side (docs/design.rst, "The result of a run")."""
 
 import json
 
