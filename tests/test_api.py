@@ -80,6 +80,17 @@ def test_van_der_pol_roots_solve_eq41():
     assert d.stationary_peaks == pytest.approx(tuple(r * d.S0 for r in d.roots))
 
 
+@pytest.mark.parametrize("k", [[0.5] * 40, "0.5 + 0.01*i"], ids=["per-bead", "expression-of-i"])
+def test_site_dependent_derivation(k):
+    """A site-dependent R: the map keeps the (k_{i+1} - k_i) term, the law has coefficients C_p(i), no Eq. 41."""
+    d = pulsemap.derive("-k*u", k=k)
+    assert any("g1_0100" in eq for eq in d.map)
+    assert d.ode is not None and "Derivative" in d.ode and d.rate is None
+    assert d.stationary is None and d.roots == () and "stationary" in d.notes
+    assert d.law_kind in ("power law", "exponential", "quadrature", "constant")
+    assert json.loads(json.dumps(d.to_dict()))["expression"] == "-k*u"
+
+
 def test_derivation_is_frozen_and_renders():
     d = pulsemap.derive("-mu*v", mu=1)
     with pytest.raises(dataclasses.FrozenInstanceError):

@@ -44,14 +44,15 @@ class Derivation:
     map_numeric: tuple[str, ...]
     """The same with the constants substituted."""
     ode: str | None
-    """The long-wave ODE, Eq. 30, in B = A^P; None when there is no law (site-dependent R)."""
+    """The long-wave ODE, Eq. 30, in B = A^P (for a site-dependent R with coefficients C_p(i));
+    None when there is no law."""
     law: str | None
     """The long-wave law: ``A(i) = ...`` (closed form), ``i(A) = ...`` (implicit),
     ``A(i) = A_0`` (no forcing), or None (by quadrature only, or no law: see :attr:`notes`)."""
     law_kind: str | None
     """"power law", "exponential", "implicit", "quadrature" or "constant"."""
     rate: float | None
-    """k = eps C / (f1 - f3) of a single-power law (the k in :attr:`law`)."""
+    """k = eps C / (f1 - f3) of a uniform single-power law (the k in :attr:`law`)."""
     stationary: str | None
     """Eq. 41, ``0 = Phi(A)``; None for a site-dependent R."""
     roots: tuple[float, ...]
@@ -141,14 +142,17 @@ def derive(
 
 
 def _public(R: str, d: Any) -> Derivation:
-    law = d.longwave
+    from pulsemap.derive.longwave import LongwaveLaw
+
+    law = d.longwave  # a LongwaveLaw, or a SiteLaw (derive/site_law.py) for a site-dependent R
+    uniform = isinstance(law, LongwaveLaw)
     if law is None:
         law_text = None
     elif law.kind == "constant":
         law_text = "A(i) = A_0"
     elif law.law is not None:
         law_text = f"A(i) = {law.law}"
-    elif law.implicit is not None:
+    elif uniform and law.implicit is not None:
         law_text = f"i(A) = {law.implicit}"
     else:
         law_text = None
@@ -171,7 +175,7 @@ def _public(R: str, d: Any) -> Derivation:
         ode=ode,
         law=law_text,
         law_kind=None if law is None else law.kind,
-        rate=(law.rate() if law is not None and len(law.powers) == 1 else None),
+        rate=(law.rate() if uniform and len(law.powers) == 1 else None),
         stationary=None if st is None else f"0 = {st.equation}",
         roots=() if st is None else tuple(float(r) for r in st.roots),
         notes=notes,
