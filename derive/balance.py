@@ -43,7 +43,7 @@ import sympy
 from .expansion import bead_symbol, check_polynomial_at_rest, exact_exponent
 from .expression import symbol
 from .integrals import Constant, _scalar_funcs, cached_constants
-from .longwave import A0, I, I0, check_law_inputs, law_data, law_lines
+from .longwave import LAW_RATE, A0, I, I0, check_law_inputs, law_data, law_lines, rate_latex, rate_symbol
 from .perturbation import Perturbation, param_data
 from .provenance import provenance
 from .profile import check_exponent, check_profile_kind, exact_profile, get_profile
@@ -55,7 +55,7 @@ from .timebox import bounded
 B = sympy.Symbol("B", positive=True)
 A = sympy.Symbol("A", positive=True)
 B0 = sympy.Symbol("B_0", positive=True)
-K_RATE = sympy.Symbol("k", real=True)
+K_RATE = LAW_RATE  # lambda_L = eps C / K, defined where a law prints it (longwave.law_lines)
 EPS = sympy.Symbol("epsilon", positive=True)
 #: The wave's energy and momentum coefficients as printed symbols.
 K_SYMBOLS = {"energy": sympy.Symbol("E_1", positive=True), "momentum": sympy.Symbol("p_1", positive=True)}
@@ -549,5 +549,6 @@ def to_latex(d: BalanceDerivation) -> str:
     if d.law is not None:
         out.append(lx(d.law.ode()))
         if d.law.law is not None:
-            out.append(rf"A(i) = {lx(d.law.law)}")
+            out.append(rf"A(i) = {lx(d.law.law.xreplace({LAW_RATE: rate_symbol(d.law)}))}")
+            out.append(rate_latex(d.law, K_SYMBOLS[d.model], lx))
     return "\n".join(out)

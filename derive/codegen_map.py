@@ -18,6 +18,7 @@ from .integrals import F_NAMES, constants
 from .longwave import A0 as SYM_A0
 from .longwave import I as SYM_I
 from .longwave import I0 as SYM_I0
+from .longwave import LAW_RATE
 from .longwave import LongwaveError, longwave_law
 from .profile import get_profile
 from .sources import MapSource
@@ -25,7 +26,7 @@ from .sources import MapSource
 #: Internal symbols of the generated formulas (plain sympy Symbols: never equal to a user's).
 _B = sympy.Symbol("B", positive=True)
 _EPS = sympy.Symbol("eps", real=True)
-_K = sympy.Symbol("k", real=True)
+_K = LAW_RATE  # the law's rate, the local variable k in the generated code
 _A = sympy.Symbol("A", positive=True)
 
 

@@ -15,15 +15,16 @@ from dataclasses import dataclass, field
 import sympy
 
 from . import balance
-from .amplitude_map import EPS, AmplitudeMap, check_variant, integral_symbol, latex_names
+from .amplitude_map import EPS, F_SYMBOLS, AmplitudeMap, check_variant, integral_symbol, latex_names
 from .expansion import Expansion, expand
 from .integrals import F_NAMES, constants
-from .longwave import A0, I, I0, LongwaveError, LongwaveLaw, check_law_inputs, law_data, law_lines, longwave_law
+from .longwave import (LAW_RATE, A0, I, I0, LongwaveError, LongwaveLaw, check_law_inputs, law_data, law_lines,
+                       longwave_law, rate_latex, rate_symbol)
 from .perturbation import Perturbation
 from .profile import check_exponent, check_profile_kind, get_profile
 from .site_law import SiteLaw, coefficient_of_i, site_law
 from .sources import DEFAULT_DPS
-from .stationary import Stationary, StationaryError, stationary
+from .stationary import Stationary, StationaryError, multiplier_1d, stationary
 
 
 class DerivationError(ValueError):
@@ -178,6 +179,12 @@ def _law_data(d: Derivation) -> dict | None:
     return law_data(law, law.P, ("f1_minus_f3", law.f1_minus_f3), d.A0, d.i0)
 
 
+def _multipliers(d: Derivation) -> list[float]:
+    """The 1d map's multiplier at each root of Eq. 41 (stationary.multiplier_1d)."""
+    st = d.stationary
+    return [multiplier_1d(d.amap, st.numeric, r, float(d.perturbation.eps)) for r in st.roots]
+
+
 def to_json(d: Derivation) -> dict:
     """The derivation as JSON-serialisable data (docs/design.rst, "The derivation")."""
     if isinstance(d, balance.BalanceDerivation):
@@ -189,7 +196,9 @@ def to_json(d: Derivation) -> dict:
         stationary_data = {
             "equation": str(st.equation) + " = 0",
             "equation_numeric": str(st.numeric) + " = 0",
-            "roots": [{"A": r, "peak": r * d.S0} for r in st.roots],
+            "roots": [{"A": r, "peak": r * d.S0, "multiplier_1d": m, "stable": bool(abs(m) < 1)}
+                      for r, m in zip(st.roots, _multipliers(d))],
+            "multiplier": "dA_i/dA_(i-1) of the 1d map at the root (its fixed points are the roots of Eq. 41)",
         }
         if st.fold is not None:
             f = st.fold
@@ -277,8 +286,11 @@ def to_text(d: Derivation) -> str:
         lines.append(f"  0 = {st.equation}")
         lines.append(f"    = {st.numeric}")
         if st.roots:
-            for r in st.roots:
-                lines.append(f"  root A = {r:.12g}   peak A S(0) = {r * d.S0:.12g}")
+            lines.append(f"  multiplier: dA_i/dA_(i-1) of the 1d map (A_(i+1) -> A_i in Eq. 23, whose fixed points "
+                         f"are exactly these roots) at eps = {d.perturbation.eps:g}; stable when |multiplier| < 1")
+            for r, m in zip(st.roots, _multipliers(d)):
+                lines.append(f"  root A = {r:.12g}   peak A S(0) = {r * d.S0:.12g}   multiplier {m:.10g}: "
+                             f"{'stable' if abs(m) < 1 else 'unstable'}")
         else:
             lines.append("  no positive root")
         if st.fold is not None:
@@ -304,7 +316,8 @@ def to_latex(d: Derivation) -> str:
     if d.longwave is not None:
         out.append(lx(d.longwave.ode()))
         if d.longwave.law is not None:
-            out.append(rf"A(i) = {lx(d.longwave.law)}")
+            out.append(rf"A(i) = {lx(d.longwave.law.xreplace({LAW_RATE: rate_symbol(d.longwave)}))}")
+            out.append(rate_latex(d.longwave, F_SYMBOLS["f1"] - F_SYMBOLS["f3"], lx))
     if d.stationary is not None:
         out.append(rf"0 = {lx(d.stationary.equation)} \tag{{41}}")
     return "\n".join(out)

@@ -20,7 +20,7 @@ import mpmath
 import sympy
 
 from .amplitude_map import EPS, F_SYMBOLS, AmplitudeMap
-from .expression import symbol
+from .expression import UserSymbol, symbol
 from .timebox import bounded
 
 B = sympy.Symbol("B", positive=True)
@@ -29,6 +29,9 @@ A0 = sympy.Symbol("A_0", positive=True)
 B0 = sympy.Symbol("B_0", positive=True)
 I = sympy.Symbol("i", real=True)  # the continuous contact index ("t" in Eqs. 31, 36)
 I0 = sympy.Symbol("i_0", real=True)
+#: The rate of a one-power law, lambda_L = eps C / (f1 - f3) (or eps C / K for a balance law). A plain
+#: sympy Symbol: never equal to a user's parameter (expression.UserSymbol), whatever its name.
+LAW_RATE = sympy.Symbol("lambda_L", real=True)
 
 
 class LongwaveError(ValueError):
@@ -103,7 +106,7 @@ class LongwaveLaw:
         return sympy.Eq(lhs * Bf.diff(I), rhs)
 
     def rate(self) -> float:
-        """k = eps C / (f1 - f3) for a single power (0 when no term forces the contact)."""
+        """lambda_L = eps C / (f1 - f3) for a single power (0 when no term forces the contact)."""
         if not self.coefficients:
             return 0.0
         return self.eps * self.coefficients[0] / self.f1_minus_f3
@@ -115,7 +118,7 @@ class LongwaveLaw:
         return self.law.xreplace(self._numeric_subs())
 
     def _numeric_subs(self) -> dict:
-        return {sympy.Symbol("k", real=True): sympy.Float(self.rate(), 17)}
+        return {LAW_RATE: sympy.Float(self.rate(), 17)}
 
     # ------------------------------------------------------------ singular index
     def singular_index(self, a0: float, i0: float = 0.0) -> tuple[float | None, str]:
@@ -187,13 +190,15 @@ def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> Longwa
     powers = tuple(t.power / P for t in terms)
     # numeric C_p when every parameter has a value; None entries when parameters stay symbolic
     coeffs = tuple(float(t.value) if t.value is not None else None for t in terms)
-    symb = tuple(t.coefficient for t in terms)
+    # C_p in the user's symbols (parameters not replaced by their values): the symbolic Eq. 30
+    symbolic = {t.power: t.coefficient for t in amap.power_terms(1, numeric=False)}
+    symb = tuple(symbolic[t.power] for t in terms)
     if not terms:
         return LongwaveLaw(P, (), (), (), f13, eps, "constant", A0 + 0 * I, None)
     if len(terms) == 1:
         p = powers[0]
-        # separation of variables: int B^-p dB = k (i - i0)
-        k = sympy.Symbol("k", real=True)
+        # separation of variables: int B^-p dB = lambda_L (i - i0)
+        k = LAW_RATE
         if p == 1:
             # log(B): B = B0 exp(k (i - i0))
             law_B = B0 * sympy.exp(k * (I - I0))
@@ -217,20 +222,37 @@ def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> Longwa
     return LongwaveLaw(P, powers, coeffs, symb, f13, eps, kind, None, implicit)
 
 
+def user_names(law) -> set[str]:
+    """The names of the user's symbols in a law's coefficients."""
+    return {str(x) for c in law.symbolic_coefficients for x in c.free_symbols if isinstance(x, UserSymbol)}
+
+
+def rate_symbol(law) -> sympy.Symbol:
+    """The rate's symbol as printed: lambda_L, or lambda_L_ (and so on) should a parameter be called so."""
+    name, taken = LAW_RATE.name, user_names(law)
+    while name in taken:
+        name += "_"
+    return LAW_RATE if name == LAW_RATE.name else sympy.Symbol(name, real=True)
+
+
 def law_lines(law, heading: str, rate_name: str, a0: float | None, i0: float,
               cite: str = "", constant_reason: str = "no forcing of contact i") -> list[str]:
     """Text lines of a law (Eq. 30 or a balance law): its ODE, symbolic and numeric, the amplitude law
     (closed form, implicit, constant or by quadrature) and, given A0, its singular index.
 
-    ``law`` is a LongwaveLaw or a balance.BalanceLaw; ``rate_name`` names k's denominator ("(f1 - f3)");
+    ``law`` is a LongwaveLaw or a balance.BalanceLaw; ``rate_name`` names the denominator of the
+    rate lambda_L = eps C / rate_name ("(f1 - f3)"), defined on the line after the law;
     ``cite`` prefixes the integral's name ("Eq. 31a ").
     """
     lines = [heading, f"  {law.ode()}", f"  {law.ode(symbolic=False)}"]
     if law.kind == "constant":
         lines.append(f"Amplitude law: A constant ({constant_reason})")
     elif law.law is not None:
-        lines.append(f"Amplitude law ({law.kind}), k = eps*C/{rate_name} = {law.rate():.12g}:")
-        lines.append(f"  A(i) = {law.law}")
+        rate = rate_symbol(law)
+        lines.append(f"Amplitude law ({law.kind}):")
+        lines.append(f"  A(i) = {law.law.xreplace({LAW_RATE: rate})}")
+        lines.append(f"  where {rate} = eps*C/{rate_name}, C = {law.symbolic_coefficients[0]}: "
+                     f"{rate} = {law.rate():.12g}")
     elif law.implicit is not None:
         lines.append(f"Amplitude law ({cite}integrated in closed form, implicit):")
         lines.append(f"  i(A) = {law.implicit}")
@@ -258,12 +280,21 @@ def law_data(law, exponent, scale: tuple[str, float], a0: float | None, i0: floa
         ],
         scale[0]: scale[1],
         "eps": law.eps,
-        "law": str(law.law) if law.law is not None else None,
+        "law": str(law.law.xreplace({LAW_RATE: rate_symbol(law)})) if law.law is not None else None,
         "law_numeric": str(law.numeric_law()) if law.law is not None else None,
-        "rate_k": law.rate() if len(law.powers) == 1 else None,
+        "rate_k": law.rate() if len(law.powers) == 1 else None,  # the value of lambda_L (key kept)
+        "rate_symbol": str(rate_symbol(law)) if len(law.powers) == 1 else None,
+        "rate_definition": (f"{rate_symbol(law)} = eps*({law.symbolic_coefficients[0]})/{scale[0]}"
+                            if len(law.powers) == 1 else None),
         "implicit_i_of_A": str(law.implicit) if law.implicit is not None else None,
     }
     if a0 is not None:
         index, what = law.singular_index(a0, i0)
         out.update(A0=a0, i0=i0, singular_index=index, singular_kind=what)
     return out
+
+
+def rate_latex(law, denominator: sympy.Expr, lx) -> str:
+    """LaTeX of the rate's definition, lambda_L = eps C / denominator, for the line after the law."""
+    rate = rate_symbol(law)
+    return rf"\text{{where }} {lx(rate)} = {lx(EPS * law.symbolic_coefficients[0] / denominator)}"

@@ -56,6 +56,21 @@ class Stationary:
         return tuple(r * self.S0 for r in self.roots)
 
 
+def multiplier_1d(amap: AmplitudeMap, numeric: sympy.Expr, root: float, eps: float) -> float:
+    """dA_i/dA_{i-1} of the 1d map (Eq. 23 with A_{i+1} -> A_i, whose fixed points are exactly the
+    roots of Eq. 41) at A_{i-1} = A_i = root:
+
+        F = f1 A_{i-1}^P - (2 f2 - f3) A_i^P + eps Phi(A_i) = 0
+        dA_i/dA_{i-1} = -F_{A_{i-1}} / F_{A_i} = f1 P A^(P-1) / ((2 f2 - f3) P A^(P-1) - eps Phi'(A)).
+
+    |multiplier| < 1: the stationary shock attracts nearby amplitudes (stable)."""
+    P = float(amap.P)
+    f1, f2, f3 = (float(amap.constants[k]) for k in ("f1", "f2", "f3"))
+    dphi = float(sympy.diff(numeric, A).subs(A, root)) if numeric != 0 else 0.0
+    contact = P * root ** (P - 1)
+    return f1 * contact / ((2 * f2 - f3) * contact - eps * dphi)
+
+
 def _power_terms(amap: AmplitudeMap, params: dict) -> list[tuple[sympy.Rational, sympy.Expr]]:
     """(power, numeric coefficient expression) of Phi, in the parameters not substituted."""
     out = []

@@ -22,7 +22,7 @@ from pulsemap.derive.balance import (
 )
 from pulsemap.derive.derivation import DerivationError, derive_model
 from pulsemap.derive.expression import symbol
-from pulsemap.derive.longwave import A0, I, I0
+from pulsemap.derive.longwave import LAW_RATE, A0, I, I0
 from pulsemap.derive.perturbation import make_perturbation
 from pulsemap.derive.profile import exact_profile
 from pulsemap.derive.sources import BALANCE_METHOD as SOURCES_BALANCE_METHOD
@@ -143,7 +143,7 @@ def test_exact_and_pade_profiles_agree_on_the_wave_constants():
 # ------------------------------------------------------------------- laws in their ODE
 def _residual(law, model_K, eps_value):
     """K d(A^Q)/di - eps sum C_p A^(Q p), with the law's k = eps C/K substituted."""
-    A = law.law.xreplace({sympy.Symbol("k", real=True): sympy.Float(law.rate(), 30)})
+    A = law.law.xreplace({LAW_RATE: sympy.Float(law.rate(), 30)})
     B = A**law.Q
     rhs = eps_value * sum((c * B**p for c, p in zip(law.coefficients, law.powers)), sympy.Integer(0))
     return model_K * sympy.diff(B, I) - rhs, A
@@ -176,7 +176,7 @@ def test_each_law_substituted_back_into_its_ode(R, params, model, n):
     # symbolic check with sympy: the law solves its ODE identically in i, A_0, i_0 (and K, eps, C).
     # A power law is valid before its end, where its base b = A_0^(Q(1-p)) + (1-p) k (i - i_0) > 0:
     # write i through a positive symbol b, so that sympy may combine the fractional powers.
-    k = sympy.Symbol("k", real=True)
+    k = LAW_RATE
     Ksym, eps_sym, C, b = sympy.symbols("K epsilon C b", positive=True)
     (p,) = law.powers
     A_law, di = law.law, 1

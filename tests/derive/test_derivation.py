@@ -11,7 +11,7 @@ from pulsemap.derive.derivation import derive_all, to_json, to_latex, to_text
 from pulsemap.derive.expansion import D0, D1, W0, W1, ExpansionError, bead_symbol, expand
 from pulsemap.derive.expression import parse_expression, symbol
 from pulsemap.derive.integrals import F_NAMES, constants
-from pulsemap.derive.longwave import A0, I, I0, longwave_law
+from pulsemap.derive.longwave import LAW_RATE, A0, I, I0, longwave_law
 from pulsemap.derive.perturbation import make_perturbation
 from pulsemap.derive.profile import exact_profile
 from pulsemap.derive.stationary import positive_roots
@@ -127,7 +127,7 @@ def test_closed_form_law_solves_its_ode_exactly(text, n):
     _, amap = _map_for(text, {name: -0.7}, n=n)
     law = longwave_law(amap, 0.1)
     assert law.kind in ("power law", "exponential")
-    k = sympy.Symbol("k", real=True)
+    k = LAW_RATE
     (p,) = law.powers
     assert sympy.simplify(law.law.subs(I, I0) - A0) == 0
     if p == 1:
@@ -148,7 +148,7 @@ def test_linear_foundation_law_is_not_the_printed_31b():
     """erratum 1, docs/errata.rst: the printed A = (A0^2 + 8/5 k' t)^(1/2) does not solve B' = k B^(3/5)."""
     _, amap = _map_for("alpha*u", {"alpha": -1})
     law = longwave_law(amap, 0.1)
-    k = sympy.Symbol("k", real=True)
+    k = LAW_RATE
     printed = (A0**2 + sympy.Rational(8, 5) * k * (I - I0)) ** sympy.Rational(1, 2)
     Bp = printed ** sympy.Rational(5, 4)
     assert sympy.simplify(sympy.diff(Bp, I) - k * Bp ** sympy.Rational(3, 5)) != 0
