@@ -3,7 +3,8 @@
 The location is the user's cache directory, never the installed package: ``$PULSEMAP_CACHE_DIR``
 if set, else ``$XDG_CACHE_HOME/pulsemap`` (the XDG rule; only an absolute path counts), else
 ``~/.cache/pulsemap``. Entries are small JSON files keyed by a string that names everything the
-value depends on; a corrupt or unreadable entry is treated as missing. Generated code the
+value depends on; an unreadable entry is treated as missing, and a damaged one (not JSON, or a
+value its reader's check refuses: wrong shape, NaN) too, with a one-line note on stderr. Generated code the
 shipped ``generated/`` folder lacks is written to its ``generated/`` subfolder.
 """
 
@@ -11,10 +12,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
+import sys
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 
 class CacheDirError(OSError):
@@ -52,17 +55,48 @@ def _entry_path(namespace: str, key: str) -> Path:
     return folder / f"{digest}.json"
 
 
-def load(namespace: str, key: str) -> Any | None:
-    """Return the cached value stored under ``key``, or None."""
+def entry_path(namespace: str, key: str) -> Path:
+    """The file of the entry ``key`` in ``namespace``."""
+    return _entry_path(namespace, key)
+
+
+def note_damaged(namespace: str, key: str, problem: str) -> None:
+    """One line on stderr: the entry is damaged and its value is being computed again."""
+    print(f"pulsemap: note: cache entry {_entry_path(namespace, key)} is damaged ({problem}): computing it again",
+          file=sys.stderr, flush=True)
+
+
+def load(namespace: str, key: str, check: Callable[[Any], str | None] | None = None, *,
+         quiet: bool = False) -> Any | None:
+    """Return the cached value stored under ``key``, or None (missing, or damaged: then noted on
+    stderr unless ``quiet``).
+
+    ``check(value)`` names what is wrong with a value read back (schema, finiteness), or returns None.
+    """
     path = _entry_path(namespace, key)
     try:
         with open(path, encoding="utf-8") as fh:
             entry = json.load(fh)
-    except (OSError, ValueError):
+    except OSError:  # missing or unreadable
+        return None
+    except ValueError as exc:  # entries are replaced atomically: text that is not JSON is damage
+        if not quiet:
+            note_damaged(namespace, key, f"not JSON: {str(exc).splitlines()[0][:80]}")
         return None
     if not isinstance(entry, dict) or entry.get("key") != key:
         return None
-    return entry.get("value")
+    value = entry.get("value")
+    problem = check(value) if check is not None else None
+    if problem:
+        if not quiet:
+            note_damaged(namespace, key, problem)
+        return None
+    return value
+
+
+def finite_number(value: Any) -> bool:
+    """True for an int or float (not a bool) that is finite: what a cached number must be."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def store(namespace: str, key: str, value: Any) -> None:

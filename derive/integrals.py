@@ -190,15 +190,32 @@ def cached_constants(
     for name in wanted:
         check_name(name)
     table_key = key(prof, dps)
-    table = (cache.load(namespace, table_key) or {}) if use_cache else {}
+    table = _good_entries(cache.load(namespace, table_key), namespace, table_key) if use_cache else {}
     missing = [name for name in wanted if name not in table]
     for name in missing:
         table[name] = list(compute(prof, name, dps))
     if missing and use_cache:
-        fresh = cache.load(namespace, table_key) or {}
+        fresh = _good_entries(cache.load(namespace, table_key, quiet=True), namespace, table_key, quiet=True)
         fresh.update(table)
         cache.store(namespace, table_key, fresh)
     return {name: Constant(name, table[name][0], table[name][1], prof.kind, prof.n, dps) for name in wanted}
+
+
+def _good_entries(table: object, namespace: str, key: str, quiet: bool = False) -> dict:
+    """The entries of a cached table that are [value, error bound] with both finite and the bound >= 0;
+    the others are noted (once) as damaged and left out, so they are computed again."""
+    if table is None:
+        return {}
+    if not isinstance(table, dict):
+        if not quiet:
+            cache.note_damaged(namespace, key, f"a {type(table).__name__}, not a table of constants")
+        return {}
+    good = {name: v for name, v in table.items()
+            if isinstance(v, list) and len(v) == 2 and all(cache.finite_number(x) for x in v) and v[1] >= 0}
+    bad = [name for name in table if name not in good]
+    if bad and not quiet:
+        cache.note_damaged(namespace, key, "bad values for " + ", ".join(map(str, bad[:4])) + (" ..." if len(bad) > 4 else ""))
+    return good
 
 
 def _check_name(name: str) -> None:

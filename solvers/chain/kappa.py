@@ -57,6 +57,16 @@ def measure_kappa(exponent: float, *, rtol: float = 1e-10) -> dict:
         contact *= 2
 
 
+def _check_entry(entry: object) -> str | None:
+    """What is wrong with a cached kappa entry, or None: kappa must be a finite number > 0."""
+    if not isinstance(entry, dict):
+        return f"a {type(entry).__name__}, not a kappa entry"
+    value = entry.get("kappa")
+    if not cache.finite_number(value) or value <= 0:
+        return f"kappa = {value!r}, not a finite number > 0"
+    return None
+
+
 def kappa(exponent: float, *, rtol: float = 1e-10) -> float:
     """kappa_n: formed solitary-wave peak per v0^(2/(n+1)) (cached DNS measurement)."""
     if not np.isfinite(exponent) or exponent <= 1.0:
@@ -64,9 +74,9 @@ def kappa(exponent: float, *, rtol: float = 1e-10) -> float:
     if not (np.isfinite(rtol) and 0.0 < rtol < 1e-4):
         raise ValueError(f"rtol must lie in (0, 1e-4) for a meaningful kappa, got {rtol!r}")
     key = cache_key(exponent, rtol)
-    hit = cache.load(NAMESPACE, key)
-    if isinstance(hit, dict) and isinstance(hit.get("kappa"), float):
-        return hit["kappa"]
+    hit = cache.load(NAMESPACE, key, check=_check_entry)
+    if hit is not None:
+        return float(hit["kappa"])
     entry = measure_kappa(exponent, rtol=rtol)
     cache.store(NAMESPACE, key, entry)
     return entry["kappa"]

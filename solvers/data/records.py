@@ -8,34 +8,82 @@ A run killed while writing leaves its last line cut short: readers skip such a l
 from __future__ import annotations
 
 import json
+import math
 import os
+import sys
 from pathlib import Path
-from typing import Iterator, TextIO
+from typing import Any, Callable, Iterator, TextIO
 
 
-def read_lines(path: str | os.PathLike) -> Iterator[dict]:
-    """The JSON objects of a JSON-lines file in order (none for a missing file); blank lines, lines
-    that are not complete JSON (cut short by a kill) and lines that are not objects are skipped."""
+def non_finite_path(obj: Any, where: str = "") -> str | None:
+    """The path (e.g. ``result.peaks[3]``) of the first NaN or infinity inside JSON data, or None."""
+    if isinstance(obj, float):
+        return None if math.isfinite(obj) else (where or "the value")
+    if isinstance(obj, dict):
+        items = ((f"{where}.{k}" if where else str(k), v) for k, v in obj.items())
+    elif isinstance(obj, list):
+        items = ((f"{where}[{j}]", v) for j, v in enumerate(obj))
+    else:
+        return None
+    for path, value in items:
+        found = non_finite_path(value, path)
+        if found is not None:
+            return found
+    return None
+
+
+def _note(path: Path, lineno: int, problem: str) -> None:
+    print(f"pulsemap: note: {path}:{lineno}: {problem}: record ignored (its point is computed again)",
+          file=sys.stderr, flush=True)
+
+
+def read_lines(path: str | os.PathLike, check: Callable[[dict], str | None] | None = None) -> Iterator[dict]:
+    """The JSON objects of a JSON-lines file in order (none for a missing file).
+
+    Blank lines and lines that are not complete JSON (cut short by a kill) are skipped silently.
+    A line that cannot be a record we wrote -- not UTF-8, JSON that is not an object, a NaN or
+    infinity anywhere, or refused by ``check(record)`` (which names the problem, or returns None)
+    -- is skipped with a one-line note on stderr naming the file and the line.
+    """
     p = Path(path)
     if not p.exists():
         return
-    with p.open(encoding="utf-8") as fh:
-        for line in fh:
-            line = line.strip()
-            if not line:
+    with p.open("rb") as fh:
+        for lineno, raw in enumerate(fh, start=1):
+            raw = raw.strip()
+            if not raw:
+                continue
+            try:
+                line = raw.decode("utf-8")
+            except UnicodeDecodeError as exc:
+                _note(p, lineno, f"not UTF-8 text (byte {exc.start + 1} of the line)")
                 continue
             try:
                 rec = json.loads(line)
+            except RecursionError:
+                _note(p, lineno, "JSON nested too deep")
+                continue
             except ValueError:
                 continue
-            if isinstance(rec, dict):
-                yield rec
+            if not isinstance(rec, dict):
+                _note(p, lineno, f"a JSON {type(rec).__name__}, not a record (an object)")
+                continue
+            problem = non_finite_path(rec)
+            if problem is not None:
+                problem = f"{problem} is not a finite number"
+            elif check is not None:
+                problem = check(rec)
+            if problem:
+                _note(p, lineno, problem)
+                continue
+            yield rec
 
 
-def read_keyed(path: str | os.PathLike, required: tuple[str, ...] = ()) -> dict[str, dict]:
+def read_keyed(path: str | os.PathLike, required: tuple[str, ...] = (),
+               check: Callable[[dict], str | None] | None = None) -> dict[str, dict]:
     """Records by their string ``key`` field (the last record of a key wins); records without
-    one of the ``required`` fields are skipped."""
-    return {rec["key"]: rec for rec in read_lines(path)
+    one of the ``required`` fields are skipped, records ``check`` refuses are noted and skipped."""
+    return {rec["key"]: rec for rec in read_lines(path, check)
             if isinstance(rec.get("key"), str) and all(k in rec for k in required)}
 
 

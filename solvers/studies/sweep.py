@@ -132,12 +132,33 @@ def load_generated(ref: Mapping[str, str]) -> ModuleType:
 # ----------------------------------------------------------------------------- records
 
 
+STATUSES = ("ok", "error", LOST)
+
+
+def check_record(rec: Mapping[str, Any]) -> str | None:
+    """What makes ``rec`` no record of ours (the layout :func:`_record` writes), or None."""
+    if rec.get("format") != FORMAT:
+        return f"format {rec.get('format')!r}, not {FORMAT}"
+    for field, kind in (("key", str), ("task", str), ("params", dict), ("status", str)):
+        if not isinstance(rec.get(field), kind):
+            return f"'{field}' is {type(rec.get(field)).__name__}, not {kind.__name__}"
+    if rec["status"] not in STATUSES:
+        return f"status {rec['status']!r} is none of {', '.join(STATUSES)}"
+    if rec["status"] == "ok" and not isinstance(rec.get("result"), dict):
+        return "a finished point without a result"
+    if rec["status"] != "ok" and not isinstance(rec.get("error"), str):
+        return "a failed point without an error message"
+    return None  # a key that is not the hash of its params is run_sweep's "use a fresh output file"
+
+
 def read_records(path: str | Path) -> dict[str, dict]:
     """Records of an output file by key (the last record of a key wins).
 
-    A line that is not complete JSON (the sweep was killed while writing it) is ignored.
+    A line that is not complete JSON (the sweep was killed while writing it) is ignored; a
+    record that is not of our layout or holds a NaN is ignored with a note naming file and line
+    (its point is run again).
     """
-    return read_keyed(path)
+    return read_keyed(path, check=check_record)
 
 
 def _call(task: Callable[[dict], dict], params: dict) -> dict:

@@ -128,7 +128,31 @@ def read_rows(path: str | os.PathLike) -> dict[str, dict]:
     """Finished rows of a JSON-lines file by row key (scene, columns and version)."""
     if Path(path).is_dir():
         raise TableError(f"rows file {path} is a directory: give a file name (e.g. {DEFAULT_ROWS_FILE})")
-    return read_keyed(path, required=("scene",))
+    return read_keyed(path, required=("scene",), check=check_row)
+
+
+def check_row(row: dict) -> str | None:
+    """What makes ``row`` no row of ours (the fields :func:`markdown` and :func:`wins` read), or None."""
+    for field, kinds in (("scene", str), ("key", str), ("R", str), ("eps", (int, float)), ("v0", (int, float)),
+                         ("live", int), ("errors", dict)):
+        if not isinstance(row.get(field), kinds) or isinstance(row.get(field), bool):
+            return f"'{field}' is missing or of the wrong type"
+    for name, err in row["errors"].items():
+        if err is not None and not (isinstance(err, dict) and all(
+                v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)) for v in err.values())):
+            return f"errors of {name!r} are not numbers"
+    winner = row.get("winner")
+    if winner is None:
+        return None
+    if not isinstance(winner, dict):
+        return "'winner' is not a table"
+    for field, kinds in (("model", str), ("runner_up", str), ("rms_rel", (int, float)), ("runner_up_rms_rel", (int, float))):
+        value = winner.get(field)
+        if value is not None and (not isinstance(value, kinds) or isinstance(value, bool)):
+            return f"winner '{field}' is of the wrong type"
+    if winner.get("model") is not None and winner.get("rms_rel") is None:
+        return "a winner without its error"
+    return None
 
 
 def table(names=None, progress: bool = False, rows_file: str | os.PathLike | None = None,

@@ -124,6 +124,9 @@ CLI = [
      ["'nu' is not a parameter", "mu"]),
     ("bifurcation: unknown profile", ["bifurcation", "vdp-mu3-v2.3", "--param", "mu", "--range", "0", "1",
                                       "--profiles", "spline"], ["unknown profile 'spline'"]),
+    ("sweep: unknown scene", ["sweep", "nosuch", "--over", "perturbation.eps=0.1,0.2"], ["'nosuch' not found"]),
+    ("sweep: unknown key", ["sweep", "fig8-eps0.1", "--over", "perturbation.epss=0.1,0.2"],
+     ["perturbation.epss", "did you mean 'perturbation.eps'"]),
     ("json and csv both to stdout", ["run", "fig8-eps0.1", "--json", "-", "--csv", "-"], ["both ask for stdout"]),
     # argparse's own usage errors
     ("no command", [], ["required", "COMMAND"]),

@@ -39,6 +39,8 @@ COMMANDS = [
     ("suite", ["TINY", "--no-check"], "tiny"),
     ("bifurcation", ["vdp-mu3-v2.3", "--param", "mu", "--range", "2", "4", "--no-dns", "--predict-points", "5",
                      "--workers", "1", "--quiet"], "fold"),
+    ("sweep", ["TINY", "--over", "perturbation.eps=0.05,0.1", "--methods", "dns", "--workers", "1", "--quiet"],
+     "points run"),
     ("ensemble", ["fig13-seed1", "--realisations", "1", "--contacts", "16", "20", "--workers", "1", "--quiet"],
      "realisation"),
 ]

@@ -43,3 +43,23 @@ def test_a_line_cut_by_a_kill_is_skipped_and_the_next_record_starts_a_new_line(t
     assert read_keyed(path, required=("scene",))["c"] == {"key": "c", "scene": "z"}
     append_record(path, {"key": "d", "scene": "w"})  # an intact file gets no blank line
     assert len(path.read_text(encoding="utf-8").splitlines()) == 5
+
+
+def test_a_damaged_line_is_noted_with_file_and_line_and_skipped(tmp_path, capsys):
+    """Issue 14: a non-UTF-8 line named no file; NaN records gave NaN reports. Both are noted and skipped."""
+    from pulsemap.solvers.data.records import non_finite_path
+
+    path = tmp_path / "r.jsonl"
+    lines = [b'{"key": "a", "v": 1}', b'{"key": "b", "v": "\xff\xfe"}', b'{"key": "c", "v": [1, NaN]}',
+             b'{"key": "d", "v": {"w": 1e999}}', b"[" * 100000 + b"]" * 100000, b'{"key": "e", "v": -Infinity}',
+             b'{"key": "f", "v": 2}', b'{"key": "g", "v": "wrong"}', b'{"key": "cut", "v": ']
+    path.write_bytes(b"\n".join(lines))
+    recs = list(read_lines(path, check=lambda r: "v is a string" if isinstance(r["v"], str) else None))
+    assert [r["key"] for r in recs] == ["a", "f"]
+    notes = capsys.readouterr().err.splitlines()
+    assert [n.split(": ")[2] for n in notes] == [f"{path}:{k}" for k in (2, 3, 4, 5, 6, 8)]
+    assert all(n.startswith("pulsemap: note: ") and n.endswith("record ignored (its point is computed again)")
+               for n in notes)
+    assert "not UTF-8" in notes[0] and "v[1] is not a finite number" in notes[1]
+    assert "v.w is not a finite number" in notes[2] and "nested too deep" in notes[3] and "v is a string" in notes[5]
+    assert non_finite_path({"a": [1.0, {"b": float("inf")}]}) == "a[1].b" and non_finite_path({"a": [1, "x"]}) is None
