@@ -41,6 +41,19 @@ def _is_parameter(s: sympy.Symbol) -> bool:
     return isinstance(s, BeadSymbol) or (isinstance(s, UserSymbol) and s.name not in SYMBOLS)
 
 
+class _Printer(NumPyPrinter):
+    """numpy code; Heaviside(x) as numpy.heaviside(x, 0.5) (sympy's H(0) = 1/2)."""
+
+    def _print_Heaviside(self, expr):
+        return f"numpy.heaviside({self._print(expr.args[0])}, 0.5)"
+
+    def _print_ramp(self, expr):  # derive/codegen_force.py: the module's own ramp(s)
+        return f"ramp({self._print(expr.args[0])})"
+
+    def _print_ramp_slope(self, expr):
+        return f"ramp_slope({self._print(expr.args[0])})"
+
+
 def code(expr: sympy.Expr, names: dict[sympy.Symbol, str]) -> str:
     """numpy code for ``expr``, each free symbol printed as its identifier in ``names``.
 
@@ -61,7 +74,7 @@ def code(expr: sympy.Expr, names: dict[sympy.Symbol, str]) -> str:
         if _is_user_identifier(ident) != _is_parameter(s):
             raise CodegenError(f"identifier {ident!r} of {s} crosses the user/internal namespaces")
     expr = expr.xreplace({s: sympy.Symbol(ident, real=True) for s, ident in used.items()})
-    return NumPyPrinter({"fully_qualified_modules": True}).doprint(expr)
+    return _Printer({"fully_qualified_modules": True}).doprint(expr)
 
 
 def const(value: float) -> str:

@@ -20,7 +20,7 @@ from typing import Iterable
 
 import sympy
 
-from .expression import is_polynomial_in_state, symbol
+from .expression import NON_SMOOTH, is_polynomial_in_state, symbol
 from .integrals import g1_name, g2_name
 
 #: The ansatz symbols: delta_i, delta_{i+1}, delta_i', delta_{i+1}'.
@@ -113,6 +113,12 @@ def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str, error: t
     u, v = symbol("u"), symbol("v")
     if not is_polynomial_in_state(R):
         bad = [a for a in sympy.Add.make_args(sympy.expand(R)) if not is_polynomial_in_state(a)]
+        kinks = sorted({str(f) for f in R.atoms(*NON_SMOOTH)})
+        if kinks:
+            raise error(
+                f"R = {R} is not a polynomial in u, v ({kinks[0]} has a kink or a jump at 0): {needs}; "
+                "the DNS runs it (methods = [\"dns\"])"
+            )
         raise error(
             f"R = {R} is not a polynomial in u, v (term {bad[0] if bad else R}): {needs}; "
             "Taylor-expand it (e.g. sin(u) -> u - u**3/6)"

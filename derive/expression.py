@@ -34,6 +34,7 @@ __all__ = [
     "MAX_DEPTH",
     "MAX_EXPONENT",
     "MAX_LENGTH",
+    "NON_SMOOTH",
     "RESERVED",
     "SYMBOLS",
     "UserSymbol",
@@ -59,9 +60,15 @@ FUNCTIONS: Mapping[str, type] = MappingProxyType(
         "cosh": sympy.cosh,
         "abs": sympy.Abs,
         "sign": sympy.sign,
+        "heaviside": sympy.Heaviside,
+        "Heaviside": sympy.Heaviside,
     }
 )
-"""Whitelisted one-argument functions, by the name the user writes."""
+"""Whitelisted one-argument functions, by the name the user writes (Heaviside(0) = 1/2)."""
+
+NON_SMOOTH = (sympy.sign, sympy.Abs, sympy.Heaviside)
+"""Functions with a kink or a jump at 0: the DNS takes them (derivatives 0 almost everywhere);
+the map, the long-wave law and the balances need polynomial R and refuse them."""
 
 NON_FINITE_NAMES = frozenset({"inf", "infinity", "nan", "oo", "zoo"})
 RESERVED = frozenset(SYMBOLS) | {"eps"} | frozenset(FUNCTIONS) | NON_FINITE_NAMES

@@ -488,6 +488,7 @@ _NUMPY_FUNCTIONS = (
     (sympy.cosh, np.cosh),
     (sympy.Abs, np.abs),
     (sympy.sign, np.sign),
+    (sympy.Heaviside, lambda x: np.heaviside(x, 0.5)),
 )
 
 

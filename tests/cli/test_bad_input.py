@@ -97,6 +97,11 @@ CLI = [
      ["n = 1.0000001", "1.01 <= n <= 20", "(n - 1)^(-1/2)"]),
     ("profile: n just above 1", ["profile", "--n", "1.0000001"], ["n = 1.0000001", "1.01 <= n <= 20"]),
     ("profile: n too large", ["profile", "--n", "21"], ["n = 21.0", "1.01 <= n <= 20"]),
+    # non-smooth R: the DNS runs it, derive's map and balances refuse it with the reason (issue 14)
+    ("Coulomb friction, map", ["derive", "-mu*sign(v)", "--param", "mu=1"],
+     ["not a polynomial in u, v", "sign(v) has a kink or a jump at 0", "DNS runs it"]),
+    ("Heaviside, energy balance", ["derive", "mu*Heaviside(u)*u", "--param", "mu=1", "--model", "energy"],
+     ["not a polynomial", "Heaviside(u)", "DNS runs it"]),
     ("dps not an integer", ["profile", "--dps", "many"], ["--dps", "invalid int value"]),
     # choices
     ("unknown profile", ["profile", "--profile", "spline"], ["unknown profile 'spline'", "exact, pade"]),
