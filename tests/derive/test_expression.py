@@ -342,5 +342,5 @@ def test_float_literals_parse_exactly(value: float) -> None:
 
 def test_whitelist_is_exactly_documented() -> None:
     assert set(FUNCTIONS) == {
-        "sin", "cos", "tan", "exp", "log", "sqrt", "tanh", "sinh", "cosh", "abs", "sign"
+        "sin", "cos", "tan", "exp", "log", "sqrt", "tanh", "sinh", "cosh", "abs", "sign", "heaviside", "Heaviside"
     }
