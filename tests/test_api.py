@@ -51,7 +51,7 @@ def test_damping_law_solves_its_long_wave_ode():
     assert d.law_kind == "power law" and d.law.startswith("A(i) = ")
     i = sympy.Symbol("i", real=True)
     A0, i0, k = sympy.symbols("A_0 i_0 k", real=True)
-    law = _sym(d.law.split("=", 1)[1], {"A_0": A0, "i_0": i0, "k": k})
+    law = _sym(d.law.split("=", 1)[1], {"A_0": A0, "i_0": i0, "k": k, "lambda_L": k})  # the rate prints as lambda_L
     lhs, rhs = (_sym(side) for side in d.ode.split(" = "))
     values = {sympy.Symbol(name): value for name, value in d.constants.items()}
     values.update({sympy.Symbol("epsilon"): d.eps, sympy.Symbol("mu"): 1})
