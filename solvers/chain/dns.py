@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
+from pulsemap.solvers.chain import scaling as _scaling
 from pulsemap.solvers.chain import window as _window
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
     ENERGY_BLOWUP, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
@@ -32,6 +33,10 @@ if TYPE_CHECKING:  # pragma: no cover
 
 
 # ----------------------------------------------------------------------------- validation
+
+MIN_RTOL = 100 * float(np.finfo(float).eps)
+"""Smallest rtol float64 can deliver (scipy raises a smaller one to this silently)."""
+
 
 
 def validate(
@@ -58,6 +63,7 @@ def validate(
         raise ValueError(f"velocity must be finite, got {velocity!r}")
     if velocity <= 0.0:
         raise ValueError(f"velocity must be > 0 (bead 1 pushes into the chain), got {velocity!r}")
+    _scaling.check_velocity_range(float(velocity))
     try:
         first, last = (int(c) for c in contacts)
     except (TypeError, ValueError):
@@ -73,6 +79,9 @@ def validate(
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if not (np.isfinite(rtol) and rtol > 0.0):
         raise ValueError(f"rtol must be a finite number > 0, got {rtol!r}")
+    if rtol < MIN_RTOL:
+        raise ValueError(f"rtol = {rtol:g} is below what float64 can deliver: give rtol >= {MIN_RTOL:.2g} "
+                         "(100 x machine epsilon)")
     if not (np.isfinite(atol) and atol > 0.0):
         raise ValueError(f"atol must be a finite number > 0, got {atol!r}")
     if not 0.0 < peak_fraction < 1.0:
@@ -152,6 +161,16 @@ def simulate(
     first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol,
                            peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps)
     beads, exponent, velocity = int(beads), float(exponent), float(velocity)
+    if launch is None and _scaling.needs_rescaling(velocity):  # a rescaled run at v0 = 1 (solvers/chain/scaling.py)
+        _scaling.check_force_range(force, exponent, velocity, beads)
+        scale = _scaling.Scaling(exponent, velocity)
+        unit = simulate(
+            beads, exponent, 1.0, (first, last), scale.force(force), method=method, rtol=rtol, atol=atol,
+            peak_fraction=peak_fraction, death_fraction=death_fraction,
+            t_max=None if t_max is None else float(t_max) / scale.tau, stall_factor=stall_factor, progress=progress,
+            overtake_factor=overtake_factor, window=window, window_accuracy=window_accuracy,
+            window_engine=window_engine, max_steps=max_steps, snapshots=snapshots, snapshot_span=snapshot_span)
+        return scale.result(unit)
     if launch is not None:
         if not isinstance(launch, Launch):
             raise TypeError(f"launch must be a solvers.chain.launch.Launch or None, got {type(launch).__name__}")

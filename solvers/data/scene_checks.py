@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 from typing import TYPE_CHECKING, Any, Mapping
 
 from pulsemap.derive.frozenmap import FrozenMap
@@ -96,6 +98,12 @@ def _check_velocity(value: Any) -> float:
     v0 = _number(value, "[excitation] velocity")
     if v0 <= 0:
         raise _Problem(f"[excitation] velocity = {v0} must be > 0: bead 1 is pushed into the chain (e.g. velocity = 1.0)")
+    from pulsemap.solvers.chain.scaling import ScalingError, check_velocity_range
+
+    try:
+        check_velocity_range(v0, "[excitation] velocity")
+    except ScalingError as exc:
+        raise _Problem(str(exc)) from None
     return v0
 
 
@@ -145,6 +153,10 @@ def _check_choice(value: Any, key: str, choices: tuple[str, ...]) -> str:
     return value
 
 
+MIN_RTOL = 100 * sys.float_info.epsilon
+"""Smallest rtol float64 can deliver (= solvers.chain.dns.MIN_RTOL; scipy raises a smaller one silently)."""
+
+
 def _check_dns_table(table: Mapping[str, Any]) -> FrozenMap:
     for key in table:
         if key not in _SCHEMA["dns"]:
@@ -155,6 +167,9 @@ def _check_dns_table(table: Mapping[str, Any]) -> FrozenMap:
         if tol <= 0 or (key == "rtol" and tol >= 1):
             bound = "0 < rtol < 1" if key == "rtol" else "atol > 0"
             raise _Problem(f"[dns] {key} = {tol} is out of range: give {bound} (default {DNS_DEFAULTS[key]})")
+        if key == "rtol" and tol < MIN_RTOL:
+            raise _Problem(f"[dns] rtol = {tol:g} is below what float64 can deliver: give rtol >= {MIN_RTOL:.2g} "
+                           "(100 x machine epsilon)")
         values[key] = tol
     values["method"] = _check_choice(table["method"], "[dns] method", DNS_METHODS)
     return FrozenMap(tuple(values.items()))

@@ -132,6 +132,8 @@ CLI = [
     ("sweep: unknown scene", ["sweep", "nosuch", "--over", "perturbation.eps=0.1,0.2"], ["'nosuch' not found"]),
     ("sweep: unknown key", ["sweep", "fig8-eps0.1", "--over", "perturbation.epss=0.1,0.2"],
      ["perturbation.epss", "did you mean 'perturbation.eps'"]),
+    ("velocity where R's scaled force is too large", ["run", "fig8-eps0.1", "--set", "excitation.velocity=1e-100"],
+     ["velocity = 1e-100", "maps R's coefficients", "v0 in ["]),
     ("json and csv both to stdout", ["run", "fig8-eps0.1", "--json", "-", "--csv", "-"], ["both ask for stdout"]),
     # argparse's own usage errors
     ("no command", [], ["required", "COMMAND"]),
@@ -190,6 +192,9 @@ SCENES = [
     ("velocity negative", edit("velocity = 1.0", "velocity = -1.0"), ["velocity = -1.0", "> 0"]),
     ("velocity a bool", edit("velocity = 1.0", "velocity = true"), ["velocity", "boolean"]),
     ("velocity nan", edit("velocity = 1.0", "velocity = nan"), ["velocity", "not finite"]),
+    ("velocity 1e-300", edit("velocity = 1.0", "velocity = 1e-300"), ["velocity = 1e-300", "outside [1e-150, 1e+150]"]),
+    ("velocity 1e300", edit("velocity = 1.0", "velocity = 1e300"), ["velocity = 1e+300", "outside [1e-150, 1e+150]"]),
+    ("rtol 1e-300", BASE + "[dns]\nrtol = 1e-300\n", ["rtol = 1e-300", "below what float64 can deliver", "rtol >= 2.2e-14"]),
     ("eps inf", edit("eps = 0.1", "eps = inf"), ["eps", "not finite"]),
     ("eps 1e400", edit("eps = 0.1", "eps = 1e400"), ["eps", "not finite"]),
     ("eps negative", edit("eps = 0.1", "eps = -0.1"), ["eps = -0.1", ">= 0"]),
