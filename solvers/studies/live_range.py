@@ -28,13 +28,23 @@ def live_contacts(contacts: Sequence[int], dns: Sequence[float | None], seed_con
 
 def rms_on(contacts: Sequence[int], reference: Sequence[float | None], values: Sequence[float | None],
            live: Sequence[int]) -> dict:
-    """RMS and max relative error of ``values`` against ``reference`` on the ``live`` contacts;
-    ``missing``: live contacts without a model value (they count as not compared)."""
+    """RMS and max relative error of ``values`` against ``reference`` on the ``live`` contacts.
+
+    ``missing``: live contacts without a model value (the model has ended there); ``rms_rel`` and
+    ``max_rel`` leave them out, ``rms_rel_all`` and ``max_rel_all`` count them as predicting 0
+    (relative error 1), for rankings. ``contacts``: [first, last] of the live range.
+    """
     ref = dict(zip(contacts, reference))
     got = dict(zip(contacts, values))
-    errs = [(got[c] - ref[c]) / ref[c] for c in live if got.get(c) is not None]
+    errs = [abs(got[c] - ref[c]) / ref[c] for c in live if got.get(c) is not None]
     missing = sum(got.get(c) is None for c in live)
-    if not errs:
-        return {"rms_rel": None, "max_rel": None, "compared": 0, "missing": missing}
-    return {"rms_rel": math.sqrt(sum(e * e for e in errs) / len(errs)), "max_rel": max(abs(e) for e in errs),
-            "compared": len(errs), "missing": missing}
+    out = {"contacts": [live[0], live[-1]] if live else None, "compared": len(errs), "missing": missing,
+           "rms_rel": None, "max_rel": None, "rms_rel_all": None, "max_rel_all": None}
+    if errs:
+        out["rms_rel"] = math.sqrt(sum(e * e for e in errs) / len(errs))
+        out["max_rel"] = max(errs)
+    if errs or missing:
+        full = errs + [1.0] * missing
+        out["rms_rel_all"] = math.sqrt(sum(e * e for e in full) / len(full))
+        out["max_rel_all"] = max(full)
+    return out

@@ -30,6 +30,7 @@ MODEL_TITLES = {
     "energy-law": "energy-balance law: E_1 dA^(n+1)/di = W(A)",
     "momentum-map": "momentum-balance map: p_1 A_i^(1+s) = p_1 A_(i-1)^(1+s) + J(A_(i-1))",
     "momentum-law": "momentum-balance law: p_1 dA^(1+s)/di = J(A)",
+    "relaxed": "relaxed transfer map P_(k+1) = F(P_k) from segment runs, with the tabulated onset (issue 17)",
 }
 
 

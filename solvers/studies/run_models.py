@@ -189,15 +189,46 @@ def run_longwave(state: "RunState", mod: ModuleType, seed_A: float, prm: dict) -
         state.warnings.append(f"long-wave law: {law.ended} at contact index {law.ended_at:.4g}")
 
 
+def run_relaxed(state: "RunState", prm: dict) -> None:
+    """The relaxed transfer map with its onset (solvers/models/relaxed.py) from the seed peak; refused
+    (reported, not raised) for an R it cannot take."""
+    from pulsemap.solvers.models.relaxed import ONSET, RelaxedError, iterate_relaxed, model_for_scene
+
+    scene, out = state.scene, state.out
+    seed_contact, c1 = scene.first_perturbed - 1, scene.contacts[1]
+    t0 = time.perf_counter()
+    try:
+        model = model_for_scene(scene, prm)
+        run = iterate_relaxed(model, float(out["seed"]["peak"]), seed_contact, c1)
+    except RelaxedError as exc:
+        state.warnings.append(f"relaxed refused: {exc}")
+        out["relaxed"] = {"model": MODEL_TITLES["relaxed"], "refused": str(exc)}
+        return
+    state.timings["relaxed"] = time.perf_counter() - t0
+    out["peaks"]["relaxed"] = on_contacts(state.contacts, run.contacts, run.peaks)
+    out["relaxed"] = {"model": MODEL_TITLES["relaxed"], "status": run.status, "message": run.message,
+                      "onset_contacts": ONSET, "segment_runs": model.segment_runs(),
+                      "tables": [t.spec.R for t in model.tables.values()],
+                      "scaling_exponent": model.e, "bulk_accuracy_log_ratio": model.accuracy()}
+    if model.coefficients is not None and len(set(model.coefficients[scene.first_perturbed - 1:].tolist())) > 1:
+        state.warnings.append("relaxed: R varies along the chain: each contact uses the map at the local coefficient "
+                              "of its first bead (the tables assume R uniform over the ~5 contacts a pulse needs "
+                              "to relax)")
+    if run.status != "ok":
+        state.warnings.append(f"relaxed: {run.message}")
+
+
 def run_models(state: "RunState") -> None:
     """Derive, seed and run every reduced model among the methods."""
     mod, balance = derive_models(state)
-    if mod is None and not balance:
+    if mod is None and not balance and "relaxed" not in state.methods:
         return
     modules = [m for m in (mod, *balance.values()) if m is not None and m is not QUADRATURE]
     S0 = float(modules[0].S0 if modules else exact_profile(state.scene.exponent).S0)
     seed_A = seed_models(state, S0)
     prm = _params(state.scene, state.scene.beads)
+    if "relaxed" in state.methods:
+        run_relaxed(state, prm)
     run_balance(state, balance, seed_A, prm)
     if "map" in state.methods and mod is not None:
         run_map(state, mod, seed_A, prm)

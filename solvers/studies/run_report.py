@@ -58,6 +58,12 @@ def to_text(result: dict) -> str:
                 + (f"; max rel {err['max_rel_strong']:.3g} while the DNS peak >= 10 % of its entry value"
                    if err.get("max_rel_strong") is not None else "")
             )
+        live = err.get("live") or {}
+        if live.get("rms_rel_all") is not None:
+            a, b = live["contacts"]
+            lines.append(f"  {'':8s}   live range {a}..{b} (DNS peak >= 2 % of the seed's): rms rel "
+                         f"{live['rms_rel_all']:.3g}, max rel {live['max_rel_all']:.3g}"
+                         + (f" ({live['missing']} contacts without a value count as 1)" if live["missing"] else ""))
     t = result["timings_s"]
     lines.append("  time: " + ", ".join(f"{k} {v:.4g} s" for k, v in t.items()))
     cols = _columns(result)

@@ -3,9 +3,10 @@
 One DNS per scene (the reference), then every model column seeded from the same DNS peak at
 contact first_perturbed - 1: the paper's map (exact and Pade profile; variants corrected and 1d),
 the long-wave law (both profiles), and the energy- and momentum-balance maps and laws
-(derive/balance.py). Errors are relative to the DNS over the contacts where the DNS carries a
-live primary pulse; a model that has ended there (died, blown up) counts as predicting 0, i.e.
-a relative error of 100 %. The winner of a scene is the model with the least RMS of that error.
+(derive/balance.py), and the relaxed map (models/relaxed.py). Errors are relative to the DNS over
+the live range (studies/live_range.py: contacts first_perturbed up to the last whose DNS peak is
+>= 2 % of the seed peak); a model that has ended there (died, blown up) counts as predicting 0,
+i.e. a relative error of 100 %. The winner of a scene is the model with the least RMS of that error.
 
 Each scene's row is appended to a JSON-lines file as soon as it is finished; a rerun skips the
 scenes whose row is there with the same key (scene, columns, table version), so an interrupted
@@ -28,7 +29,7 @@ from pulsemap.solvers.studies.run import run_scene
 from pulsemap.solvers.data.scene import builtin_scenes, load_scene
 
 #: Bump when what a row holds or how it is computed changes (old rows are then recomputed).
-TABLE_VERSION = 2
+TABLE_VERSION = 3
 DEFAULT_ROWS_FILE = "pulsemap-table.jsonl"
 
 
@@ -58,6 +59,7 @@ COLUMNS = (
     Column("energy-law", "exact"),
     Column("momentum-map", "exact"),
     Column("momentum-law", "exact"),
+    Column("relaxed", "exact"),
 )
 
 
@@ -73,10 +75,8 @@ def row_key(scene_data: dict, columns=COLUMNS) -> str:
 
 
 def winner(errors: dict) -> tuple[str | None, float | None, str | None, float | None]:
-    """(best key, its RMS, runner-up key, its RMS) by the RMS relative error over live contacts."""
-    scored = sorted(
-        ((e["rms_rel_all"], k) for k, e in errors.items() if e is not None and e.get("rms_rel_all") is not None)
-    )
+    """(best key, its RMS, runner-up key, its RMS) by the RMS relative error over the live range."""
+    scored = sorted((_live(e)["rms_rel_all"], k) for k, e in errors.items() if _live(e).get("rms_rel_all") is not None)
     if not scored:
         return None, None, None, None
     best = scored[0]
@@ -137,10 +137,20 @@ def check_row(row: dict) -> str | None:
                          ("live", int), ("errors", dict)):
         if not isinstance(row.get(field), kinds) or isinstance(row.get(field), bool):
             return f"'{field}' is missing or of the wrong type"
+    def numbers(err: dict) -> bool:
+        return all(v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)) for v in err.values())
+
     for name, err in row["errors"].items():
-        if err is not None and not (isinstance(err, dict) and all(
-                v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)) for v in err.values())):
+        if err is None:
+            continue
+        live = err.get("live") if isinstance(err, dict) else None
+        flat = {k: v for k, v in err.items() if k != "live"} if isinstance(err, dict) else None
+        if flat is None or not numbers(flat):
             return f"errors of {name!r} are not numbers"
+        if live is not None and not (isinstance(live, dict) and numbers({k: v for k, v in live.items() if k != "contacts"})
+                                     and (live.get("contacts") is None or (isinstance(live["contacts"], list) and all(
+                                         isinstance(c, int) and not isinstance(c, bool) for c in live["contacts"])))):
+            return f"live-range errors of {name!r} are not numbers"
     winner = row.get("winner")
     if winner is None:
         return None
@@ -187,24 +197,30 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
     return rows
 
 
+def _live(err) -> dict:
+    """The errors over the live range (studies/live_range.py); rows of older versions: over all live contacts."""
+    if err is None:
+        return {}
+    return err.get("live") or err
+
+
 def _fmt(err) -> str:
-    if err is None or err.get("max_rel_all") is None:
+    live = _live(err)
+    if live.get("max_rel_all") is None:
         return "–"
-    strong = err.get("max_rel_strong_all")
-    tail = f" ({100 * strong:.1f})" if strong is not None else ""
-    return f"{100 * err['max_rel_all']:.1f} / {100 * err['rms_rel_all']:.1f}{tail}"
+    return f"{100 * live['max_rel_all']:.1f} / {100 * live['rms_rel_all']:.1f}"
 
 
 def markdown(rows: list[dict], columns=COLUMNS) -> str:
     """The ranking as a markdown table with a winner per scene."""
     keys = [c.key for c in columns]
-    head = "| scene | R | eps | v0 | live contacts | " + " | ".join(keys) + " | winner (RMS %) |"
+    head = "| scene | R | eps | v0 | live range | " + " | ".join(keys) + " | winner (RMS %) |"
     sep = "|" + "---|" * (6 + len(keys))
     lines = [
-        "Max / RMS relative error (%) against the DNS over the contacts with a live primary pulse (a model",
-        "that has ended there counts as 100 %), and in brackets the max over the contacts where the DNS",
-        "peak is still >= 10 % of its entry value; every model seeded with the DNS peak at the last",
-        "unperturbed contact (n = 3/2, DNS DOP853 rtol 1e-10). Winner: least RMS; in brackets its margin",
+        "Max / RMS relative error (%) against the DNS over the live range: contacts first_perturbed up to the",
+        "last whose DNS peak is >= 2 % of the seed peak (a model that has ended there counts as 100 %);",
+        "every model seeded with the DNS peak at the last unperturbed contact (n = 3/2, DNS DOP853 rtol",
+        "1e-10). Winner: least RMS; in brackets its margin",
         "over the runner-up. – : undefined (momentum balance with a term without v) or not applicable",
         "(a law for a site-dependent R).",
         "",
@@ -212,7 +228,9 @@ def markdown(rows: list[dict], columns=COLUMNS) -> str:
         sep,
     ]
     for r in rows:
-        cells = [r["scene"], f"`{r['R']}`", f"{r['eps']:g}", f"{r['v0']:g}", str(r["live"])]
+        span = next((_live(e).get("contacts") for e in r["errors"].values() if _live(e).get("contacts")), None)
+        live = f"{span[0]}..{span[1]}" if span else str(r["live"])
+        cells = [r["scene"], f"`{r['R']}`", f"{r['eps']:g}", f"{r['v0']:g}", live]
         cells += [_fmt(r["errors"].get(k)) for k in keys]
         w = r.get("winner") or {}
         if w.get("model"):

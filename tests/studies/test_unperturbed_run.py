@@ -21,7 +21,7 @@ R = "0"
 eps = 0.1
 [output]
 contacts = [16, 40]
-methods = ["dns", "map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law"]
+methods = ["dns", "map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "relaxed"]
 """
 
 
@@ -52,6 +52,12 @@ def test_laws_and_balance_maps_stay_at_the_seed(r0_run):
         assert r0_run["peaks"][name] == pytest.approx([seed] * len(r0_run["contacts"]), rel=1e-12), name
     assert r0_run["longwave"]["kind"] == "constant"
     assert r0_run["errors"]["longwave"]["max_rel"] < 1e-4
+
+
+def test_the_relaxed_map_is_the_identity_at_r0(r0_run):
+    """Its segment runs are unperturbed solitary waves: every ratio is 1 to the DNS accuracy."""
+    seed = r0_run["seed"]["peak"]
+    assert r0_run["peaks"]["relaxed"] == pytest.approx([seed] * len(r0_run["contacts"]), rel=1e-6)
 
 
 @pytest.mark.parametrize("variant", ["corrected", "1d"])

@@ -1,0 +1,36 @@
+"""Method 'relaxed' in run_scene: peaks next to the DNS, live-range errors, refusals reported."""
+
+from __future__ import annotations
+
+import pytest
+
+from conftest import scene_toml, write_scene
+from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.studies.live_range import live_contacts, rms_on
+from pulsemap.solvers.studies.run import run_scene
+
+
+def test_relaxed_runs_beside_the_dns_with_live_range_errors(tmp_path):
+    scene = load_scene(str(write_scene(tmp_path, scene_toml("damped", eps=0.1, contacts=(16, 40),
+                                                            methods=("dns", "relaxed")))))
+    res = run_scene(scene)
+    assert res["relaxed"]["status"] in ("ok", "died") and res["relaxed"]["segment_runs"] > 0
+    live = res["errors"]["relaxed"]["live"]
+    assert live["contacts"][0] == 16 and live["missing"] == 0
+    assert live["rms_rel_all"] < 0.02  # the damped pulse: the relaxed map within 2 % of the DNS
+
+
+def test_site_dependent_polynomial_is_refused_not_raised(tmp_path):
+    text = scene_toml("graded", beads=60, eps=0.1, contacts=(16, 30), methods=("relaxed",))
+    text = text.replace('R = "-mu*v"', 'R = "-(mu*v + k*u)"').replace("mu = 1.0", "mu = 1.0\nk = {uniform = [0, 1], seed = 3}")
+    assert "seed = 3" in text
+    res = run_scene(load_scene(str(write_scene(tmp_path, text))))
+    assert "refused" in res["relaxed"] and res["peaks"]["relaxed"] is None
+
+
+def test_live_range_ends_at_two_percent_of_the_seed():
+    contacts = list(range(15, 22))
+    dns = [1.0, 0.5, 0.1, 0.03, 0.021, 0.019, None]
+    assert live_contacts(contacts, dns, 15, 1.0) == [16, 17, 18, 19]
+    err = rms_on(contacts, dns, [None, 0.5, 0.1, 0.03, None, 0.0, None], [16, 17, 18, 19])
+    assert err["rms_rel"] == 0.0 and err["missing"] == 1 and err["rms_rel_all"] == pytest.approx(0.5)
