@@ -11,6 +11,7 @@ stops as soon as the last requested contact has peaked or the pulse has died.
 
 from __future__ import annotations
 
+import numbers
 import sys
 import time as _time
 from typing import TYPE_CHECKING, Sequence
@@ -34,6 +35,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 # ----------------------------------------------------------------------------- validation
 
+MAX_BEADS = 1_000_000
+"""Longest chain simulate() accepts (the scene files' limit, data/scene_schema.MAX_BEADS)."""
 MIN_RTOL = 100 * float(np.finfo(float).eps)
 """Smallest rtol float64 can deliver (scipy raises a smaller one to this silently)."""
 
@@ -54,9 +57,22 @@ def validate(
     overtake_factor: float = 1.25,
     max_steps: int | None = None,
 ) -> tuple[int, int]:
-    """Check simulate()'s arguments; return the contact range. One-line ValueErrors."""
+    """Check simulate()'s arguments; return the contact range. One-line ValueErrors (TypeErrors for
+    a value of the wrong type), each naming the argument."""
+    for name, value in (("exponent", exponent), ("velocity", velocity), ("rtol", rtol), ("atol", atol),
+                        ("peak_fraction", peak_fraction), ("death_fraction", death_fraction),
+                        ("stall_factor", stall_factor), ("overtake_factor", overtake_factor)):
+        _real(value, name)
+    if t_max is not None:
+        _real(t_max, "t_max")
+    if isinstance(beads, (str, float)):
+        raise TypeError(f"beads must be an integer, got {type(beads).__name__} {beads!r}")
+    if not isinstance(method, str):
+        raise TypeError(f"method must be a string ({', '.join(METHODS)}), got {type(method).__name__}")
     if isinstance(beads, bool) or not isinstance(beads, (int, np.integer)) or beads < 2:
         raise ValueError(f"beads must be an integer >= 2, got {beads!r}; use chain_length_for(last_contact)")
+    if beads > MAX_BEADS:
+        raise ValueError(f"beads = {beads} is beyond the supported {MAX_BEADS}: use a shorter chain")
     if not np.isfinite(exponent) or exponent <= 1.0:
         raise ValueError(f"exponent must be a finite number > 1 (Hertz: 1.5), got {exponent!r}")
     if not np.isfinite(velocity):
@@ -98,6 +114,12 @@ def validate(
                                   or max_steps < 1):
         raise ValueError(f"max_steps must be an integer >= 1 or None, got {max_steps!r}")
     return first, last
+
+
+def _real(value, name: str) -> None:
+    """A TypeError naming ``name`` unless ``value`` is a real number (not a bool, not a string)."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__} {value!r}"[:200])
 
 
 # ----------------------------------------------------------------------------- the run
@@ -158,6 +180,10 @@ def simulate(
     (front.py); ``snapshots``: contacts at whose peak time the strains of contacts
     k - snapshot_span[0] .. k + snapshot_span[1] are kept.
     """
+    if force is not None and not isinstance(force, OnSiteForce):
+        raise TypeError(f"force must be an OnSiteForce or None, got {type(force).__name__}")
+    if not isinstance(progress, bool):
+        raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
     first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol,
                            peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps)
     beads, exponent, velocity = int(beads), float(exponent), float(velocity)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import os
 import re
 from importlib import resources
 from pathlib import Path
@@ -46,6 +47,8 @@ def builtin_scenes() -> list[str]:
 
 def builtin_scene_path(name: str):
     """The packaged TOML file of built-in scene ``name`` (an importlib.resources Traversable)."""
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a string (a built-in scene name), got {type(name).__name__}")
     resolved = ALIASES.get(name, name)
     names = builtin_scenes()
     if resolved not in names:
@@ -58,7 +61,12 @@ def builtin_scene_path(name: str):
 
 def load_scene(ref: str | Path) -> Scene:
     """Load a scene from a path to a ``.toml`` file or from the name of a built-in scene."""
-    text = str(ref)
+    if not isinstance(ref, (str, os.PathLike)):
+        raise TypeError(f"ref must be a scene name or the path of a .toml file (str or Path), got "
+                        f"{type(ref).__name__}: for a table use parse_scene(data, source)")
+    text = os.fspath(ref)
+    if isinstance(text, bytes):
+        raise TypeError("ref must be a str or Path, got a bytes path: decode it first")
     looks_like_path = isinstance(ref, Path) or text.endswith(".toml") or "/" in text or "\\" in text
     if not looks_like_path and (text in ALIASES or text in builtin_scenes()):
         resolved = ALIASES.get(text, text)
@@ -117,6 +125,9 @@ def _toml_reason(message: str) -> str:
 
 def parse_scene(data: Mapping[str, Any], source: str) -> Scene:
     """Validate an already-parsed TOML table (or :meth:`Scene.as_dict`) and return the Scene."""
+    if not isinstance(source, (str, os.PathLike)):
+        raise TypeError(f"source must be a string naming where the scene came from (a path or builtin:NAME), "
+                        f"got {type(source).__name__}")
     source = str(source)
     name = _default_name(source)
     try:

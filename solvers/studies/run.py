@@ -16,6 +16,7 @@ measures :mod:`~pulsemap.solvers.studies.errors`, the outputs
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from dataclasses import dataclass, field
 from typing import Sequence
@@ -88,6 +89,17 @@ class RunState:
 def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, variant: str | None,
               seed_peak: float | None) -> RunState:
     """Check every choice before anything runs (one-line error with the closest name) and lay out the result."""
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene must be a Scene (load_scene(name or path), parse_scene(table, source)), "
+                        f"got {type(scene).__name__}")
+    if isinstance(methods, str) or not (methods is None or isinstance(methods, (list, tuple))):
+        raise TypeError(f"methods must be a list of names such as ['map', 'dns'] or None, got {type(methods).__name__}"
+                        + (f" {methods!r}: write [{methods!r}]" if isinstance(methods, str) else ""))
+    for name, value in (("profile", profile), ("variant", variant)):
+        if value is not None and not isinstance(value, str):
+            raise TypeError(f"{name} must be a string or None, got {type(value).__name__}")
+    if seed_peak is not None and (isinstance(seed_peak, bool) or not isinstance(seed_peak, numbers.Real)):
+        raise TypeError(f"seed_peak must be a number or None, got {type(seed_peak).__name__}")
     if seed_peak is not None and not (isinstance(seed_peak, (int, float)) and math.isfinite(seed_peak) and seed_peak > 0):
         raise RunError(f"seed peak must be a finite number > 0, got {seed_peak!r}")
     methods = tuple(methods) if methods is not None else tuple(scene.methods)
@@ -195,6 +207,12 @@ def run_scene(
     ``seed_peak``: a measured peak at contact first_perturbed - 1 to seed map and law with
     (converted by Eq. 32), instead of the DNS peak or v0 through kappa_n.
     """
+    if not isinstance(progress, bool):
+        raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
+    if dns_window is not None and (isinstance(dns_window, bool) or not isinstance(dns_window, (int, str))):
+        raise TypeError(f"dns_window must be None, 'auto' or a number of beads, got {type(dns_window).__name__}")
+    if reuse_dns is not None and not (isinstance(reuse_dns, dict) and isinstance(reuse_dns.get("peaks"), dict)):
+        raise TypeError("reuse_dns must be the result (a dict) of an earlier run_scene of the same scene with the DNS")
     state = start_run(scene, methods, profile, variant, seed_peak)
     if "dns" in state.methods:
         run_dns(state, progress, dns_window)

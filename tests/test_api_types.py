@@ -1,0 +1,79 @@
+"""Public functions called with wrong types (issue 14): a TypeError or ValueError naming the argument,
+raised before any work -- never an AttributeError or MemoryError from deep inside."""
+
+from __future__ import annotations
+
+import pytest
+
+from pulsemap.solvers.chain import dns
+from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.data import scene_schema
+from pulsemap.solvers.data.scene import load_scene, parse_scene
+from pulsemap.solvers.studies.run import run_scene
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return load_scene("fig8-eps0.1")
+
+
+OK = dict(beads=40, exponent=1.5, velocity=1.0, contacts=(16, 30))
+
+SIMULATE = [
+    ("beads", {"beads": "40"}, TypeError),
+    ("beads", {"beads": 40.0}, TypeError),
+    ("beads", {"beads": 10 ** 12}, ValueError),
+    ("exponent", {"exponent": "1.5"}, TypeError),
+    ("velocity", {"velocity": [1.0]}, TypeError),
+    ("velocity", {"velocity": None}, TypeError),
+    ("contacts", {"contacts": "16,30"}, ValueError),
+    ("force", {"force": "-mu*v"}, TypeError),
+    ("rtol", {"rtol": "1e-8"}, TypeError),
+    ("atol", {"atol": True}, TypeError),
+    ("method", {"method": 3}, TypeError),
+    ("t_max", {"t_max": "10"}, TypeError),
+    ("progress", {"progress": "yes"}, TypeError),
+    ("max_steps", {"max_steps": 1.5}, ValueError),
+]
+
+
+@pytest.mark.parametrize("name, bad, error", SIMULATE, ids=[f"{c[0]}={list(c[1].values())[0]!r}"[:40] for c in SIMULATE])
+def test_simulate_names_the_bad_argument(name, bad, error):
+    kw = {**OK, **bad}
+    with pytest.raises(error) as info:
+        simulate(kw.pop("beads"), kw.pop("exponent"), kw.pop("velocity"), kw.pop("contacts"), **kw)
+    assert type(info.value) in (TypeError, ValueError) and str(info.value).startswith(name)
+    assert "\n" not in str(info.value)
+
+
+def test_the_chain_limit_is_the_scene_limit():
+    assert dns.MAX_BEADS == scene_schema.MAX_BEADS
+
+
+RUN = [
+    ("scene", lambda s: run_scene([s]), TypeError),
+    ("scene", lambda s: run_scene("fig8-eps0.1"), TypeError),
+    ("methods", lambda s: run_scene(s, methods="map"), TypeError),
+    ("profile", lambda s: run_scene(s, profile=3), TypeError),
+    ("variant", lambda s: run_scene(s, variant=["1d"]), TypeError),
+    ("seed_peak", lambda s: run_scene(s, seed_peak="1"), TypeError),
+    ("progress", lambda s: run_scene(s, progress=None), TypeError),
+    ("dns_window", lambda s: run_scene(s, dns_window=[40]), TypeError),
+    ("reuse_dns", lambda s: run_scene(s, reuse_dns=[1]), TypeError),
+    ("ref", lambda s: load_scene(["fig8-eps0.1"]), TypeError),
+    ("ref", lambda s: load_scene(None), TypeError),
+    ("source", lambda s: parse_scene(s.as_dict(), None), TypeError),
+    ("name", lambda s: __import__("pulsemap.solvers.data.scene", fromlist=["x"]).builtin_scene_path(3), TypeError),
+]
+
+
+@pytest.mark.parametrize("name, call, error", RUN, ids=[f"{c[0]}-{i}" for i, c in enumerate(RUN)])
+def test_run_and_scene_functions_name_the_bad_argument(name, call, error, scene):
+    with pytest.raises(error) as info:
+        call(scene)
+    assert str(info.value).startswith(name) and "\n" not in str(info.value)
+
+
+def test_methods_given_as_one_string_says_how_to_write_it(scene):
+    with pytest.raises(TypeError, match=r"write \['map'\]"):
+        run_scene(scene, methods="map")
