@@ -21,7 +21,7 @@ OK = dict(beads=40, exponent=1.5, velocity=1.0, contacts=(16, 30))
 
 SIMULATE = [
     ("beads", {"beads": "40"}, TypeError),
-    ("beads", {"beads": 40.0}, TypeError),
+    ("beads", {"beads": 40.0}, ValueError),
     ("beads", {"beads": 10 ** 12}, ValueError),
     ("exponent", {"exponent": "1.5"}, TypeError),
     ("velocity", {"velocity": [1.0]}, TypeError),

@@ -65,7 +65,7 @@ def validate(
         _real(value, name)
     if t_max is not None:
         _real(t_max, "t_max")
-    if isinstance(beads, (str, float)):
+    if isinstance(beads, (str, bytes)):
         raise TypeError(f"beads must be an integer, got {type(beads).__name__} {beads!r}")
     if not isinstance(method, str):
         raise TypeError(f"method must be a string ({', '.join(METHODS)}), got {type(method).__name__}")
