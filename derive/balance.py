@@ -28,356 +28,37 @@ L = ceil(tail of the exact profile) + 1 (7 for n = 3/2). For the exact profile t
 1e-15; the Pade form (Eq. 5) decays algebraically and its sum_m S(m + theta) is not constant, so
 X' never returns to zero and the window is part of its definition. Constants are computed with
 mpmath.quad on unit sub-intervals and cached on disk like the map's (derive/cache.py).
+
+The constants are :mod:`.balance_constants`, the expansion of R :mod:`.balance_expansion`, the laws
+:mod:`.balance_law`; this module derives a model from them and renders it.
 """
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Iterable
 
-import mpmath
 import sympy
 
-from .expansion import bead_symbol, check_polynomial_at_rest, exact_exponent
-from .expression import symbol
-from .integrals import Constant, _scalar_funcs, cached_constants
-from .longwave import LAW_RATE, A0, I, I0, check_law_inputs, law_data, law_lines, rate_latex, rate_symbol
+from .balance_constants import WAVE_NAMES, BalanceError, balance_constants, check_model, integral_name, window
+from .balance_expansion import A, BalanceExpansion, BalanceTerm, balance_expand
+from .balance_law import B, EPS, K_SYMBOLS, BalanceLaw, balance_law, balance_site_law
+from .longwave import LAW_RATE, check_law_inputs, law_data, law_lines, rate_latex, rate_symbol
 from .perturbation import Perturbation, param_data
+from .profile import check_exponent, check_profile_kind, get_profile
 from .provenance import provenance
-from .profile import check_exponent, check_profile_kind, exact_profile, get_profile
-from .site_law import SiteLaw, coefficient_of_i, site_law
+from .site_law import SiteLaw
 from .sources import BALANCE_METHOD, DEFAULT_DPS
 from .sources import BALANCE_MODELS as MODELS
-from .timebox import bounded
 
-B = sympy.Symbol("B", positive=True)
-A = sympy.Symbol("A", positive=True)
-B0 = sympy.Symbol("B_0", positive=True)
-K_RATE = LAW_RATE  # lambda_L = eps C / K, defined where a law prints it (longwave.law_lines)
-EPS = sympy.Symbol("epsilon", positive=True)
-#: The wave's energy and momentum coefficients as printed symbols.
-K_SYMBOLS = {"energy": sympy.Symbol("E_1", positive=True), "momentum": sympy.Symbol("p_1", positive=True)}
-#: The wave's constants every model needs (E_1 = K1 + V1).
-WAVE_NAMES = {"energy": ("K1", "V1"), "momentum": ("p1",)}
+__all__ = [
+    "A", "B", "BALANCE_METHOD", "EPS", "K_SYMBOLS", "MODELS", "WAVE_NAMES", "BalanceDerivation", "BalanceError",
+    "BalanceExpansion", "BalanceLaw", "BalanceTerm", "balance_constants", "balance_expand", "balance_law",
+    "balance_site_law", "check_model", "derive_balance", "integral_name", "json_header", "map_equation",
+    "model_title", "to_json", "to_latex", "to_text", "window",
+]
 
 
-class BalanceError(ValueError):
-    """A balance model that is undefined or cannot be built for this R (the message says why)."""
-
-
-def check_model(model: str) -> str:
-    """Return the balance model name, or raise a one-line error naming the known ones."""
-    if model not in MODELS:
-        raise BalanceError(f"unknown balance model {model!r}: choose one of {', '.join(MODELS)}")
-    return model
-
-
-def window(n: float) -> int:
-    """Half-width L of the tau window: ceil(tail of the exact profile) + 1."""
-    return int(math.ceil(exact_profile(check_exponent(n)).tail)) + 1
-
-
-def integral_name(model: str, a: int, b: int) -> str:
-    """w_ab (energy: int X^a X'^(b+1)) or j_ab (momentum: int X^a X'^b); '_' between digits past 9."""
-    sep = "" if max(a, b) < 10 else "_"
-    return ("w_" if model == "energy" else "j_") + f"{a}{sep}{b}"
-
-
-def _parse_name(name: str) -> tuple[str, int, int]:
-    if name in ("K1", "V1", "p1", "D"):
-        return name, 0, 0
-    if len(name) > 2 and name[:2] in ("w_", "j_"):
-        body = name[2:]
-        parts = body.split("_") if "_" in body else list(body)
-        if len(parts) == 2 and all(p.isdigit() for p in parts):
-            a, b = int(parts[0]), int(parts[1])
-            if name[0] == "w" or b >= 1:
-                return name[0], a, b
-            raise BalanceError(f"{name} = int X^{a} dtau diverges (the bead ends displaced): impulse integrals need b >= 1")
-    raise BalanceError(f"unknown balance integral {name!r}: use K1, V1, p1, D, w_ab or j_ab")
-
-
-# ------------------------------------------------------------------------- constants
-def _bead_motion(S: Callable, dS: Callable, L: int) -> tuple[Callable, Callable]:
-    """X(tau) = sum_{k>=0} S(tau - k) and X'(tau), with S truncated to |tau| <= L."""
-
-    def terms(t, f):
-        k0 = max(0, math.ceil(float(t) - L))
-        k1 = math.floor(float(t) + L)
-        return sum((f(t - k) for k in range(k0, k1 + 1)), mpmath.mpf(0))
-
-    return (lambda t: terms(t, S)), (lambda t: terms(t, dS))
-
-
-def _compute(profile, name: str, dps: int, L: int) -> tuple[float, float]:
-    S, dS, _ = _scalar_funcs(profile)
-    X, dX = _bead_motion(S, dS, L)
-    n = mpmath.mpf(profile.n)
-    kind, a, b = _parse_name(name)
-    if kind == "K1":
-        f = lambda t: dX(t) ** 2 / 2  # noqa: E731
-    elif kind == "V1":
-        f = lambda t: (S(t) ** (n + 1) / (n + 1)) if S(t) > 0 else mpmath.mpf(0)  # noqa: E731
-    elif kind == "p1":
-        f = dX
-    elif kind == "D":
-        f = S
-    elif kind == "w":
-        f = lambda t: X(t) ** a * dX(t) ** (b + 1)  # noqa: E731
-    else:
-        f = lambda t: X(t) ** a * dX(t) ** b  # noqa: E731
-    with mpmath.workdps(dps):
-        value, err = mpmath.quad(f, list(range(-L, L + 1)), error=True)
-        value, err = float(value), float(err)
-    if not math.isfinite(value):
-        raise BalanceError(f"balance integral {name} did not converge (non-finite value)")
-    return value, err
-
-
-def _compute_bounded(prof, name: str, dps: int) -> tuple[float, float]:
-    """The integral over |tau| <= L and its error bound: the exact profile is known to accuracy * S0
-    pointwise, and the integrand sums 2L + 1 shifted copies of it."""
-    L = window(prof.n)
-    value, err = _compute(prof, name, dps, L)
-    return value, abs(err) + ((2 * L + 1) * prof.accuracy * prof.S0 * max(1.0, abs(value)) if prof.kind == "exact" else 0.0)
-
-
-def _cache_key(profile, dps: int, L: int) -> str:
-    return f"balance-v{BALANCE_METHOD}|{profile.kind}|n={profile.n!r}|dps={dps}|L={L}"
-
-
-def balance_constants(
-    names: Iterable[str], *, n: float = 1.5, profile: str = "exact", dps: int | None = None, use_cache: bool = True
-) -> dict[str, Constant]:
-    """The wave constants (K1, V1, p1, D) and profile integrals (w_ab, j_ab) called ``names``.
-
-    Computed on demand with mpmath and cached on disk, keyed by (n, profile, dps, window).
-    """
-    return cached_constants("balance", names, n=n, profile=profile, dps=dps, use_cache=use_cache,
-                            key=lambda prof, dps: _cache_key(prof, dps, window(prof.n)),
-                            check_name=_parse_name, compute=_compute_bounded, error=BalanceError)
-
-
-# ------------------------------------------------------------------------- expansion
-@dataclass(frozen=True)
-class BalanceTerm:
-    """One monomial c u^a v^b of R: its work (energy) or impulse (momentum) is c A^power integral."""
-
-    exponents: tuple[int, int]  # (a, b)
-    coefficient: sympy.Expr  # in the parameters (bead-indexed name_i when site-dependent) and i
-    integral: str  # w_ab or j_ab
-    power: sympy.Rational  # of A
-
-    @property
-    def monomial(self) -> sympy.Expr:
-        a, b = self.exponents
-        return symbol("u") ** a * symbol("v") ** b
-
-
-@dataclass(frozen=True)
-class BalanceExpansion:
-    """R split into monomials, with the power of A and the profile integral of each (model-specific)."""
-
-    model: str
-    R: sympy.Expr
-    n: sympy.Rational
-    terms: tuple[BalanceTerm, ...]
-    site_dependent: tuple[str, ...]
-
-    @property
-    def s(self) -> sympy.Rational:
-        return (self.n - 1) / 2
-
-    @property
-    def Q(self) -> sympy.Rational:
-        """The wave's balanced quantity scales as A^Q: n + 1 (energy), 1 + s (momentum)."""
-        return self.n + 1 if self.model == "energy" else 1 + self.s
-
-    @property
-    def wave_names(self) -> tuple[str, ...]:
-        return WAVE_NAMES[self.model]
-
-    def integrals(self) -> tuple[str, ...]:
-        return tuple(dict.fromkeys(t.integral for t in self.terms))
-
-    @property
-    def uniform(self) -> bool:
-        return not self.site_dependent and symbol("i") not in self.R.free_symbols
-
-    def rate(self, amplitude: sympy.Expr = A, constants: dict | None = None) -> sympy.Expr:
-        """sum c A^power integral (W/eps or J/eps); integrals as symbols unless ``constants`` given."""
-        total = sympy.Integer(0)
-        for t in self.terms:
-            value = sympy.Symbol(t.integral, real=True) if constants is None else sympy.Float(constants[t.integral], 17)
-            total += t.coefficient * value * amplitude**t.power
-        return total
-
-
-def balance_expand(R: sympy.Expr, n: float | sympy.Rational = 1.5, model: str = "energy", site_dependent: Iterable[str] = ()) -> BalanceExpansion:
-    """Expand R = sum c_ab u^a v^b into the work (energy) or impulse (momentum) terms of the model."""
-    check_model(model)
-    n_exact = exact_exponent(n)
-    site = tuple(sorted(site_dependent))
-    check_polynomial_at_rest(R, f"the {model} balance integrates R term by term", f"the {model} balance's integrals", BalanceError)
-    u, v = symbol("u"), symbol("v")
-    R_i = R.xreplace({symbol(name): bead_symbol(name, 0) for name in site}) if site else R
-    s = (n_exact - 1) / 2
-    terms: list[BalanceTerm] = []
-    no_v: list[sympy.Expr] = []
-    for (a, b), coeff in sympy.Poly(sympy.expand(R_i), u, v).terms():
-        coeff = sympy.factor_terms(coeff)
-        if coeff == 0:
-            continue
-        if model == "momentum" and b == 0:
-            no_v.append(coeff * u**a)
-            continue
-        power = a + (1 + s) * (b + 1) - s if model == "energy" else a + (1 + s) * b - s
-        terms.append(BalanceTerm((a, b), coeff, integral_name(model, a, b), power))
-    if no_v:
-        shown = ", ".join(str(t) for t in reversed(no_v))
-        raise BalanceError(
-            f"the momentum balance is undefined for R = {R}: its term(s) without v ({shown}) keep acting "
-            "on the bead the wave leaves displaced (x -> A*D), so the impulse int R dt diverges; "
-            "use the energy balance or the map"
-        )
-    terms.sort(key=lambda t: (t.power, t.exponents))
-    return BalanceExpansion(model, R, n_exact, tuple(terms), site)
-
-
-# ------------------------------------------------------------------------------ law
-@dataclass(frozen=True)
-class BalanceLaw:
-    """K dB/di = eps sum_p C_p B^p, B = A^Q (K = E_1 or p_1), and its solution A(i)."""
-
-    model: str
-    Q: sympy.Rational
-    powers: tuple[sympy.Rational, ...]
-    coefficients: tuple[float, ...]
-    symbolic_coefficients: tuple[sympy.Expr, ...]
-    K: float
-    eps: float
-    kind: str  # "power law", "exponential", "implicit", "quadrature", "constant"
-    law: sympy.Expr | None  # A(i) in A_0, i, i_0 and k = eps C / K (one power)
-    implicit: sympy.Expr | None  # i(A), numeric constants (several powers, closed form found)
-
-    def ode(self, symbolic: bool = True) -> sympy.Eq:
-        """K dB/di = eps sum C_p B^p with B = A^Q."""
-        Bf = sympy.Function("B")(I)
-        cs = self.symbolic_coefficients if symbolic else [sympy.Float(c, 15) for c in self.coefficients]
-        K = K_SYMBOLS[self.model] if symbolic else sympy.Float(self.K, 15)
-        e = EPS if symbolic else sympy.Float(self.eps, 15)
-        return sympy.Eq(K * Bf.diff(I), e * sum((c * Bf**p for c, p in zip(cs, self.powers)), sympy.Integer(0)))
-
-    def rate(self) -> float:
-        """k = eps C / K for a single power (0 when R does no work / gives no impulse)."""
-        if not self.coefficients:
-            return 0.0
-        return self.eps * self.coefficients[0] / self.K
-
-    def numeric_law(self) -> sympy.Expr | None:
-        if self.law is None:
-            return None
-        return self.law.xreplace({K_RATE: sympy.Float(self.rate(), 17)})
-
-    def _rhs(self, b: float):
-        """sum C_p B^p in mpmath (no overflow or underflow of B^p)."""
-        return sum(c * mpmath.mpf(b) ** float(p) for c, p in zip(self.coefficients, self.powers))
-
-    def singular_index(self, a0: float, i0: float = 0.0) -> tuple[float | None, str]:
-        """(index, what) where A(i) reaches 0 ("extinction") or infinity ("blow-up"), else None and why."""
-        if self.kind == "constant":
-            return None, "no work on the wave: A stays constant"
-        if not a0 > 0:
-            raise BalanceError(f"the initial amplitude A0 must be > 0, got {a0}")
-        if len(self.powers) == 1:
-            p, k = float(self.powers[0]), self.rate()
-            if k == 0 or p == 1.0:
-                return None, "exponential law: no finite-index singularity" if k else "zero coefficient: A constant"
-            index = float(i0 - mpmath.mpf(a0) ** (float(self.Q) * (1 - p)) / ((1 - p) * k))
-            if not math.isfinite(index):
-                return None, "never singular at a finite index"
-            if index <= i0:
-                return None, ("decays" if k < 0 else "grows") + " algebraically, never singular"
-            return index, "extinction (A -> 0)" if p < 1 else "blow-up (A -> inf)"
-        b0 = a0 ** float(self.Q)
-        f0 = self._rhs(b0)
-        if f0 == 0:
-            return None, "A0 is a stationary amplitude"
-        ahead = [b0 * 10 ** (j / 50) for j in range(1, 801)]
-        ahead = [b0 * 10 ** (-j / 50) for j in range(1, 801)] if f0 < 0 else ahead
-        if any((self._rhs(b) > 0) != (f0 > 0) for b in ahead):
-            return None, "approaches a stationary amplitude asymptotically"
-        with mpmath.workdps(20):
-            try:
-                span = mpmath.quad(lambda b: 1 / self._rhs(b), [0, b0] if f0 < 0 else [b0, mpmath.inf])
-            except (ZeroDivisionError, ValueError):
-                return None, "quadrature failed"
-        span = abs(float(span)) * self.K / self.eps
-        if not math.isfinite(span) or span > 1e12:
-            return None, "never singular at a finite index"
-        return i0 + span, "extinction (A -> 0)" if f0 < 0 else "blow-up (A -> inf)"
-
-
-def balance_law(ex: BalanceExpansion, constants: dict, params: dict, eps: float, seconds: float = 2.0) -> BalanceLaw:
-    """Group the terms by power of B = A^Q and solve K dB/di = eps sum C_p B^p (closed form for one power)."""
-    if not ex.uniform:
-        raise BalanceError(
-            f"the {ex.model}-balance law needs a uniform perturbation; this R is site-dependent "
-            "(per-bead parameters or i): iterate the balance map instead"
-        )
-    Q = ex.Q
-    K = constants["K1"] + constants["V1"] if ex.model == "energy" else constants["p1"]
-    groups: dict[sympy.Rational, sympy.Expr] = {}
-    for t in ex.terms:
-        groups[t.power] = groups.get(t.power, sympy.Integer(0)) + t.coefficient * sympy.Symbol(t.integral, real=True)
-    powers, coeffs, symb = [], [], []
-    for power in sorted(groups):
-        sym = sympy.expand(groups[power])
-        num = sym.xreplace(params).xreplace({sympy.Symbol(k, real=True): sympy.Float(v, 17) for k, v in constants.items()})
-        value = float(num) if not num.free_symbols else None
-        if value == 0.0:
-            continue
-        powers.append(power / Q)
-        coeffs.append(value)
-        symb.append(sym)
-    powers, coeffs, symb = tuple(powers), tuple(coeffs), tuple(symb)
-    if not powers:
-        return BalanceLaw(ex.model, Q, (), (), (), K, eps, "constant", A0 + 0 * I, None)
-    if len(powers) == 1:
-        (p,) = powers
-        if p == 1:
-            law_B = B0 * sympy.exp(K_RATE * (I - I0))
-            kind = "exponential"
-        else:
-            law_B = (B0 ** (1 - p) + (1 - p) * K_RATE * (I - I0)) ** (1 / (1 - p))
-            kind = "power law"
-        law_A = sympy.powsimp(sympy.powdenest(law_B.xreplace({B0: A0**Q}) ** (1 / Q), force=True), force=True)
-        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, kind, law_A, None)
-    if any(c is None for c in coeffs):
-        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None)
-    F = sum((sympy.nsimplify(c, rational=False) * B**p for c, p in zip(coeffs, powers)), sympy.Integer(0))
-    G = bounded(sympy.integrate, (1 / F, B), seconds)
-    if G is not None and not G.has(sympy.Integral):
-        implicit = sympy.Float(K / eps, 17) * (G.xreplace({B: A**Q}) - G.xreplace({B: A0**Q})) + I0
-        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "implicit", None, implicit)
-    return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None)
-
-
-def balance_site_law(ex: BalanceExpansion, pert: Perturbation, constants: dict, seconds: float = 2.0) -> SiteLaw:
-    """The balance law for a site-dependent R: K dB/di = eps sum_p C_p(i) B^p, bead i + 1/2 at index i
-    (derive/site_law.py)."""
-    K = constants["K1"] + constants["V1"] if ex.model == "energy" else constants["p1"]
-    groups: dict = {}
-    for t in ex.terms:
-        c = coefficient_of_i(t.coefficient, pert, ex.model) * sympy.Float(constants[t.integral], 17)
-        groups[t.power / ex.Q] = groups.get(t.power / ex.Q, sympy.Integer(0)) + c
-    name = "E_1" if ex.model == "energy" else "p_1"
-    return site_law(ex.model, ex.Q, name, K, float(pert.eps), {p: sympy.expand(c) for p, c in groups.items()}, seconds)
-
-
-# ------------------------------------------------------------------------ derivation
 @dataclass(frozen=True)
 class BalanceDerivation:
     """A balance model derived for one perturbation, with the choices that produced it."""
