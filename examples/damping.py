@@ -22,7 +22,7 @@
 import pulsemap
 
 d = pulsemap.derive("-mu*v", mu=1, eps=0.3)
-print(d.law_kind, "with k =", d.rate)
+print(d.law_kind, "with lambda_L =", d.rate)
 print(d.law)
 print(d.latex)  # in a notebook, `d` alone renders the equations
 

@@ -52,7 +52,7 @@ class Derivation:
     law_kind: str | None
     """"power law", "exponential", "implicit", "quadrature" or "constant"."""
     rate: float | None
-    """k = eps C / (f1 - f3) of a uniform single-power law (the k in :attr:`law`)."""
+    """lambda_L = eps C / (f1 - f3) of a uniform single-power law (the lambda_L in :attr:`law`)."""
     stationary: str | None
     """Eq. 41, ``0 = Phi(A)``; None for a site-dependent R."""
     roots: tuple[float, ...]
@@ -109,7 +109,7 @@ def derive(
 
     >>> d = derive("-mu*v", mu=1)
     >>> print(d.law)  # doctest: +SKIP
-    A(i) = (A_0**(1/4) + k*(i - i_0)/5)**4
+    A(i) = (A_0**(1/4) + lambda_L*(i - i_0)/5)**4
 
     Raises TypeError or ValueError naming the argument for bad input.
     """
