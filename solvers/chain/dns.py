@@ -14,6 +14,7 @@ from __future__ import annotations
 import numbers
 import sys
 import time as _time
+from dataclasses import replace
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
@@ -21,7 +22,7 @@ import numpy as np
 from pulsemap.solvers.chain import scaling as _scaling
 from pulsemap.solvers.chain import window as _window
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
-    ENERGY_BLOWUP, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
+    ENERGY_BLOWUP, ENGINES, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
     OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy, initial_state, make_rhs,
     make_solver, run_scipy)
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
@@ -148,6 +149,7 @@ def simulate(
     snapshots: "Sequence[int] | None" = None,
     snapshot_span: tuple[int, int] = SNAPSHOT_SPAN,
     launch: "Launch | None" = None,
+    engine: str = "compiled",
 ) -> DNSResult:
     """Integrate Eq. 1 and return the leading-edge peaks of contacts[0]..contacts[1].
 
@@ -179,6 +181,10 @@ def simulate(
     As each requested contact peaks, the pulse's and the chain's energy are recorded
     (front.py); ``snapshots``: contacts at whose peak time the strains of contacts
     k - snapshot_span[0] .. k + snapshot_span[1] are kept.
+
+    ``engine="compiled"`` (default) runs chain/compiled.py (numba Dormand-Prince 5(4), method
+    'auto' or 'RK45', the force as a monomial table) where it applies, else the scipy engine;
+    ``engine="scipy"`` always the scipy engine. The result's ``engine_reason`` says which and why.
     """
     if force is not None and not isinstance(force, OnSiteForce):
         raise TypeError(f"force must be an OnSiteForce or None, got {type(force).__name__}")
@@ -204,16 +210,31 @@ def simulate(
         velocity = launch.velocity_scale(exponent)
     front = FrontRecorder(first, last, exponent, check_snapshot_contacts(snapshots, first, last),
                           _check_span(snapshot_span))
+    if engine not in ENGINES:
+        raise ValueError(f"unknown engine {engine!r}; choose one of {', '.join(ENGINES)}")
     chosen = choose_method(force, velocity, exponent) if method == "auto" else method
     t_limit = default_t_max(last, velocity, exponent) if t_max is None else float(t_max)
+    why_scipy = "engine='scipy' requested"
+    if engine == "compiled":
+        from pulsemap.solvers.chain import compiled  # numba: imported only when used
+
+        why_scipy = ("a launched solitary wave starts on the scipy engine only" if launch is not None
+                     else compiled.unavailable(force, method, chosen, bool(snapshots)))
+        if not why_scipy:
+            return compiled.simulate_compiled(
+                beads, exponent, velocity, (first, last), None if force is None else force.monomials,
+                rule=None if window is None else _window.resolve_rule(window, window_accuracy), rtol=rtol,
+                atol=atol, peak_fraction=peak_fraction, death_fraction=death_fraction, t_max=t_limit,
+                stall_factor=stall_factor, overtake_factor=overtake_factor,
+                max_steps=default_max_steps(last) if max_steps is None else int(max_steps))
     if window is not None:
-        return _window.simulate_windowed(
+        return replace(_window.simulate_windowed(
             beads, exponent, velocity, (first, last), force, rule=_window.resolve_rule(window, window_accuracy),
             method=chosen, rtol=rtol, atol=atol, peak_fraction=peak_fraction,
             death_fraction=death_fraction, t_max=t_limit, stall_factor=stall_factor,
             progress=progress, engine=window_engine, overtake_factor=overtake_factor,
             max_steps=default_max_steps(last) if max_steps is None else int(max_steps), front=front,
-            launch=launch)
+            launch=launch), engine="scipy", engine_reason=why_scipy)
     y0 = initial_state(beads, velocity) if launch is None else launch.state(exponent, beads)
     e0 = energy(y0[0::2], y0[1::2], exponent)
 
@@ -278,6 +299,8 @@ def simulate(
         pulse_energy=front.pulse,
         total_energy=front.total,
         snapshots=tuple(front.snapshots),
+        engine="scipy",
+        engine_reason=why_scipy,
     )
 
 

@@ -24,6 +24,7 @@ Array = np.ndarray
 EXPLICIT_METHODS = ("DOP853", "RK45", "RK23")
 IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
 METHODS = ("auto",) + EXPLICIT_METHODS + IMPLICIT_METHODS
+ENGINES = ("compiled", "scipy")
 STIFFNESS_RATIO = 30.0  # 'auto' goes implicit when stiffness_hint > this x contact rate
 ENERGY_BLOWUP = 1e6  # blow-up guard: energy (kinetic + contact) beyond this x initial
 STEPS_PER_CONTACT = 2000  # step budget per contact (default_max_steps)
@@ -46,6 +47,7 @@ class OnSiteForce:
     dforce_dv: Callable[[Array, Array], Array] | None = None
     stiffness_hint: float = 0.0
     restrict: Callable[[int, int], "OnSiteForce"] | None = None
+    monomials: object | None = None  # chain.compiled.MonomialTable: the same force as data (compiled engine)
 
     @property
     def has_jacobian(self) -> bool:
@@ -68,6 +70,7 @@ class DNSResult:
     beads carried when dropped); ``energy_initial`` = v0^2/2; ``snapshots``: strains around the
     chosen contacts (front.Snapshot). An engine that does not record them leaves the defaults.
     ``speed`` (a property): contacts per unit time from the peak times.
+    ``engine``: "compiled" (chain/compiled.py) or "scipy"; ``engine_reason``: why that engine ran.
     """
 
     contacts: Array
@@ -96,6 +99,8 @@ class DNSResult:
     pulse_energy: Array | None = None
     total_energy: Array | None = None
     snapshots: tuple = ()
+    engine: str = "scipy"
+    engine_reason: str = ""
 
     @property
     def speed(self) -> Array:
