@@ -23,7 +23,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pulsemap.solvers.chain import compiled_kernel as K
 from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult
 from pulsemap.solvers.chain.peaks import PeakTracker, first_threshold, primary_pulse_lost, contact_rate, velocity_scale
 
@@ -97,6 +96,7 @@ def unavailable(force, method: str, chosen: str, snapshots: bool = False) -> str
 
 def _reason(code: int, track: PeakTracker, fs: Array, st: Array, t_max: float, max_steps: int) -> str:
     """The stop message PeakTracker gives for the kernel's code (same wording as the scipy engines)."""
+    from pulsemap.solvers.chain import compiled_kernel as K
     t = float(fs[K.T])
     if code == K.DIED:
         k = int(st[K.DIED_AT])
@@ -133,6 +133,7 @@ def simulate_compiled(
     engine_reason: str = "",
 ) -> DNSResult:
     """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it)."""
+    from pulsemap.solvers.chain import compiled_kernel as K  # numba: only when the engine runs
     first, last = int(contacts[0]), int(contacts[1])
     table = MonomialTable.zero() if table is None else table
     full = rule is None

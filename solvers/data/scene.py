@@ -20,7 +20,7 @@ executed (R is parsed by :mod:`pulsemap.derive.expression`'s whitelisting parser
     contacts = [16, 120]    # first and last contact reported (1-based, inclusive)
     methods = ["map", "longwave", "dns"]
     [model]                 # optional: profile "exact" | "pade", variant "paper" | "corrected" | "1d"
-    [dns]                   # optional: rtol (1e-10), atol (1e-12), method ("auto")
+    [dns]                   # optional: rtol (1e-10), atol (1e-12), method ("auto"), engine ("compiled" | "scipy")
 
 Built-in scenes (the paper's figures) live in ``solvers/data/scenes/*.toml``; ``default`` is an alias
 of :data:`DEFAULT_SCENE`. ``pulsemap.derive.perturbation`` pulls in sympy, so it is imported lazily:

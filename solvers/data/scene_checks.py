@@ -11,6 +11,7 @@ from pulsemap.solvers.data.scene_params import _check_perturbation_object, _scen
 from pulsemap.solvers.data.scene_schema import (
     _SCHEMA,
     DNS_DEFAULTS,
+    DNS_ENGINES,
     DNS_METHODS,
     MAX_BEADS,
     METHODS,
@@ -172,6 +173,8 @@ def _check_dns_table(table: Mapping[str, Any]) -> FrozenMap:
                            "(100 x machine epsilon)")
         values[key] = tol
     values["method"] = _check_choice(table["method"], "[dns] method", DNS_METHODS)
+    if "engine" in table:
+        values["engine"] = _check_choice(table["engine"], "[dns] engine", DNS_ENGINES)
     return FrozenMap(tuple(values.items()))
 
 

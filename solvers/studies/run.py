@@ -141,6 +141,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
         beads, scene.exponent, scene.velocity, span, force,
         method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
         atol=float(scene.dns.get("atol", 1e-12)), progress=progress,
+        engine=scene.dns.get("engine", "compiled"),
         **({"window": dns_window} if dns_window is not None else {}),
     )
     state.timings["dns"] = time.perf_counter() - t0
@@ -150,6 +151,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     out["peaks"]["dns"] = dns_peaks
     out["dns"] = {
         "method": res.method, "rtol": res.rtol, "atol": res.atol, "beads": res.beads, "mode": res.mode,
+        "engine": res.engine, "engine_reason": res.engine_reason,
         "stop_reason": res.stop_reason, "nfev": int(res.nfev),
         "alive": dns_alive,
         "live_contacts": [c for c, a in zip(contacts, dns_alive) if a],
