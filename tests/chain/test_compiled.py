@@ -1,0 +1,173 @@
+"""The compiled engine (solvers/chain/compiled.py) against the independent scipy engine, paper Eq. 1.
+
+Stated tolerance: at rtol 1e-10 and window accuracy 1e-8 the compiled engine's leading-edge peaks
+agree with the scipy reference (Hairer's DOP853, rtol 1e-11, its own moving window) to PEAK_TOL
+relative on every live contact, with the same live contacts and the same stop rule.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pulsemap.solvers.chain.compiled import MonomialTable
+from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.window import rule_for_accuracy
+from pulsemap.solvers.data import scene as scene_module
+from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.run import make_force, run_scene
+
+PEAK_TOL = 1e-7
+COMPILED = dict(rtol=1e-10, atol=1e-12, window="auto", window_accuracy=1e-8)
+REFERENCE = dict(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window="auto", window_accuracy=1e-8)
+
+
+def rel(a, b) -> float:
+    return float(np.max(np.abs(np.asarray(a) / np.asarray(b) - 1.0)))
+
+
+def rule_of(reason: str) -> str:
+    """A stop reason without the times and step sizes it quotes (they depend on the step grid)."""
+    return re.sub(r"[-+]?\d[\d.]*(e[-+]?\d+)?", "#", reason)
+
+
+SUITE = Path(scene_module.__file__).parent / "scenes" / "suite"
+
+
+def scene_run(name: str, **kw):
+    scene = load_scene(SUITE / f"{name}.toml" if (SUITE / f"{name}.toml").is_file() else name)
+    beads, span = dns_span(scene)
+    return simulate(beads, scene.exponent, scene.velocity, span, make_force(scene, beads), **kw)
+
+
+@pytest.mark.parametrize("name", ["fig6-eps0.1", "fig6-eps0.3", "fig7-eps0.1", "fig7-eps0.3", "fig8-eps0.1",
+                                  "fig8-eps0.3", "vdp-mu3-v2.3"])
+def test_paper_scenes_agree_with_scipy(name):
+    fast, ref = scene_run(name, **COMPILED), scene_run(name, **REFERENCE)
+    assert fast.engine == "compiled" and fast.mode == "window/compiled" and ref.engine == "scipy"
+    assert np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 10
+    assert rule_of(fast.stop_reason) == rule_of(ref.stop_reason)
+    assert rel(fast.peaks[fast.alive], ref.peaks[ref.alive]) < PEAK_TOL
+    assert np.max(np.abs(fast.peak_times[fast.alive] - ref.peak_times[ref.alive])) < 1e-5
+
+
+def test_energy_conserved_without_perturbation():
+    """R = 0: Eq. 1 conserves kinetic + contact energy; the window counts what dropped beads carried."""
+    for window in (None, "auto"):
+        res = simulate(200, 1.5, 1.0, (1, 190), rtol=1e-10, atol=1e-12, window=window)
+        assert res.engine == "compiled" and res.stop_reason == "last contact peaked"
+        assert res.energy_drift is not None and 0.0 < res.energy_drift < 1e-7
+    loose = simulate(200, 1.5, 1.0, (1, 190), rtol=1e-6, atol=1e-8, window="auto")
+    assert loose.energy_drift > 10 * res.energy_drift
+
+
+def test_unperturbed_peaks_match_scipy_full_chain():
+    """Full chain (window=None) on both engines: the solitary wave's peaks agree."""
+    fast = simulate(80, 1.5, 1.0, (1, 70), rtol=1e-10, atol=1e-12)
+    ref = simulate(80, 1.5, 1.0, (1, 70), engine="scipy", method="DOP853", rtol=1e-12, atol=1e-14)
+    assert fast.mode == "full" and fast.engine == "compiled" and fast.window_beads == 80
+    assert rel(fast.peaks, ref.peaks) < PEAK_TOL
+
+
+def test_tolerance_convergence():
+    """Peaks at rtol 1e-8 are much closer to rtol 1e-10's than rtol 1e-6's are."""
+    ref = scene_run("vdp-mu3-v2.3", **COMPILED)
+    err = {}
+    for rtol in (1e-6, 1e-8):
+        res = scene_run("vdp-mu3-v2.3", **{**COMPILED, "rtol": rtol, "atol": rtol * 1e-2})
+        assert np.array_equal(res.alive, ref.alive)
+        err[rtol] = rel(res.peaks[res.alive], ref.peaks[ref.alive])
+    assert err[1e-8] < 0.1 * err[1e-6]
+    assert err[1e-6] < 1e-4
+
+
+def test_million_beads_cost_the_same_window():
+    """The window is independent of N: beads = 10^6 integrates as many beads as beads = 140."""
+    scene = load_scene("vdp-mu3-v2.3")
+    force = make_force(scene, 140)
+    assert force.monomials.coefficients.shape[1] == scene.first_perturbed  # uniform R: no O(N) table
+    small = simulate(140, scene.exponent, scene.velocity, (15, 120), force, **COMPILED)
+    huge = simulate(1_000_000, scene.exponent, scene.velocity, (15, 120), force, **COMPILED)
+    assert huge.window_beads == small.window_beads <= rule_for_accuracy(1e-8).behind + 12
+    assert huge.beads == 1_000_000 and huge.stop_reason == small.stop_reason == "last contact peaked"
+    assert np.array_equal(huge.peaks, small.peaks) and huge.nfev == small.nfev
+
+
+@pytest.mark.parametrize("accuracy", [1e-4, 1e-6])
+def test_window_rule_keeps_its_accuracy(accuracy):
+    """rule_for_accuracy's window costs less than ``accuracy`` against the full chain on the damped
+    scene (a decaying pulse is the window's worst case); behind is exactly the rule's count."""
+    tight = dict(rtol=1e-12, atol=1e-14)
+    full = scene_run("fig8-eps0.1", **tight)
+    win = scene_run("fig8-eps0.1", **tight, window="auto", window_accuracy=accuracy)
+    rule = rule_for_accuracy(accuracy)
+    assert full.mode == "full" and win.window_rule == rule
+    assert rule.behind + 2 <= win.window_beads <= rule.behind + 12 < full.window_beads
+    assert np.array_equal(win.alive, full.alive)
+    assert rel(win.peaks[win.alive], full.peaks[full.alive]) < accuracy
+
+
+def test_engine_selection_and_reasons():
+    scene = load_scene("fig8-eps0.1")
+    beads, span = dns_span(scene)
+    force = make_force(scene, beads)
+    short = (15, 30)
+    assert simulate(beads, 1.5, 1.0, short, force).engine == "compiled"
+    by_request = simulate(beads, 1.5, 1.0, short, force, engine="scipy")
+    assert by_request.engine == "scipy" and "requested" in by_request.engine_reason
+    dop = simulate(beads, 1.5, 1.0, short, force, method="DOP853")
+    assert dop.engine == "scipy" and "DOP853" in dop.engine_reason
+    sine = scene.with_overrides(R="-mu*sin(u)")
+    res = simulate(beads, 1.5, 1.0, short, make_force(sine, beads))
+    assert res.engine == "scipy" and "monomial table" in res.engine_reason
+    with pytest.raises(ValueError, match="engine"):
+        simulate(beads, 1.5, 1.0, short, force, engine="numba")
+
+
+def test_stiff_scene_goes_to_the_implicit_scipy_engine():
+    res = scene_run("damp-1000", window="auto")
+    assert res.engine == "scipy" and res.method == "LSODA" and "stiff" in res.engine_reason
+
+
+def test_scene_key_and_run_record_the_engine():
+    scene = load_scene("fig8-eps0.1").with_overrides(contacts=(16, 30), dns={"engine": "scipy"})
+    out = run_scene(scene, methods=["dns"])
+    assert out["dns"]["engine"] == "scipy" and out["scene"]["dns"]["engine"] == "scipy"
+    fast = run_scene(scene.with_overrides(dns={"engine": "compiled"}), methods=["dns"])
+    assert fast["dns"]["engine"] == "compiled"
+    got, ref = np.array(fast["peaks"]["dns"], float), np.array(out["peaks"]["dns"], float)
+    assert rel(got, ref) < 1e-6
+
+
+def test_blow_up_and_step_budget_stop_like_scipy():
+    unstable = load_scene(SUITE / "unstable.toml")
+    beads, span = dns_span(unstable)
+    force = make_force(unstable, beads)
+    fast = simulate(beads, 1.5, 1.0, span, force, rtol=1e-8, atol=1e-10, window="auto")
+    ref = simulate(beads, 1.5, 1.0, span, force, rtol=1e-8, atol=1e-10, window="auto", engine="scipy", method="RK45")
+    assert fast.engine == "compiled" and fast.blew_up and ref.blew_up
+    assert rule_of(fast.stop_reason) == rule_of(ref.stop_reason)
+    budget = simulate(200, 1.5, 1.0, (1, 190), max_steps=50, window="auto")
+    assert budget.steps == 50 and budget.stop_reason.startswith("step budget of 50 steps used up")
+    assert budget.alive.sum() < 190 and np.all(np.isfinite(budget.peaks[budget.alive]))
+
+
+def test_monomial_table_is_the_generated_force():
+    """derive.monomials' table evaluates to the generated force module's eps_i R_i, bead by bead
+    (site-dependent random parameter and an R with several monomials)."""
+    rng = np.random.default_rng(3)
+    for name, R in (("fig13-seed1", None), ("vdp-mu3-v2.3", None), ("fig8-eps0.1", "-mu*v + 0.3*u^2*v - u^3")):
+        scene = load_scene(name)
+        if R is not None:
+            scene = scene.with_overrides(R=R)
+        beads = scene.beads or 140
+        force = make_force(scene, beads)
+        table: MonomialTable = force.monomials
+        x, v = rng.normal(size=beads), rng.normal(size=beads)
+        cols = np.minimum(np.arange(beads), table.coefficients.shape[1] - 1)
+        mine = sum(table.coefficients[m, cols] * x ** a * v ** b for m, (a, b) in enumerate(table.exponents))
+        np.testing.assert_allclose(mine, force.force(x, v), rtol=1e-12, atol=1e-14)
