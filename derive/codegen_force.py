@@ -12,6 +12,9 @@ clip(s/DELTA, -1, 1) and ``Heaviside(s)`` as (1 + ramp(s))/2 with DELTA = 1e-9: 
 limit (a bead sticks while the other forces stay below the friction), with errors O(DELTA) and a
 stiff but exact Jacobian (slope 1/DELTA inside the ramp), which makes 'auto' pick an implicit
 method. ``abs`` is continuous and kept exactly; its derivative is the ramped sign.
+
+``MONOMIALS`` and ``monomial_coefficients(i, eps, ...)``: R as a monomial table for the compiled
+DNS (None for a non-polynomial R, non-smooth ones included).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import sympy
 
 from .codeprint import code, const, module, param_identifier, start
 from .expression import NON_SMOOTH, parse_expression, symbol
+from .monomials import polynomial_terms
 from .sources import ForceSource
 
 #: Half-width of the ramp that stands for a jump at 0 in the DNS (absolute, in the units of u and v).
@@ -81,4 +85,20 @@ def generate_force(source: ForceSource) -> str:
         lines.append(f'    """{doc}{note}; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""')
         lines.append(f"    return eps * ({code(expr, ren)}) + 0.0 * x")
         lines.append("")
+    lines += _monomial_lines(R, ren, ", ".join(["i", "eps"] + [param_identifier(p) for p in source.params]))
     return module(lines, f"On-site force of the DNS (Eq. 1) for R(u, v) = {source.R}", source)
+
+
+def _monomial_lines(R: sympy.Expr, ren: dict, sig: str) -> list[str]:
+    """MONOMIALS (exponents (a, b) of u^a v^b; None for a non-polynomial R) and their per-bead
+    coefficients: R as data for the compiled DNS (derive/monomials.py, solvers/chain/compiled.py)."""
+    terms = polynomial_terms(R)
+    if terms is None:
+        return ["MONOMIALS = None  # R is not a polynomial in u, v: no table for the compiled DNS"]
+    lines = [f"MONOMIALS = {tuple((a, b) for a, b, _ in terms)!r}", "",
+             f"def monomial_coefficients({sig}):",
+             '    """eps_i c_m(i) of eps_i R_i = sum_m c_m u^a_m v^b_m, one array over beads per MONOMIALS entry."""']
+    items = "".join(f"eps * ({code(c, ren)}) + 0.0 * i, " for _, _, c in terms)
+    lines.append(f"    return ({items})")
+    lines.append("")
+    return lines

@@ -13,6 +13,8 @@ from fractions import Fraction
 from typing import ClassVar, Union
 
 GENERATOR_VERSION = 3  # 2: parameters are arguments p_<name>, b<offset>_<name>; ARGS in map and balance modules
+#: Bump when the force module's layout changes (2: MONOMIALS and monomial_coefficients, for the compiled DNS).
+FORCE_LAYOUT = 2
 #: Bump when the numerical method of the profile integrals changes (stale cache entries, generated code).
 INTEGRALS_METHOD = 1
 #: Bump when the numerical method of the balance constants changes (stale cache entries, generated code).
@@ -107,7 +109,8 @@ class ForceSource:
         return cls(R=normalize_expression(R), params=tuple(sorted(params)))
 
     def as_dict(self) -> dict:
-        return {"kind": "force", "R": self.R, "params": list(self.params), "generator": GENERATOR_VERSION}
+        return {"kind": "force", "R": self.R, "params": list(self.params), "generator": GENERATOR_VERSION,
+                "layout": FORCE_LAYOUT}
 
 
 @dataclass(frozen=True)

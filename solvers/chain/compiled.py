@@ -13,7 +13,8 @@ accuracy rule of window.rule_for_accuracy; ahead, the window ends at the first b
 as soon as the last one moves. ``rule=None`` is the full chain: nothing is dropped and the
 window grows ahead as soon as the last bead moves at all (beads exactly at rest feel no force,
 so this is the full chain's dynamics). The error norm is the RMS over the integrated beads.
-F enters as a monomial table (derive/monomials.py), so a new polynomial R costs no compilation.
+F enters as a monomial table (the generated force module's MONOMIALS and monomial_coefficients,
+derive/monomials.py), so a new polynomial R costs no compilation.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ class MonomialTable:
     """eps_i R_i(u, v) = sum_m coefficients[m, min(i-1, L-1)] u^a_m v^b_m (i 1-based bead), Eq. 1.
 
     ``exponents``: (M, 2) int64 (a_m, b_m); ``coefficients``: (M, L) float64, eps and the
-    perturbed range folded in (derive.monomials.monomial_table builds both from R).
+    perturbed range folded in (``table_from_module`` builds both from the generated force module).
     """
 
     exponents: Array
@@ -67,12 +68,20 @@ class MonomialTable:
         return bool(rows.size and np.any(self.coefficients[rows] != 0.0))
 
 
-def table_for_scene(scene, beads: int) -> MonomialTable:
-    """The scene's eps_i R_i as a monomial table (pulsemap.derive.monomials; imports sympy, which the
-    scene already did). Raises NotPolynomialError (a ValueError) for a non-polynomial R."""
-    from pulsemap.derive.monomials import monomial_table
-
-    return MonomialTable.of(*monomial_table(scene.perturbation, beads, scene.first_perturbed))
+def table_from_module(module, index: Array, eps: Array, params: tuple) -> MonomialTable | None:
+    """The generated force module's eps_i R_i as a table (None: R is not polynomial, or the module
+    predates tables); columns past the last bead-dependent one are dropped (uniform R: O(1) memory)."""
+    exponents = getattr(module, "MONOMIALS", None)
+    if exponents is None:
+        return None
+    if not exponents:
+        return MonomialTable.zero()
+    with np.errstate(all="ignore"):
+        coef = np.array([np.broadcast_to(np.asarray(c, float), index.shape)
+                         for c in module.monomial_coefficients(index, eps, *params)])
+    differs = np.flatnonzero(np.any(coef != coef[:, -1:], axis=0))
+    columns = 1 if differs.size == 0 else int(differs[-1]) + 2
+    return MonomialTable.of(exponents, coef[:, :columns].copy())
 
 
 def unavailable(force, method: str, chosen: str, snapshots: bool = False) -> str:
@@ -138,7 +147,7 @@ def simulate_compiled(
     table = MonomialTable.zero() if table is None else table
     full = rule is None
     behind = beads + 1 if full else int(rule.behind)
-    cap = beads if full else min(beads, behind + ROOM)
+    cap = min(beads, (0 if full else behind) + ROOM)  # grown on demand: memory O(window), not O(N)
     cf = np.zeros(K.N_CF)
     cf[K.EXP], cf[K.RTOL], cf[K.ATOL], cf[K.T_MAXC] = exponent, rtol, atol, t_max
     cf[K.SCALE_X], cf[K.SCALE_V] = velocity_scale(velocity, exponent), velocity
@@ -156,6 +165,7 @@ def simulate_compiled(
     fs[K.THRESH] = first_threshold(velocity, exponent, peak_fraction)
     fs[K.STALL] = stall_factor / contact_rate(velocity, exponent)
     peaks, times = np.full(last, np.nan), np.full(last, np.nan)
+    pulse_e, total_e = np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan)
     wall0 = _time.perf_counter()
     while True:
         ci[K.CAPACITY] = cap
@@ -164,7 +174,7 @@ def simulate_compiled(
             y[1] = velocity
         else:
             y[: len(y_keep)], f[: len(f_keep)] = y_keep, f_keep
-        code = K.run(y, f, fs, st, cf, ci, peaks, times, table.exponents, table.coefficients)
+        code = K.run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, table.exponents, table.coefficients)
         if code != K.NEED_ROOM:
             break
         w = int(st[K.HI] - st[K.LO])
@@ -183,5 +193,6 @@ def simulate_compiled(
         exponent=float(exponent), velocity=float(velocity), t_end=float(fs[K.T]),
         mode="full" if full else "window/compiled", window_beads=int(st[K.WIDEST]),
         window_shifts=int(st[K.SHIFTS]), window_rule=rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),
+        energy_initial=float(fs[K.E0]), pulse_energy=pulse_e, total_energy=total_e,
         engine="compiled", engine_reason=engine_reason or "compiled RK45 (Dormand-Prince 5(4)), monomial table",
     )

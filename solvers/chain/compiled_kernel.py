@@ -33,6 +33,7 @@ D1, D3, D4, D5, D6, D7 = (-12715105075.0 / 11282082432.0, 87487479700.0 / 327004
                           -1453857185.0 / 822651844.0, 69997945.0 / 29380423.0)
 BETA = 0.04  # PI control (Hairer's DOPRI5 default, also solvers/window.FORTRAN_BETA["dopri5"])
 SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 10.0
+PULSE_HALF_WIDTH = 8  # front.PULSE_HALF_WIDTH (beads each side of a peaked contact carrying the pulse)
 
 # --- return codes of run (solvers/chain/compiled.py turns them into PeakTracker's messages)
 LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM = 1, 2, 3, 4, 5, 6, 7, 8
@@ -112,6 +113,19 @@ def window_energy(t, y, w, n, has_left, left_x, left_v, left_t):
         d = left_x + left_v * (t - left_t) - y[0]
         if d > 0.0:
             e += _pow(d, n) * d / (n + 1.0)
+    return e
+
+
+@njit(cache=True)
+def segment_energy(y, a, b, n):
+    """Kinetic + contact energy of local beads a..b-1 and the contacts between them (front.py)."""
+    e = 0.0
+    for j in range(a, b):
+        e += 0.5 * y[2 * j + 1] * y[2 * j + 1]
+        if j < b - 1:
+            d = y[2 * j] - y[2 * j + 2]
+            if d > 0.0:
+                e += _pow(d, n) * d / (n + 1.0)
     return e
 
 
@@ -216,7 +230,7 @@ def _initial_step(t, y, f, w, st, fs, cf, exps, coef, wall, work):
 
 
 @njit(cache=True)
-def run(y, f, fs, st, cf, ci, peaks, times, exps, coef):
+def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
     """Integrate until a stop rule fires; returns its code (state in y, f, fs, st for a resume).
 
     Per accepted step, in the order of solvers/window.simulate_windowed: blow-up guard (energy
@@ -224,6 +238,8 @@ def run(y, f, fs, st, cf, ci, peaks, times, exps, coef):
     (PeakTracker.check_progress order), then the window: beads more than ``behind`` behind the
     last peaked contact are dropped (the last one coasts), and a bead at rest is added ahead when
     the last bead has moved by more than the threshold (relative to v0^(2/(n+1)) and v0).
+    At each requested contact's peak, the energies of front.FrontRecorder: of beads k-8..k+8
+    (``pulse_e``) and of the window plus what dropped beads carried (``total_e``).
     """
     n = cf[EXP]
     rtol, atol, t_max = cf[RTOL], cf[ATOL], cf[T_MAXC]
@@ -326,6 +342,14 @@ def run(y, f, fs, st, cf, ci, peaks, times, exps, coef):
                     break
                 peaks[k - 1] = value
                 times[k - 1] = t_pk
+                if k >= first:
+                    ys_pk = work[6]
+                    for i in range(w2):
+                        ys_pk[i] = _dense(theta, i, y, yn, h, f, k3, k4, k5, k6, k7)
+                    kl = k - 1 - lo
+                    pulse_e[k - first] = segment_energy(ys_pk, max(0, kl - PULSE_HALF_WIDTH),
+                                                        min(w, kl + PULSE_HALF_WIDTH + 1), n)
+                    total_e[k - first] = segment_energy(ys_pk, 0, w, n) + fs[E_GONE]
                 fs[STALL] = cf[STALL_FAC] * (t_pk - fs[LAST_PEAK_T])
                 fs[LAST_PEAK_T] = t_pk
                 fs[THRESH] = cf[PEAK_FRAC] * value

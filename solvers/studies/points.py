@@ -15,6 +15,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from pulsemap.solvers.chain.compiled import table_from_module
 from pulsemap.solvers.chain.dns import OnSiteForce, chain_length_for, simulate
 from pulsemap.solvers.studies.sweep import SweepError, generated_ref, load_generated
 
@@ -109,7 +110,7 @@ def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | No
     """eps_i R_i(x_i, v_i) (zero before first_perturbed) from a generated force module, Eq. 1.
 
     ``restrict(lo, hi)`` gives the same force on beads lo..hi-1, so a moving-window DNS pays
-    for its window only. Only ``chain["beads"]``, ``["first_perturbed"]`` and ``["eps"]`` are read
+    for its window only; ``monomials`` the same force as a table for the compiled engine. Only ``chain["beads"]``, ``["first_perturbed"]`` and ``["eps"]`` are read
     (and ``["params"]`` when ``values`` is not given). A force that cannot be evaluated at rest, or
     is not finite there, is a SweepError.
     """
@@ -129,7 +130,7 @@ def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | No
         raise SweepError("the on-site force is undefined at rest (non-finite value): check R and its parameters")
     hint = float(max(kv.max(initial=0.0), math.sqrt(kx.max(initial=0.0))))
 
-    def build(lo: int, hi: int) -> OnSiteForce:
+    def build(lo: int, hi: int, monomials=None) -> OnSiteForce:
         i, e = idx[lo:hi], eps[lo:hi]
         args = tuple(a[lo:hi] if np.ndim(a) else a for a in full)
         return OnSiteForce(
@@ -138,9 +139,10 @@ def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | No
             dforce_dv=lambda x, v: module.force_dv(x, v, i, e, *args),
             stiffness_hint=hint,
             restrict=build,
+            monomials=monomials,
         )
 
-    return build(0, beads)
+    return build(0, beads, table_from_module(module, idx, eps, full))  # the table: the compiled engine's F
 
 
 def on_contacts(contacts: Sequence[int], at: Sequence[int], values: Sequence[float | None],
