@@ -110,8 +110,9 @@ def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | No
     """eps_i R_i(x_i, v_i) (zero before first_perturbed) from a generated force module, Eq. 1.
 
     ``restrict(lo, hi)`` gives the same force on beads lo..hi-1, so a moving-window DNS pays
-    for its window only; ``monomials`` the same force as a table for the compiled engine. Only ``chain["beads"]``, ``["first_perturbed"]`` and ``["eps"]`` are read
-    (and ``["params"]`` when ``values`` is not given). A force that cannot be evaluated at rest, or
+    for its window only; ``monomials`` is the same force as a table for the compiled engine.
+    Only ``chain["beads"]``, ``["first_perturbed"]`` and ``["eps"]`` are read (and
+    ``["params"]`` when ``values`` is not given). A force that cannot be evaluated at rest, or
     is not finite there, is a SweepError.
     """
     beads = int(chain["beads"])
