@@ -1,6 +1,6 @@
 """Issue 19's DNS ratios for the compiled engine (solvers/chain/compiled.py), measured in one run.
 
-Run: PULSEMAP_CACHE_DIR=... python benchmarks/bench_compiled.py [--quick] [--skip-process]
+Run: PULSEMAP_CACHE_DIR=... python benchmarks/bench_compiled.py [--quick] [--skip-process | --process-only]
 
 Paper Eq. 1, x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i'), on the scenes
 vdp-mu3-v2.3 and fig8-eps0.1 (contacts first_perturbed - 1 .. 120). Reference: the scipy engine,
@@ -9,8 +9,9 @@ error over the reference's live contacts (studies.bench.peak_error); the cost of
 is interpolated log-log between the runs that bracket it (studies.bench.cost_at). Printed:
 
 1. compiled (window, warm, best of K) vs a careful user's script: vectorised numpy RHS on the full
-   chain, solve_ivp(DOP853, dense_output=True), peaks as the first grid maximum of delta_k refined
-   by brentq on delta_k' of the dense output, at equal 1e-6 max relative peak error;
+   chain, solve_ivp(DOP853, t_eval=grid of 0.05, dense_output=True), peaks as the first grid
+   maximum of delta_k refined by brentq on delta_k' of the dense output, at equal 1e-6 max
+   relative peak error (one run per tolerance);
 2. compiled vs today's scipy window engine (window="auto", Hairer's DOP853), at the same rtol and
    at equal 1e-6 error;
 3. time(contacts 4000) / time(contacts 1000), compiled window, vdp;
@@ -82,9 +83,10 @@ def script_peaks(beads, n, v0, contacts, force, rtol, t_end, dt=0.05):
 
     y0 = np.zeros(2 * beads)
     y0[beads] = v0
-    sol = solve_ivp(rhs, (0.0, t_end), y0, method="DOP853", rtol=rtol, atol=rtol * 1e-2, dense_output=True)
     grid = np.arange(0.0, t_end, dt)
-    xs = sol.sol(grid)[: last + 1]
+    sol = solve_ivp(rhs, (0.0, grid[-1]), y0, method="DOP853", t_eval=grid, rtol=rtol, atol=rtol * 1e-2,
+                    dense_output=True)
+    xs = sol.y[: last + 1]
     peaks = np.full(last, np.nan)
     threshold, t_floor = 1e-2 * velocity_scale(v0, n), 0.0
     for k in range(1, last + 1):
@@ -191,15 +193,16 @@ def million(repeats: int) -> None:
           f"memory {out[1_000_000][1] / out[140][1]:.2f}x")
 
 
-def process(args: list[str], env: dict) -> tuple[float, float]:
-    """Wall time (s) and max RSS (MB) of one child process."""
+def process(args: list[str], env: dict) -> tuple[float, float, float]:
+    """Wall time (s), max RSS (MB) and CPU time (user + system, s) of one child process (the CPU
+    time is the one to read on a shared machine: the wall time includes waiting for a core)."""
     t0 = time.perf_counter()
     proc = subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, usage = os.wait4(proc.pid, 0)
     sec = time.perf_counter() - t0
     if status != 0:
         raise RuntimeError(f"{' '.join(args)} failed: {proc.stderr.read().decode()[-500:]}")
-    return sec, usage.ru_maxrss / 1024.0
+    return sec, usage.ru_maxrss / 1024.0, usage.ru_utime + usage.ru_stime
 
 
 def whole_process() -> None:
@@ -208,16 +211,16 @@ def whole_process() -> None:
         env = {**os.environ, "NUMBA_CACHE_DIR": str(Path(tmp) / "numba")}
         cold = process([exe, "run", "vdp-mu3-v2.3", "--methods", "dns", "--quiet"], env)
         warm = min(process([exe, "run", "vdp-mu3-v2.3", "--methods", "dns", "--quiet"], env) for _ in range(3))
-        print(f"  pulsemap run vdp-mu3-v2.3 --methods dns: cold (JIT) {cold[0]:.2f} s, warm {warm[0]:.2f} s "
-              f"(max RSS {warm[1]:.0f} MB)")
+        print(f"  pulsemap run vdp-mu3-v2.3 --methods dns: cold (JIT) {cold[0]:.2f} s wall, {cold[2]:.2f} s CPU; "
+              f"warm {warm[0]:.2f} s wall, {warm[2]:.2f} s CPU (max RSS {warm[1]:.0f} MB)")
         res = {}
         for beads in (140, 1_000_000):
             path = Path(tmp) / f"vdp-{beads}.toml"
             path.write_text(vdp_scene_text(beads), encoding="utf-8")
             res[beads] = process([exe, "run", str(path), "--methods", "dns", "--quiet"], env)
-            print(f"  pulsemap run (beads = {beads}, 120 contacts, dns): {res[beads][0]:.2f} s, "
-                  f"max RSS {res[beads][1]:.0f} MB")
-        print(f"  RATIO beads 1e6 / 140 (whole process): time {res[1_000_000][0] / res[140][0]:.2f}x, "
+            print(f"  pulsemap run (beads = {beads}, 120 contacts, dns): {res[beads][0]:.2f} s wall, "
+                  f"{res[beads][2]:.2f} s CPU, max RSS {res[beads][1]:.0f} MB")
+        print(f"  RATIO beads 1e6 / 140 (whole process): CPU time {res[1_000_000][2] / res[140][2]:.2f}x, "
               f"max RSS {res[1_000_000][1] / res[140][1]:.2f}x")
 
 
@@ -229,6 +232,9 @@ def vdp_scene_text(beads: int) -> str:
 
 
 def main(argv: list[str]) -> None:
+    if "--process-only" in argv:
+        whole_process()
+        return
     quick = "--quick" in argv
     repeats = 5 if quick else 20
     print("bench_compiled: compiled engine (numba DOPRI5, moving window) vs scipy; best of "

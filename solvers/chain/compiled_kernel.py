@@ -18,22 +18,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-# --- Dormand-Prince 5(4) (Hairer & Wanner's DOPRI5), dense output of order 4 (CONTD5)
-C2, C3, C4, C5 = 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0
-A21 = 1.0 / 5.0
-A31, A32 = 3.0 / 40.0, 9.0 / 40.0
-A41, A42, A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
-A51, A52, A53, A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
-A61, A62, A63, A64, A65 = 9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0
-A71, A73, A74, A75, A76 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
-E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0,
-                          22.0 / 525.0, -1.0 / 40.0)
-D1, D3, D4, D5, D6, D7 = (-12715105075.0 / 11282082432.0, 87487479700.0 / 32700410799.0,
-                          -10690763975.0 / 1880347072.0, 701980252875.0 / 199316789632.0,
-                          -1453857185.0 / 822651844.0, 69997945.0 / 29380423.0)
-BETA = 0.04  # PI control (Hairer's DOPRI5 default, also solvers/window.FORTRAN_BETA["dopri5"])
-SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 10.0
-PULSE_HALF_WIDTH = 8  # front.PULSE_HALF_WIDTH (beads each side of a peaked contact carrying the pulse)
+from pulsemap.solvers.chain.compiled_ops import (
+    A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65, A71, A73, A74, A75, A76, BETA, C2, C3,
+    C4, C5, E1, E3, E4, E5, E6, E7, FAC_MAX, FAC_MIN, PULSE_HALF_WIDTH, SAFE, _dense, _locate, _pow, pulse_lost, rhs,
+    segment_energy, window_energy)
 
 # --- return codes of run (solvers/chain/compiled.py turns them into PeakTracker's messages)
 LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM = 1, 2, 3, 4, 5, 6, 7, 8
@@ -51,151 +39,6 @@ N_CF = 13
 # --- int config ci[...]
 BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY = range(8)
 N_CI = 8
-
-
-@njit(cache=True, inline="always")
-def _pow(d: float, n: float) -> float:
-    """d^n for d > 0 (n = 1.5 by a square root)."""
-    if n == 1.5:
-        return d * np.sqrt(d)
-    return d**n
-
-
-@njit(cache=True)
-def rhs(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef):
-    """Eq. 1 on the window's w beads (interleaved), on-site force from the monomial table."""
-    prev = 0.0
-    if has_left:
-        d = left_x + left_v * (t - left_t) - y[0]
-        if d > 0.0:
-            prev = _pow(d, n)
-    m_count = exps.shape[0]
-    width = coef.shape[1]
-    for j in range(w):
-        x = y[2 * j]
-        v = y[2 * j + 1]
-        if j < w - 1:
-            d = x - y[2 * j + 2]
-        elif wall:
-            d = x
-        else:
-            d = 0.0
-        fj = _pow(d, n) if d > 0.0 else 0.0
-        acc = prev - fj
-        col = lo + j
-        if col >= width:
-            col = width - 1
-        for m in range(m_count):
-            c = coef[m, col]
-            if c != 0.0:
-                p = c
-                for _ in range(exps[m, 0]):
-                    p *= x
-                for _ in range(exps[m, 1]):
-                    p *= v
-                acc += p
-        out[2 * j] = v
-        out[2 * j + 1] = acc
-        prev = fj
-
-
-@njit(cache=True)
-def window_energy(t, y, w, n, has_left, left_x, left_v, left_t):
-    """Kinetic + contact energy of the window (with the contact to the coasting left bead)."""
-    e = 0.0
-    for j in range(w):
-        e += 0.5 * y[2 * j + 1] * y[2 * j + 1]
-        if j < w - 1:
-            d = y[2 * j] - y[2 * j + 2]
-            if d > 0.0:
-                e += _pow(d, n) * d / (n + 1.0)
-    if has_left:
-        d = left_x + left_v * (t - left_t) - y[0]
-        if d > 0.0:
-            e += _pow(d, n) * d / (n + 1.0)
-    return e
-
-
-@njit(cache=True)
-def segment_energy(y, a, b, n):
-    """Kinetic + contact energy of local beads a..b-1 and the contacts between them (front.py)."""
-    e = 0.0
-    for j in range(a, b):
-        e += 0.5 * y[2 * j + 1] * y[2 * j + 1]
-        if j < b - 1:
-            d = y[2 * j] - y[2 * j + 2]
-            if d > 0.0:
-                e += _pow(d, n) * d / (n + 1.0)
-    return e
-
-
-@njit(cache=True)
-def _dense(theta, i, y0, y1, h, k1, k3, k4, k5, k6, k7):
-    """Component i of the DOPRI5 dense output at t_old + theta h (Hairer's CONTD5)."""
-    ydiff = y1[i] - y0[i]
-    bspl = h * k1[i] - ydiff
-    r4 = ydiff - h * k7[i] - bspl
-    r5 = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i])
-    return y0[i] + theta * (ydiff + (1.0 - theta) * (bspl + theta * (r4 + (1.0 - theta) * r5)))
-
-
-@njit(cache=True)
-def _locate(p, q, y0, y1, h, k1, k3, k4, k5, k6, k7):
-    """theta of the root of delta' = v_p - v_q in (0, 1] on the dense output (Illinois method)."""
-    a, b = 0.0, 1.0
-    fa = y0[2 * p + 1] - y0[2 * q + 1]
-    fb = y1[2 * p + 1] - y1[2 * q + 1]
-    if fb == 0.0:
-        return 1.0
-    side = 0
-    c = 1.0
-    for _ in range(200):
-        c = (a * fb - b * fa) / (fb - fa)
-        if not (a < c < b):
-            c = 0.5 * (a + b)
-        fc = (_dense(c, 2 * p + 1, y0, y1, h, k1, k3, k4, k5, k6, k7)
-              - _dense(c, 2 * q + 1, y0, y1, h, k1, k3, k4, k5, k6, k7))
-        if fc == 0.0:
-            return c
-        if fc > 0.0:
-            a, fa = c, fc
-            if side == -1:
-                fb *= 0.5
-            side = -1
-        else:
-            b, fb = c, fc
-            if side == 1:
-                fa *= 0.5
-            side = 1
-        if (b - a) * abs(h) < 1e-15 + 4.0 * 2.220446049250313e-16 * abs(h) * c:
-            break
-    return c
-
-
-@njit(cache=True)
-def pulse_lost(peaks, times, k, first, death_fraction, overtake, delay_factor):
-    """solvers.peaks.primary_pulse_lost as a code: 0 alive, 1 died, 2 overtaken, 3 stopped travelling."""
-    if k < first:
-        return 0
-    value = peaks[k - 1]
-    if value < death_fraction * peaks[first - 1]:
-        return 1
-    if k > first and value > overtake * peaks[k - 2]:
-        return 2
-    if k >= 3 and k - 2 >= first:
-        before = times[k - 2] - times[k - 3]
-        now = times[k - 1] - times[k - 2]
-        if before > 0.0 and now > delay_factor * before:
-            return 3
-    return 0
-
-
-@njit(cache=True)
-def _norm(y, w2):
-    s = 0.0
-    for i in range(w2):
-        s += y[i] * y[i]
-    return np.sqrt(s / w2)
 
 
 @njit(cache=True)
