@@ -123,26 +123,40 @@ def _reason(code: int, track: PeakTracker, fs: Array, st: Array, t_max: float, m
     return track.check_progress(t, t_max, max_steps)
 
 
-def simulate_compiled(
-    beads: int,
-    exponent: float,
-    velocity: float,
-    contacts: tuple[int, int],
-    table: MonomialTable | None,
-    *,
-    rule=None,
-    rtol: float,
-    atol: float,
-    peak_fraction: float,
-    death_fraction: float,
-    t_max: float,
-    stall_factor: float,
-    overtake_factor: float,
-    max_steps: int,
-    engine_reason: str = "",
-) -> DNSResult:
-    """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it)."""
+@dataclass
+class _Run:
+    """One chain's kernel state and settings (resumable; compiled_kernel's array layouts)."""
+
+    beads: int
+    exponent: float
+    velocity: float
+    first: int
+    last: int
+    rule: object
+    rtol: float
+    atol: float
+    t_max: float
+    max_steps: int
+    table: MonomialTable
+    cap: int
+    cf: Array
+    ci: Array
+    st: Array
+    fs: Array
+    peaks: Array
+    times: Array
+    pulse_e: Array
+    total_e: Array
+    y: Array
+    f: Array
+
+
+def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, int], table: MonomialTable | None,
+            *, rule, rtol: float, atol: float, peak_fraction: float, death_fraction: float, t_max: float,
+            stall_factor: float, overtake_factor: float, max_steps: int) -> _Run:
+    """The kernel's arrays at t = 0: all beads at rest, bead 1 with velocity v0 (Eq. 1)."""
     from pulsemap.solvers.chain import compiled_kernel as K  # numba: only when the engine runs
+
     first, last = int(contacts[0]), int(contacts[1])
     table = MonomialTable.zero() if table is None else table
     full = rule is None
@@ -157,6 +171,7 @@ def simulate_compiled(
     ci = np.zeros(K.N_CI, dtype=np.int64)
     ci[K.BEADS], ci[K.FIRST], ci[K.LASTC], ci[K.BEHIND] = beads, first, last, behind
     ci[K.MAX_STEPS], ci[K.COAST], ci[K.ENERGY_EVERY] = max_steps, int(full or rule.boundary == "coast"), ENERGY_EVERY
+    ci[K.CAPACITY] = cap
     st = np.zeros(K.N_ST, dtype=np.int64)
     st[K.HI], st[K.NEXT] = min(beads, 3), 1
     st[K.WIDEST] = st[K.HI]
@@ -164,35 +179,60 @@ def simulate_compiled(
     fs[K.E0] = 0.5 * velocity * velocity
     fs[K.THRESH] = first_threshold(velocity, exponent, peak_fraction)
     fs[K.STALL] = stall_factor / contact_rate(velocity, exponent)
-    peaks, times = np.full(last, np.nan), np.full(last, np.nan)
-    pulse_e, total_e = np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan)
-    wall0 = _time.perf_counter()
+    y, f = np.zeros(2 * cap), np.zeros(2 * cap)
+    y[1] = velocity
+    return _Run(beads, exponent, velocity, first, last, rule, float(rtol), float(atol), t_max, max_steps, table,
+                cap, cf, ci, st, fs, np.full(last, np.nan), np.full(last, np.nan),
+                np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f)
+
+
+def drive(run: _Run, code: int | None = None) -> int:
+    """Run the kernel until a stop rule fires (``code``: the kernel's last answer, if it ran already),
+    growing the window's buffer whenever it asks for room."""
+    from pulsemap.solvers.chain import compiled_kernel as K
+
     while True:
-        ci[K.CAPACITY] = cap
-        y, f = np.zeros(2 * cap), np.zeros(2 * cap)
-        if st[K.STARTED] == 0:
-            y[1] = velocity
-        else:
-            y[: len(y_keep)], f[: len(f_keep)] = y_keep, f_keep
-        code = K.run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, table.exponents, table.coefficients)
-        if code != K.NEED_ROOM:
-            break
-        w = int(st[K.HI] - st[K.LO])
-        y_keep, f_keep = y[: 2 * w].copy(), f[: 2 * w].copy()
-        cap = min(beads, 2 * cap)
-    wall = _time.perf_counter() - wall0
-    track = PeakTracker(first, last, peak_fraction, death_fraction, overtake_factor, stall_factor, peaks, times,
+        if code is not None and code != K.NEED_ROOM:
+            return code
+        if code == K.NEED_ROOM:
+            w = int(run.st[K.HI] - run.st[K.LO])
+            run.cap = min(run.beads, 2 * run.cap)
+            run.ci[K.CAPACITY] = run.cap
+            y, f = np.zeros(2 * run.cap), np.zeros(2 * run.cap)
+            y[: 2 * w], f[: 2 * w] = run.y[: 2 * w], run.f[: 2 * w]
+            run.y, run.f = y, f
+        code = int(K.run(run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e,
+                         run.total_e, run.table.exponents, run.table.coefficients))
+
+
+def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSResult:
+    """The DNSResult of a finished run, with PeakTracker's stop message for the kernel's code."""
+    from pulsemap.solvers.chain import compiled_kernel as K
+
+    cf, st, fs = run.cf, run.st, run.fs
+    track = PeakTracker(run.first, run.last, float(cf[K.PEAK_FRAC]), float(cf[K.DEATH_FRAC]),
+                        float(cf[K.OVERTAKE]), float(cf[K.STALL_FAC]), run.peaks, run.times,
                         float(fs[K.THRESH]), float(fs[K.STALL]), next_contact=int(st[K.NEXT]),
                         last_peak_time=float(fs[K.LAST_PEAK_T]))
-    reason = _reason(int(code), track, fs, st, t_max, max_steps)
+    reason = _reason(code, track, fs, st, run.t_max, run.max_steps)
     contacts_out, peaks_out, times_out, alive = track.outcome()
     return DNSResult(
         contacts=contacts_out, peaks=peaks_out, peak_times=times_out, alive=alive, stop_reason=reason,
-        method=METHOD, rtol=float(rtol), atol=float(atol), beads=int(beads), nfev=int(st[K.NFEV]), njev=0,
-        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if table.exponents.shape[0] == 0 else None,
-        exponent=float(exponent), velocity=float(velocity), t_end=float(fs[K.T]),
-        mode="full" if full else "window/compiled", window_beads=int(st[K.WIDEST]),
-        window_shifts=int(st[K.SHIFTS]), window_rule=rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),
-        energy_initial=float(fs[K.E0]), pulse_energy=pulse_e, total_energy=total_e,
+        method=METHOD, rtol=run.rtol, atol=run.atol, beads=int(run.beads), nfev=int(st[K.NFEV]), njev=0,
+        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.exponents.shape[0] == 0 else None,
+        exponent=float(run.exponent), velocity=float(run.velocity), t_end=float(fs[K.T]),
+        mode="full" if run.rule is None else "window/compiled", window_beads=int(st[K.WIDEST]),
+        window_shifts=int(st[K.SHIFTS]), window_rule=run.rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),
+        energy_initial=float(fs[K.E0]), pulse_energy=run.pulse_e, total_energy=run.total_e,
         engine="compiled", engine_reason=engine_reason or "compiled RK45 (Dormand-Prince 5(4)), monomial table",
     )
+
+
+def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
+                      table: MonomialTable | None, *, engine_reason: str = "", **settings) -> DNSResult:
+    """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it; ``settings``:
+    rule, rtol, atol, peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps)."""
+    run = prepare(beads, exponent, velocity, contacts, table, **settings)
+    wall0 = _time.perf_counter()
+    code = drive(run)
+    return result(run, code, _time.perf_counter() - wall0, engine_reason)
