@@ -201,7 +201,8 @@ def simulate(
             peak_fraction=peak_fraction, death_fraction=death_fraction,
             t_max=None if t_max is None else float(t_max) / scale.tau, stall_factor=stall_factor, progress=progress,
             overtake_factor=overtake_factor, window=window, window_accuracy=window_accuracy,
-            window_engine=window_engine, max_steps=max_steps, snapshots=snapshots, snapshot_span=snapshot_span)
+            window_engine=window_engine, max_steps=max_steps, snapshots=snapshots, snapshot_span=snapshot_span,
+            engine=engine)
         return scale.result(unit)
     if launch is not None:
         if not isinstance(launch, Launch):

@@ -76,7 +76,16 @@ class Scaling:
             dforce_dv=None if fv is None else (lambda X, V: self.tau * np.asarray(fv(lam * X, v0 * V), dtype=float)),
             stiffness_hint=force.stiffness_hint * self.tau,  # a rate: times tau
             restrict=None if restrict is None else (lambda lo, hi: self.force(restrict(lo, hi))),
+            monomials=self.table(force.monomials),
         )
+
+    def table(self, table):
+        """A monomial table (chain/compiled.py) in the unit frame: c u^a v^b -> c lam^(a-n) v0^b X^a V^b."""
+        if table is None:
+            return None
+        a, b = table.exponents[:, 0], table.exponents[:, 1]
+        factor = self.lam ** (a - self.exponent) * self.velocity ** b
+        return type(table)(table.exponents, table.coefficients * factor[:, None])
 
     def unit_force_size(self, force: OnSiteForce, beads: int) -> float:
         """max |F'| over a grid of unit-frame states (NaN-free: a non-finite value counts as inf)."""

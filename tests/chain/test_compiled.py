@@ -195,3 +195,15 @@ def test_batch_of_chains_equals_single_runs():
         assert res.engine == one.engine == "compiled" and res.stop_reason == one.stop_reason
         assert np.array_equal(res.peaks, one.peaks, equal_nan=True) and res.nfev == one.nfev
     assert len({float(r.peaks[-1]) for r in many}) == 4  # the chains really differ
+
+
+@pytest.mark.parametrize("name, v0", [("fig6-eps0.1", 2e3), ("fig8-eps0.1", 2e3), ("vdp-mu3-v2.3", 5e-4)])
+def test_extreme_velocity_runs_compiled_in_the_unit_frame(name, v0):
+    """v0 outside [1e-3, 1e3] runs at v0 = 1 (chain/scaling.py) with the table scaled like the force."""
+    scene = load_scene(name)
+    force = make_force(scene, 60)
+    kw = dict(rtol=1e-10, atol=1e-12, window="auto")
+    fast = simulate(60, 1.5, v0, (15, 40), force, **kw)
+    ref = simulate(60, 1.5, v0, (15, 40), force, engine="scipy", method="DOP853", **kw)
+    assert fast.engine == "compiled" and ref.engine == "scipy" and np.array_equal(fast.alive, ref.alive)
+    assert fast.alive.sum() >= 5 and rel(fast.peaks[fast.alive], ref.peaks[ref.alive]) < PEAK_TOL
