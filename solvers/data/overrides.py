@@ -24,6 +24,8 @@ from pulsemap.solvers.data.scene import Scene, SceneError, parse_scene
 PARAMS_PREFIX = "perturbation.params."
 #: Keys that name the scene rather than set it (not overridable).
 FIXED = ("source",)
+#: Keys a scene may set that have no default value in it (absent: the documented default applies).
+OPTIONAL = ("dns.engine",)
 
 
 def _flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -39,8 +41,9 @@ def _flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def scene_keys(scene: Scene) -> list[str]:
-    """Every key ``--set`` accepts for ``scene`` (its file's keys, defaults included)."""
-    return [k for k in _flat(scene.as_dict()) if k not in FIXED]
+    """Every key ``--set`` accepts for ``scene`` (its file's keys, defaults and OPTIONAL included)."""
+    keys = [k for k in _flat(scene.as_dict()) if k not in FIXED]
+    return keys + [k for k in OPTIONAL if k not in keys]
 
 
 def parse_assignment(text: str) -> tuple[str, Any]:

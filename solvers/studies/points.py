@@ -73,7 +73,8 @@ def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, va
         "contacts": [int(first), int(last)],
         "params": {name: _param_data(pert, name, beads) for name in pert.used_parameters},
         "dns": {"rtol": float(rtol if rtol is not None else scene.dns["rtol"]), "atol": float(scene.dns["atol"]),
-                "method": str(scene.dns["method"]), "window": window},
+                "method": str(scene.dns["method"]), "window": window,
+                **({"engine": str(scene.dns["engine"])} if "engine" in scene.dns else {})},
         "force": generated_ref(force_module(pert.text, pert.used_parameters)),
     }
     if with_map:
@@ -161,7 +162,8 @@ def _dns(chain: Mapping[str, Any], values: Mapping[str, Any]) -> dict:
     first, last = (int(c) for c in chain["contacts"])
     kw = {} if opts.get("window") is None else {"window": opts["window"]}
     res = simulate(int(chain["beads"]), float(chain["exponent"]), float(chain["velocity"]), (first, last), force,
-                   method=opts.get("method", "auto"), rtol=float(opts["rtol"]), atol=float(opts["atol"]), **kw)
+                   method=opts.get("method", "auto"), rtol=float(opts["rtol"]), atol=float(opts["atol"]),
+                   engine=opts.get("engine", "compiled"), **kw)
     contacts = list(range(first, last + 1))
     peaks = on_contacts(contacts, res.contacts, res.peaks, res.alive)
     live = [c for c, p in zip(contacts, peaks) if p is not None]

@@ -147,6 +147,11 @@ def test_scene_key_and_run_record_the_engine():
     assert fast["dns"]["engine"] == "compiled"
     got, ref = np.array(fast["peaks"]["dns"], float), np.array(out["peaks"]["dns"], float)
     assert rel(got, ref) < 1e-6
+    # sweep workers (studies/points.py) take the scene's engine from the plain chain
+    from pulsemap.solvers.studies.points import dns_task, plain_chain
+
+    assert dns_task(plain_chain(scene))["method"] == "DOP853"  # scipy, method 'auto'
+    assert dns_task(plain_chain(scene.with_overrides(dns={"engine": "compiled"})))["method"] == "RK45"
 
 
 def test_blow_up_and_step_budget_stop_like_scipy():

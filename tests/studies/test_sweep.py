@@ -154,7 +154,8 @@ def test_sweep_killed_and_restarted_does_not_recompute_finished_points(tmp_path)
     out = tmp_path / "kill.jsonl"
     args = [sys.executable, "-m", "pulsemap.solvers.cli.main", "bifurcation", VDP, "--param", "mu", "--range", "2", "3",
             "--points", "8", "--impulses", "2.3", "--contacts", "30", "--refine", "0", "--workers", "2",
-            "--predict-points", "5", "--profiles", "exact", "--out", str(out)]
+            "--predict-points", "5", "--profiles", "exact", "--set", "dns.engine=scipy",  # slow enough points:
+            "--out", str(out)]  # the kill lands mid-sweep (the compiled engine can finish before the poll)
     env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
     proc = subprocess.Popen(args, cwd=tmp_path, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.monotonic() + 120
