@@ -221,7 +221,8 @@ def simulate(
     solver = make_solver(chosen, beads, exponent, force, y0, t_limit, rtol, atol)
     track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
                               death_fraction=death_fraction, overtake_factor=overtake_factor,
-                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1)
+                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1,
+                              method=chosen)
     budget = default_max_steps(last) if max_steps is None else max_steps
     drift = 0.0
     wall_report = wall0

@@ -339,7 +339,8 @@ def simulate_windowed(
     run = _Run(lo=0, hi=min(beads, moving + rule.ahead + rule.chunk + 1))
     track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
                               death_fraction=death_fraction, overtake_factor=overtake_factor,
-                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1)
+                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1,
+                              method=method)
     if launch is None:
         y = np.zeros(2 * run.hi)
         y[1] = velocity
