@@ -229,13 +229,21 @@ def cmd_derive(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------------- run
 def cmd_run(args: argparse.Namespace) -> int:
     """``pulsemap run SCENE``: DNS, map and long-wave peaks per contact, errors, timings."""
+    from pulsemap.solvers.studies.ranking import rank_models
     from pulsemap.solvers.studies.run import plot, run_scene, to_csv, to_text
+    from pulsemap.solvers.studies.run_report import nothing_ran
 
     scene = load_scene_with_sets(args.scene, args.sets)
     methods = args.methods.split(",") if args.methods else None
+    snapshots = _contact_list(args.snapshots, "--snapshots") if args.snapshots else ()
     result = run_scene(scene, methods=methods, profile=args.profile, variant=args.variant,
-                       progress=not args.quiet, seed_peak=args.seed_peak)
-    print(to_text(result))
+                       progress=not args.quiet, seed_peak=args.seed_peak, snapshots=snapshots)
+    why = nothing_ran(result)
+    if why:
+        raise UsageError(why)
+    if not args.no_rank and any(m != "dns" for m in result["choices"]["methods"]):
+        result["ranking"] = rank_models(scene, result)
+    print(to_text(result, every=1 if args.all else None))
     if args.json:
         write_json(args.json, result)
     if args.csv:
@@ -243,6 +251,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.plot:
         plot(result, args.plot, log_y=args.log_y)
     return 0
+
+
+def _contact_list(text: str, option: str) -> tuple[int, ...]:
+    """'20,40,60' -> (20, 40, 60), a one-line usage error otherwise."""
+    try:
+        return tuple(int(x) for x in text.replace(" ", "").split(",") if x)
+    except ValueError:
+        raise UsageError(f"{option} {text!r}: give a comma list of contact numbers, e.g. 20,40,60") from None
 
 
 def cmd_scenes(args: argparse.Namespace) -> int:
@@ -362,6 +378,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seed map and law with this peak at contact first_perturbed - 1 (default: the DNS "
                         "peak there, or v0 through kappa_n without the DNS)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.add_argument("--all", action="store_true", help="print every contact (default: at most 40 rows, evenly spaced)")
+    p.add_argument("--no-rank", action="store_true",
+                   help="skip the ranking of every model against this DNS (shown by default, milliseconds per model)")
+    p.add_argument("--snapshots", metavar="C1,C2,...",
+                   help="contacts at whose peak time the DNS keeps the strains delta_j around the pulse (JSON)")
     add_set_option(p)
     p.set_defaults(func=cmd_run)
 
