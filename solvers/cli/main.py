@@ -219,6 +219,8 @@ def cmd_derive(args: argparse.Namespace) -> int:
         i0=args.i0,
         dps=args.dps,
         sympy_seconds=args.sympy_seconds,
+        max_seconds=args.max_seconds,
+        progress=progress_log(args.quiet),
     )
     print(to_latex(d) if args.latex else to_text(d))
     if args.json:
@@ -360,6 +362,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dps", type=int, default=None, help="mpmath working precision (digits)")
     p.add_argument("--sympy-seconds", type=number, default=2.0,
                    help="time bound for sympy's closed-form integration (default 2 s)")
+    p.add_argument("--max-seconds", type=number, default=None, metavar="S",
+                   help="stop the derivation after S seconds with a message (integrals done so far stay cached)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--latex", action="store_true", help="print LaTeX instead of text")
     p.add_argument("--json", metavar="OUT", help="write the derivation as JSON ('-' for stdout)")
     p.set_defaults(func=cmd_derive)

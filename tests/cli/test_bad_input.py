@@ -97,6 +97,11 @@ CLI = [
      ["n = 1.0000001", "1.01 <= n <= 20", "(n - 1)^(-1/2)"]),
     ("profile: n just above 1", ["profile", "--n", "1.0000001"], ["n = 1.0000001", "1.01 <= n <= 20"]),
     ("profile: n too large", ["profile", "--n", "21"], ["n = 21.0", "1.01 <= n <= 20"]),
+    ("max-seconds zero", ["derive", "-mu*v", "--param", "mu=1", "--max-seconds", "0"],
+     ["max_seconds = 0", "0 < max_seconds <= 86400"]),
+    ("max-seconds nan", ["derive", "-mu*v", "--param", "mu=1", "--max-seconds", "nan"], ["max_seconds = nan"]),
+    ("max-seconds exceeded", ["derive", "u^12*v^12", "--max-seconds", "0.001", "--quiet"],
+     ["derive stopped after", "max_seconds = 0.001", "resumes"]),
     # non-smooth R: the DNS runs it, derive's map and balances refuse it with the reason (issue 14)
     ("Coulomb friction, map", ["derive", "-mu*sign(v)", "--param", "mu=1"],
      ["not a polynomial in u, v", "sign(v) has a kink or a jump at 0", "DNS runs it"]),
