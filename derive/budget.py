@@ -44,7 +44,10 @@ class Budget:
     max_seconds: float | None = None
     report: Callable[[str], None] | None = None
     start: float = field(default_factory=time.perf_counter)
-    _last: float = -math.inf
+    _last: float = field(default=-math.inf, repr=False)
+
+    def __post_init__(self) -> None:
+        self._last = self.start  # quick derivations print nothing: the first line comes after 1 s
 
     def elapsed(self) -> float:
         return time.perf_counter() - self.start
@@ -65,15 +68,7 @@ class Budget:
         """Check the bound at step k of total, and report progress at most once a second (and at the end)."""
         self.check(f"{what} ({k} of {total} done)")
         now = time.perf_counter()
-        if self.report is not None and (now - self._last >= 1.0 or k == total) and total > 1:
-            if k < total or now - self.start >= 1.0:
-                self.report(f"derive: {what} {k}/{total}, {now - self.start:.0f} s")
-                self._last = now
+        if self.report is not None and total > 1 and now - self._last >= 1.0:
+            self.report(f"derive: {what} {k}/{total}, {now - self.start:.0f} s")
+            self._last = now
 
-    def note(self, text: str) -> None:
-        """A one-off progress line (what the derivation is starting), if a reporter is set."""
-        if self.report is not None:
-            self.report(f"derive: {text}")
-
-
-UNBOUNDED = None  # callers pass budget=None for no bound and no report

@@ -90,7 +90,6 @@ def derive_all(
 
     t1 = time.perf_counter()
     names = list(F_NAMES) + list(ex.integrals())
-    budget.note(f"{len(ex.terms)} monomials, {len(names)} profile integrals (cached ones are read back)")
     consts = constants(names, n=n, profile=profile, dps=dps, budget=budget)
     values = {k: c.value for k, c in consts.items()}
     errors = {k: c.error for k, c in consts.items()}
@@ -237,7 +236,7 @@ def to_json(d: Derivation) -> dict:
             {
                 "equation": t.equation,
                 "exponents": list(t.exponents),
-                "monomial": str(t.monomial),
+                "monomial": t.monomial_text,
                 "coefficient": str(t.coefficient),
                 "integral": t.integral,
                 "integral_value": d.constants[t.integral],
@@ -277,7 +276,7 @@ def to_text(d: Derivation) -> str:
     for t in d.expansion.terms:
         amp = "A_i" if t.equation == 1 else "A_(i+1)"
         lines.append(
-            f"    [eq {t.equation}] {str(t.monomial):28s} {str(t.coefficient):>12s} x {t.integral} "
+            f"    [eq {t.equation}] {t.monomial_text:28s} {str(t.coefficient):>12s} x {t.integral} "
             f"(= {d.constants[t.integral]:.12g}) x {amp}^({t.power})"
         )
     lines += ["", f"Amplitude map (Eq. 23, variant '{d.variant}'):"]

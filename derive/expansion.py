@@ -51,6 +51,13 @@ class Term:
         p, r = self.exponents
         return D1**p * W1**r
 
+    @property
+    def monomial_text(self) -> str:
+        """str(self.monomial), written directly (sympy's printer takes ms a term: seconds for thousands)."""
+        names = ("delta_i", "delta_ip1", "v_i", "v_ip1") if self.equation == 1 else ("delta_ip1", "v_ip1")
+        parts = [name if e == 1 else f"{name}**{e}" for name, e in zip(names, self.exponents) if e]
+        return "*".join(parts) or "1"
+
 
 @dataclass(frozen=True)
 class Expansion:

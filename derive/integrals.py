@@ -230,14 +230,14 @@ def cached_constants(
     try:
         for k, name in enumerate(missing):
             if budget is not None:
-                budget.step(f"{namespace} (one quadrature each)", k, len(missing))
+                budget.step(f"{namespace} not yet cached (one quadrature each)", k, len(missing))
             table[name] = list(compute(prof, name, dps))
             done.append(name)
             if use_cache and time.perf_counter() - saved > 30.0:  # a long run keeps what it has
                 _store(namespace, table_key, {x: table[x] for x in done})
                 saved = time.perf_counter()
         if budget is not None and missing:
-            budget.step(f"{namespace} (one quadrature each)", len(missing), len(missing))
+            budget.step(f"{namespace} not yet cached (one quadrature each)", len(missing), len(missing))
     finally:  # also when stopped by the time bound: the next run resumes
         if done and use_cache:
             _store(namespace, table_key, {x: table[x] for x in done})
