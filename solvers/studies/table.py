@@ -60,6 +60,7 @@ COLUMNS = (
     Column("momentum-map", "exact"),
     Column("momentum-law", "exact"),
     Column("relaxed", "exact"),
+    Column("dressed-law", "exact"),
 )
 
 
