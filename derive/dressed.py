@@ -215,7 +215,9 @@ class DressedLaw:
             out.append(f"  cross {ct.first} x {ct.second}: k2 = {val}  [{ct.method}]")
         imp = self.implicit()
         out.append("")
-        if imp is not None:
+        if not self.terms:
+            out.append("Amplitude law: A constant (no term of R does work on the wave)")
+        elif imp is not None:
             out.append("Closed form (one monomial; A_s = the seed amplitude shifted by the onset lag):")
             out.append(f"  i(A) = {imp}")
         else:

@@ -37,17 +37,19 @@ class DressedCoefficients:
     lag: tuple[float, ...]
     x_bound: tuple[float, ...]
     cross: tuple[tuple[int, int, float], ...] = ()
+    c_of_i: tuple | None = None  # site-dependent R: c_j as functions of the contact index (else c)
 
-    def xs(self, A: float) -> list[float]:
-        return [c * A**e for c, e in zip(self.c, self.e)]
+    def xs(self, A: float, i: float = 0.0) -> list[float]:
+        cs = self.c if self.c_of_i is None else [f(i) for f in self.c_of_i]
+        return [c * A**e for c, e in zip(cs, self.e)]
 
-    def rate(self, A: float) -> float:
-        xs = self.xs(A)
+    def rate(self, A: float, i: float = 0.0) -> float:
+        xs = self.xs(A, i)
         total = -sum(k1 * x / (1.0 - r * x) for k1, r, x in zip(self.k1, self.rho, xs))
         return total - sum(k2 * xs[j] * xs[l] for j, l, k2 in self.cross)
 
-    def shift(self, A0: float) -> float:
-        xs = self.xs(A0)
+    def shift(self, A0: float, i0: float = 0.0) -> float:
+        xs = self.xs(A0, i0)
         return sum(d * k1 * x / (1.0 - r * x) for d, k1, r, x in zip(self.lag, self.k1, self.rho, xs))
 
 
@@ -58,10 +60,10 @@ def evaluate_dressed_law(coef: DressedCoefficients, S0: float, A0: float, i0: fl
     if not (np.isfinite(A0) and A0 > 0):
         raise DressedEvalError(f"the initial amplitude must be a finite number > 0, got {A0!r}")
     contacts = np.asarray(contacts, dtype=float)
-    lnA0 = math.log(A0) + coef.shift(A0)
+    lnA0 = math.log(A0) + coef.shift(A0, i0)
 
     def rhs(i, y):
-        return [coef.rate(math.exp(y[0]))]
+        return [coef.rate(math.exp(y[0]), i)]
 
     def die(i, y):
         return y[0] - (math.log(A0) - 27.6)  # A = 1e-12 A0
@@ -71,11 +73,11 @@ def evaluate_dressed_law(coef: DressedCoefficients, S0: float, A0: float, i0: fl
 
     def pole(i, y):
         A = math.exp(y[0])
-        return min([1.0 - r * x for r, x in zip(coef.rho, coef.xs(A))] + [1.0]) - POLE_MARGIN
+        return min([1.0 - r * x for r, x in zip(coef.rho, coef.xs(A, i))] + [1.0]) - POLE_MARGIN
 
     def past_bound(i, y):
         A = math.exp(y[0])
-        return max([abs(x) / b if b > 0 else 0.0 for x, b in zip(coef.xs(A), coef.x_bound)] + [0.0]) - 1.0
+        return max([abs(x) / b if b > 0 else 0.0 for x, b in zip(coef.xs(A, i), coef.x_bound)] + [0.0]) - 1.0
 
     die.terminal = blow.terminal = pole.terminal = True
     end = max(float(contacts.max(initial=i0)), i0 + 1e-9)

@@ -2,8 +2,9 @@
 
 k1 per monomial is derived (the energy balance's profile integral, mpmath); k2/k1, the onset lag
 and the next term are calibrated by DNS decrements of launched solitons at small x
-(dressed_calibration.py, cached), and so are the cross terms k2_jl of every pair. The law needs a uniform polynomial R (site-dependent: use the energy law, which takes
-c_j(i); non-polynomial: the energy balance by quadrature).
+(dressed_calibration.py, cached), and so are the cross terms k2_jl of every pair. The law in closed form needs a uniform polynomial R; for a site-dependent R ``run`` follows the
+coefficients c_j(i) (bead i + 1/2 at contact index i) numerically; a non-polynomial R has no
+monomials (use the energy balance by quadrature).
 """
 
 from __future__ import annotations
@@ -12,10 +13,13 @@ import time
 from dataclasses import dataclass, field
 from itertools import combinations
 
+import numpy as np
 import sympy
 
 from pulsemap.derive.balance import BalanceError, balance_expand, json_header
 from pulsemap.derive.dressed import CrossTerm, DressedError, DressedLaw, DressedTerm
+from pulsemap.derive.expansion import bead_symbol
+from pulsemap.derive.expression import symbol
 from pulsemap.derive.perturbation import Perturbation
 from pulsemap.derive.profile import check_exponent
 from pulsemap.solvers.models.dressed_eval import DressedCoefficients
@@ -49,25 +53,52 @@ def coefficients(law: DressedLaw) -> DressedCoefficients:
         x_bound=tuple(t.x_bound()[0] for t in law.terms), cross=cross)
 
 
-def dressed_law(pert: Perturbation, n: float = 1.5) -> DressedLaw:
-    """Expand eps R into monomials, calibrate each one (cached) and form the law."""
+def coefficient_at(coefficient: sympy.Expr, pert: Perturbation, bead: float) -> float:
+    """A monomial's coefficient in R (bead-indexed parameters, i) at a bead position (continuous)."""
+    sub = {symbol("i"): sympy.Float(bead, 17)}
+    sub.update(pert.scalar_values())
+    for name in pert.site_dependent:
+        sub[bead_symbol(name, 0)] = sympy.Float(float(pert.values_at(name, [bead])[0]), 17)
+    return float(sympy.sympify(coefficient).xreplace(sub))
+
+
+def site_coefficient_functions(pert: Perturbation, law: DressedLaw, i0: float, i1: float, step: float = 1 / 16):
+    """c_j(i) = eps R's coefficient of monomial j at bead i + 1/2 (the energy law's convention, derive/site_law.py),
+    tabulated from i0 to i1 and interpolated linearly: one function per term of ``law``."""
+    ex = balance_expand(pert.R, law.n, "energy", pert.site_dependent)
+    coefs = {str(t.monomial): t.coefficient for t in ex.terms}
+    grid = np.arange(i0, i1 + 2 * step, step)
+    out = []
+    for t in law.terms:
+        vals = np.array([float(pert.eps) * coefficient_at(coefs[t.monomial], pert, g + 0.5) for g in grid])
+        out.append(lambda i, vals=vals: float(np.interp(i, grid, vals)))
+    return tuple(out)
+
+
+def dressed_law(pert: Perturbation, n: float = 1.5, at_bead: float | None = None) -> DressedLaw:
+    """Expand eps R into monomials, calibrate each one (cached) and form the law. A site-dependent R needs
+    ``at_bead``: its coefficients are then taken at that bead (``run`` follows c_j(i) along the chain with
+    ``site_coefficient_functions``)."""
     n = check_exponent(n)
-    if not pert.is_uniform:
+    if not pert.is_uniform and at_bead is None:
         raise DressedError(
-            f"the dressed law needs a uniform R; R = {pert.text} varies along the chain "
-            f"({', '.join(pert.site_dependent) or 'i'}): use the energy law (energy-law), which takes c_j(i)")
+            f"the dressed law in closed form needs a uniform R; R = {pert.text} varies along the chain "
+            f"({', '.join(pert.site_dependent) or 'i'}): run the method dressed-law (it follows c_j(i)) "
+            "or derive the energy law, which takes c_j(i)")
     try:
-        ex = balance_expand(pert.R, n, "energy")
+        ex = balance_expand(pert.R, n, "energy", pert.site_dependent)
     except BalanceError as exc:
         raise DressedError(f"the dressed law expands R into monomials: {exc}") from None
-    params = pert.scalar_params()
     terms = []
     eps = float(pert.eps)
     for t in ex.terms:
         a, b = t.exponents
-        value = float(sympy.sympify(t.coefficient).xreplace(params))
-        if value == 0:
-            continue
+        if pert.is_uniform:
+            value = float(sympy.sympify(t.coefficient).xreplace(pert.scalar_params()))
+            if value == 0:
+                continue
+        else:
+            value = coefficient_at(t.coefficient, pert, float(at_bead))
         try:
             fit = calibrate(a, b, n)
         except CalibrationError as exc:
@@ -84,8 +115,8 @@ def dressed_law(pert: Perturbation, n: float = 1.5) -> DressedLaw:
             next_kind="|x|^(3/2)" if fit.g is not None else "x^2",
             next_coefficient=fit.g if fit.g is not None else fit.r1,
         ))
-    if not terms:
-        raise DressedError(f"R = {pert.text} does no work on the wave: A stays constant, there is nothing to dress")
+    if not terms:  # R = 0 or no term does work: the law is A constant
+        return DressedLaw(n=n, terms=(), cross=(), notes=(f"R = {pert.text} does no work on the wave: A stays constant",))
     cross = []
     for p, q in combinations(terms, 2):
         try:

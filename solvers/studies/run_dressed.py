@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from pulsemap.derive.dressed import DressedError
 from pulsemap.derive.profile import exact_profile
 from pulsemap.solvers.models.dressed_eval import evaluate_dressed_law
-from pulsemap.solvers.studies.dressed import coefficients, dressed_law
+from pulsemap.solvers.studies.dressed import coefficients, dressed_law, site_coefficient_functions
 from pulsemap.solvers.studies.methods import MODEL_TITLES
 from pulsemap.solvers.studies.points import on_contacts
 
@@ -27,7 +28,7 @@ def prepare_dressed(state: "RunState"):
     else:
         t0 = time.perf_counter()
         try:
-            law = dressed_law(scene.perturbation, scene.exponent)
+            law = dressed_law(scene.perturbation, scene.exponent, at_bead=float(scene.first_perturbed) - 0.5)
         except DressedError as exc:
             why = str(exc)
         state.timings["derive_dressed"] = time.perf_counter() - t0
@@ -43,7 +44,11 @@ def run_dressed(state: "RunState", law, seed_A: float) -> None:
     scene, out = state.scene, state.out
     S0 = float(exact_profile(scene.exponent).S0)
     t0 = time.perf_counter()
-    run, beyond = evaluate_dressed_law(coefficients(law), S0, seed_A, float(scene.first_perturbed - 1), state.contacts)
+    coef = coefficients(law)
+    i0 = float(scene.first_perturbed - 1)
+    if not scene.perturbation.is_uniform:  # c_j(i) along the chain (bead i + 1/2 at contact index i)
+        coef = replace(coef, c_of_i=site_coefficient_functions(scene.perturbation, law, i0, float(scene.contacts[1])))
+    run, beyond = evaluate_dressed_law(coef, S0, seed_A, i0, state.contacts)
     state.timings[METHOD] = time.perf_counter() - t0
     out["peaks"][METHOD] = on_contacts(state.contacts, run.contacts, run.peaks)
     out[METHOD] = {"model": MODEL_TITLES[METHOD], "profile": "exact", "status": run.status, "message": run.message,
