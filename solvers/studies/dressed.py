@@ -42,6 +42,17 @@ class DressedDerivation:
     def coefficients(self) -> DressedCoefficients:
         return coefficients(self.law)
 
+    def to_dict(self) -> dict:
+        """The JSON document of ``pulsemap derive --model dressed --json``."""
+        return to_json(self)
+
+    @property
+    def latex(self) -> str:
+        return self.law.latex()
+
+    def __str__(self) -> str:
+        return to_text(self)
+
 
 def coefficients(law: DressedLaw) -> DressedCoefficients:
     """The law's numbers for the evaluator (solvers/models/dressed_eval.py)."""

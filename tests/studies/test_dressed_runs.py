@@ -113,3 +113,17 @@ def test_derive_model_dressed_cli(tmp_path, capsys):
     assert main(["derive", "-sin(u)", "--model", "dressed"]) == 2
     assert "polynomial" in capsys.readouterr().err
     assert main(["derive", "-v", "--model", "dressed", "--profile", "pade"]) == 2
+
+
+def test_api_dressed():
+    import pulsemap
+
+    d = pulsemap.dressed("-mu*v", mu=1, eps=0.1, A0=0.5, i0=15)
+    (t,) = d.law.terms
+    assert t.c == pytest.approx(-0.1) and t.k1 == pytest.approx(-4 / 9, rel=1e-10)
+    assert d.to_dict()["dressed"]["monomials"]["v"]["k2_over_k1"] == t.rho
+    assert "onset" in d.to_dict()["dressed"] and "Validity" in str(d)
+    with pytest.raises(ValueError, match="polynomial"):
+        pulsemap.dressed("-sin(u)")
+    with pytest.raises(TypeError, match="R must be"):
+        pulsemap.dressed(3)
