@@ -3,9 +3,10 @@
     d ln A/di = -sum_j k1_j x_j / (1 - rho_j x_j) - sum_{j<l} k2_jl x_j x_l,   x_j = c_j A^e_j
 
 from ln A(i0) = ln A0 + sum_j Delta_j k1_j x_j(A0)/(1 - rho_j x_j(A0)) (the onset lag), solved with
-LSODA (rtol 1e-11). It stops where A falls to 1e-12 A0 (extinction), grows to 1e12 A0, or a Pade
-denominator 1 - rho_j x_j reaches 0.05 (the law has left its range): contacts past the end carry
-None. ``beyond`` is the first contact index where some |x_j| exceeds its validity bound.
+LSODA (rtol 1e-11). It stops where A falls to 1e-12 A0 (extinction), grows to 1e12 A0, or some
+|rho_j x_j| reaches 0.95 (the second-order term as large as the first: the series, and its Pade
+form, have lost their meaning; a restoring foundation near extinction, x = c A^(-1/2)): contacts
+past the end carry None. ``beyond`` is the first contact index where some |x_j| exceeds its validity bound.
 """
 
 from __future__ import annotations
@@ -71,15 +72,21 @@ def evaluate_dressed_law(coef: DressedCoefficients, S0: float, A0: float, i0: fl
     def blow(i, y):
         return y[0] - (math.log(A0) + 27.6)
 
-    def pole(i, y):
+    def pole(i, y):  # |rho x| -> 1: the second-order term as large as the first, the series has lost its meaning
         A = math.exp(y[0])
-        return min([1.0 - r * x for r, x in zip(coef.rho, coef.xs(A, i))] + [1.0]) - POLE_MARGIN
+        return (1.0 - POLE_MARGIN) - max([abs(r * x) for r, x in zip(coef.rho, coef.xs(A, i))] + [0.0])
 
     def past_bound(i, y):
         A = math.exp(y[0])
         return max([abs(x) / b if b > 0 else 0.0 for x, b in zip(coef.xs(A, i), coef.x_bound)] + [0.0]) - 1.0
 
     die.terminal = blow.terminal = pole.terminal = True
+    if pole(i0, [math.log(A0)]) <= 0:
+        vals = [None] * len(contacts)
+        run = BalanceRun("dressed", "law", contacts.astype(int), vals, vals, "outside its range",
+                         f"outside its range at the seed: |(k2/k1) x| >= {1 - POLE_MARGIN:g} (the second-order term "
+                         "as large as the first)", float(i0), "dressed (second order)", "exact")
+        return run, float(i0)
     end = max(float(contacts.max(initial=i0)), i0 + 1e-9)
     sol = solve_ivp(rhs, (i0, end), [lnA0], method="LSODA", rtol=1e-11, atol=1e-13, dense_output=True,
                     events=(die, blow, pole, past_bound))
@@ -89,7 +96,7 @@ def evaluate_dressed_law(coef: DressedCoefficients, S0: float, A0: float, i0: fl
     if sol.status == 1:
         ended_at = float(sol.t[-1])
         status = ("extinction" if sol.t_events[0].size else "blow-up" if sol.t_events[1].size
-                  else "outside its range (1 - (k2/k1) x -> 0)")
+                  else f"outside its range (|(k2/k1) x| reached {1 - POLE_MARGIN:g})")
     beyond = float(sol.t_events[3][0]) if sol.t_events[3].size else None
     if beyond is None and past_bound(i0, [lnA0]) > 0:
         beyond = float(i0)
