@@ -210,7 +210,7 @@ def _relaxed_thresholds(scene, name: str, lo: float, hi: float, report: dict, th
     for t in thresholds:
         if t["entry_peak"] is None:
             continue
-        rt = relaxed_threshold(scene, name, lo, hi, t["entry_peak"], contacts=last - scene.first_perturbed + 1)
+        rt = relaxed_threshold(scene, name, lo, hi, t["entry_peak"])
         t["predicted"]["relaxed"] = rt["threshold"]
         if fold is not None and t["threshold"] is not None:
             t["minus_fold"]["relaxed"] = t["threshold"] - fold

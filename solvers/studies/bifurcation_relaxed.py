@@ -6,7 +6,9 @@ shock); it is stable when |F'(P*)| = |1 + d log r / d log P| < 1. The fold is wh
 points meet: where max_P log r(P) crosses zero as the parameter varies (located by bisection in
 the parameter). The predicted threshold of an entry peak is the smallest parameter value at which
 the relaxed model (onset, then the map) iterated from that peak is still alive after ``contacts``
-contacts (bisection between the grid values that bracket it). Each parameter value has its own
+contacts (bisection between the grid values that bracket it; the map is cheap, so ``contacts`` is
+long enough, 20000, that a pulse passing slowly by the ghost of the fold just below it is seen
+to die). Each parameter value has its own
 tables (segment runs, cached), so a prediction costs a few seconds per value the first time.
 """
 
@@ -100,7 +102,7 @@ def _survives(scene, name: str, value: float, entry_peak: float, contacts: int) 
     return run.status == "ok"
 
 
-def relaxed_threshold(scene, name: str, lo: float, hi: float, entry_peak: float, contacts: int = 400,
+def relaxed_threshold(scene, name: str, lo: float, hi: float, entry_peak: float, contacts: int = 20000,
                       points: int = 7) -> dict:
     """Smallest ``name`` in [lo, hi] at which the relaxed model from ``entry_peak`` survives ``contacts``
     contacts (survival taken monotone in the parameter, as in bifurcation.py), with its bracket."""
@@ -118,4 +120,4 @@ def relaxed_threshold(scene, name: str, lo: float, hi: float, entry_peak: float,
             b = m
         else:
             a = m
-    return {"threshold": 0.5 * (a + b), "bracket": [a, b], "note": ""}
+    return {"threshold": float(0.5 * (a + b)), "bracket": [float(a), float(b)], "note": ""}
