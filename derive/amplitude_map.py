@@ -15,7 +15,7 @@ Variants (erratum 5, docs/errata.rst and the remark after Eq. 23):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Mapping
 
 import sympy
@@ -74,6 +74,7 @@ class AmplitudeMap:
     expansion: Expansion
     constants: Mapping[str, float]  # f1..f7 and the integrals that occur
     params: Mapping[sympy.Symbol, sympy.Expr]  # scalar parameter values (uniform part)
+    _memo: dict = field(default_factory=dict, compare=False, repr=False)  # power_terms by (equation, numeric)
 
     @property
     def P(self) -> sympy.Rational:
@@ -88,16 +89,20 @@ class AmplitudeMap:
         return f["f5"], f["f4"] + 2 * f["f6"] - f["f7"]
 
     def power_terms(self, equation: int, numeric: bool = True) -> tuple[PowerTerm, ...]:
-        """Terms of equation 1 or 2 grouped by power of A (Eq. 23's inner sums)."""
+        """Terms of equation 1 or 2 grouped by power of A (Eq. 23's inner sums); computed once."""
+        key = (equation, numeric)
+        if key not in self._memo:
+            self._memo[key] = self._power_terms(equation, numeric)
+        return self._memo[key]
+
+    def _power_terms(self, equation: int, numeric: bool) -> tuple[PowerTerm, ...]:
         groups: dict[sympy.Rational, list[Term]] = {}
         for term in self.expansion.equation_terms(equation):
             groups.setdefault(term.power, []).append(term)
         out = []
         for power in sorted(groups):
-            sym = sum(
-                (t.coefficient * integral_symbol(t.integral) for t in groups[power]),
-                sympy.Integer(0),
-            )
+            # one Add of all the terms (a running sum is quadratic: minutes for the 1089 terms of u^32 v^32)
+            sym = sympy.Add(*(t.coefficient * integral_symbol(t.integral) for t in groups[power]))
             value = None
             if numeric:
                 sym = sym.xreplace(self.params)

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 
 import sympy
 
+from .budget import Budget, check_max_seconds
 from .balance_constants import WAVE_NAMES, BalanceError, balance_constants, check_model, integral_name, window
 from .balance_expansion import A, BalanceExpansion, BalanceTerm, balance_expand
 from .balance_law import B, EPS, K_SYMBOLS, BalanceLaw, balance_law, balance_site_law
@@ -102,16 +103,21 @@ def derive_balance(
     i0: float = 0.0,
     dps: int | None = None,
     sympy_seconds: float = 2.0,
+    max_seconds: float | None = None,
+    progress=None,
 ) -> BalanceDerivation:
     """Derive the energy- or momentum-balance map and law for ``pert`` (module docstring)."""
     t0 = time.perf_counter()
     A0_value, i0, sympy_seconds = check_law_inputs(A0_value, i0, sympy_seconds, BalanceError)
+    budget = Budget(check_max_seconds(max_seconds, BalanceError), progress)  # derive/budget.py
     model = check_model(model)
     n = check_exponent(n)
     profile = check_profile_kind(profile)
     ex = balance_expand(pert.R, n, model, pert.site_dependent)
     names = list(ex.wave_names) + ["D"] + list(ex.integrals())
-    consts = balance_constants(names, n=n, profile=profile, dps=dps)
+    budget.check("the expansion")
+    consts = balance_constants(names, n=n, profile=profile, dps=dps, budget=budget)
+    sympy_seconds = min(sympy_seconds, budget.remaining())
     values = {k: c.value for k, c in consts.items()}
     errors = {k: c.error for k, c in consts.items()}
     t1 = time.perf_counter()
@@ -123,6 +129,7 @@ def derive_balance(
             law = balance_site_law(ex, pert, values, sympy_seconds)
     except BalanceError as exc:
         note = str(exc)
+    budget.check("the law")
     t2 = time.perf_counter()
     return BalanceDerivation(
         perturbation=pert, model=model, n=n, profile=profile,

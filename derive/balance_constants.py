@@ -106,7 +106,8 @@ def _cache_key(profile, dps: int, L: int) -> str:
 
 
 def balance_constants(
-    names: Iterable[str], *, n: float = 1.5, profile: str = "exact", dps: int | None = None, use_cache: bool = True
+    names: Iterable[str], *, n: float = 1.5, profile: str = "exact", dps: int | None = None, use_cache: bool = True,
+    budget=None,
 ) -> dict[str, Constant]:
     """The wave constants (K1, V1, p1, D) and profile integrals (w_ab, j_ab) called ``names``.
 
@@ -114,4 +115,4 @@ def balance_constants(
     """
     return cached_constants("balance", names, n=n, profile=profile, dps=dps, use_cache=use_cache,
                             key=lambda prof, dps: _cache_key(prof, dps, window(prof.n)),
-                            check_name=_parse_name, compute=_compute_bounded, error=BalanceError)
+                            check_name=_parse_name, compute=_compute_bounded, error=BalanceError, budget=budget)

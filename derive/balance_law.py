@@ -11,7 +11,7 @@ import sympy
 
 from .balance_constants import BalanceError
 from .balance_expansion import A, BalanceExpansion
-from .longwave import LAW_RATE, A0, I, I0
+from .longwave import LAW_RATE, A0, I, I0, integrate_reciprocal
 from .perturbation import Perturbation
 from .site_law import SiteLaw, coefficient_of_i, site_law
 from .timebox import bounded
@@ -136,8 +136,7 @@ def balance_law(ex: BalanceExpansion, constants: dict, params: dict, eps: float,
         return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, kind, law_A, None)
     if any(c is None for c in coeffs):
         return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None)
-    F = sum((sympy.nsimplify(c, rational=False) * B**p for c, p in zip(coeffs, powers)), sympy.Integer(0))
-    G = bounded(sympy.integrate, (1 / F, B), seconds)
+    G = bounded(integrate_reciprocal, (coeffs, powers, B), seconds) if seconds > 0 else None
     if G is not None and not G.has(sympy.Integral):
         implicit = sympy.Float(K / eps, 17) * (G.xreplace({B: A**Q}) - G.xreplace({B: A0**Q})) + I0
         return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "implicit", None, implicit)

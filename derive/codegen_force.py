@@ -63,7 +63,7 @@ def generate_force(source: ForceSource) -> str:
     note = ""
     if kinks:
         R = regularize(R)
-        note = f" (sign, Heaviside as a ramp of half-width DELTA)"
+        note = " (sign, Heaviside as a ramp of half-width DELTA)"
         lines += [
             f"DELTA = {const(DELTA)}  # sign(s) -> clip(s/DELTA, -1, 1), Heaviside(s) -> (1 + that)/2: a jump made a ramp",
             "",

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Callable
 
 import sympy
 
@@ -18,6 +19,7 @@ from . import balance
 from .amplitude_map import EPS, F_SYMBOLS, AmplitudeMap, check_variant, integral_symbol, latex_names
 from .expansion import Expansion, expand
 from .integrals import F_NAMES, constants
+from .budget import Budget, DeriveTimeout, check_max_seconds
 from .longwave import (LAW_RATE, A0, I, I0, LongwaveError, LongwaveLaw, check_law_inputs, law_data, law_lines,
                        longwave_law, rate_latex, rate_symbol)
 from .perturbation import Perturbation
@@ -66,21 +68,29 @@ def derive_all(
     i0: float = 0.0,
     dps: int | None = None,
     sympy_seconds: float = 2.0,
+    max_seconds: float | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> Derivation:
-    """Derive the map, the long-wave law and the stationary equation for ``pert`` (Eqs. 9-41)."""
+    """Derive the map, the long-wave law and the stationary equation for ``pert`` (Eqs. 9-41).
+
+    ``max_seconds`` bounds the whole derivation (DeriveTimeout past it; integrals done so far stay
+    cached); ``progress`` receives one-line progress reports ("derive: integrals 120/1089, 14 s").
+    """
     times: dict[str, float] = {}
     t0 = time.perf_counter()
     A0_value, i0, sympy_seconds = check_law_inputs(A0_value, i0, sympy_seconds, DerivationError)
+    budget = Budget(check_max_seconds(max_seconds, DerivationError), progress)
     n = check_exponent(n)
     profile = check_profile_kind(profile)
     variant = check_variant(variant)
     site = pert.site_dependent
     ex = expand(pert.R, n, site)
     times["expansion"] = time.perf_counter() - t0
+    budget.check("the expansion")
 
     t1 = time.perf_counter()
     names = list(F_NAMES) + list(ex.integrals())
-    consts = constants(names, n=n, profile=profile, dps=dps)
+    consts = constants(names, n=n, profile=profile, dps=dps, budget=budget)
     values = {k: c.value for k, c in consts.items()}
     errors = {k: c.error for k, c in consts.items()}
     prof = get_profile(profile, n)
@@ -90,14 +100,16 @@ def derive_all(
     scalars = pert.scalar_values()
     amap = AmplitudeMap(ex.n, variant, ex, values, scalars)
     law, law_note = None, ""
+    seconds = min(sympy_seconds, budget.remaining())
     try:
         if pert.is_uniform:
-            law = longwave_law(amap, float(pert.eps), seconds=sympy_seconds)
+            law = longwave_law(amap, float(pert.eps), seconds=seconds)
         else:
-            law = longwave_site_law(amap, pert, sympy_seconds)
+            law = longwave_site_law(amap, pert, seconds)
     except LongwaveError as exc:
         law_note = str(exc)
     times["longwave"] = time.perf_counter() - t2
+    budget.check("the long-wave law")
 
     t3 = time.perf_counter()
     stat, stat_note = None, ""
@@ -113,6 +125,7 @@ def derive_all(
                 raise
             stat_note = str(exc)
     times["stationary"] = time.perf_counter() - t3
+    budget.check("the stationary equation")
     times["total"] = time.perf_counter() - t0
     return Derivation(
         perturbation=pert,
@@ -223,7 +236,7 @@ def to_json(d: Derivation) -> dict:
             {
                 "equation": t.equation,
                 "exponents": list(t.exponents),
-                "monomial": str(t.monomial),
+                "monomial": t.monomial_text,
                 "coefficient": str(t.coefficient),
                 "integral": t.integral,
                 "integral_value": d.constants[t.integral],
@@ -263,7 +276,7 @@ def to_text(d: Derivation) -> str:
     for t in d.expansion.terms:
         amp = "A_i" if t.equation == 1 else "A_(i+1)"
         lines.append(
-            f"    [eq {t.equation}] {str(t.monomial):28s} {str(t.coefficient):>12s} x {t.integral} "
+            f"    [eq {t.equation}] {t.monomial_text:28s} {str(t.coefficient):>12s} x {t.integral} "
             f"(= {d.constants[t.integral]:.12g}) x {amp}^({t.power})"
         )
     lines += ["", f"Amplitude map (Eq. 23, variant '{d.variant}'):"]
@@ -323,4 +336,4 @@ def to_latex(d: Derivation) -> str:
     return "\n".join(out)
 
 
-__all__ = ["Derivation", "DerivationError", "MODELS", "derive_all", "derive_model", "to_json", "to_text", "to_latex", "A0", "I", "I0", "EPS"]
+__all__ = ["Derivation", "DerivationError", "DeriveTimeout", "MODELS", "derive_all", "derive_model", "to_json", "to_text", "to_latex", "A0", "I", "I0", "EPS"]

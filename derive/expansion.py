@@ -15,6 +15,7 @@ Site-dependent parameters (per-bead values, or R depending on i) keep their bead
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Iterable
 
@@ -49,6 +50,13 @@ class Term:
             return D0**k * D1**l * W0**m * W1**q
         p, r = self.exponents
         return D1**p * W1**r
+
+    @property
+    def monomial_text(self) -> str:
+        """str(self.monomial), written directly (sympy's printer takes ms a term: seconds for thousands)."""
+        names = ("delta_i", "delta_ip1", "v_i", "v_ip1") if self.equation == 1 else ("delta_ip1", "v_ip1")
+        parts = [name if e == 1 else f"{name}**{e}" for name, e in zip(names, self.exponents) if e]
+        return "*".join(parts) or "1"
 
 
 @dataclass(frozen=True)
@@ -131,6 +139,26 @@ def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str, error: t
         )
 
 
+def _state_terms(R: sympy.Expr, u: sympy.Symbol, v: sympy.Symbol) -> list[tuple[tuple[int, int], sympy.Expr]]:
+    """((a, b), c) for the terms c u^a v^b of R (c free of u, v)."""
+    return sympy.Poly(R, u, v).terms()
+
+
+def _expanded(products) -> sympy.Expr:
+    """The sum of ``products`` written out (as sympy.expand gives it), for display."""
+    products = list(products)
+    total = sympy.Add(*products)
+    if all(p.as_coeff_Mul()[0].is_Number and not p.as_coeff_Mul()[1].has(sympy.Add) for p in products):
+        return total  # numeric coefficients times monomials: already written out
+    return sympy.expand(total)
+
+
+def _tidy(coeff) -> sympy.Expr:
+    """A monomial's coefficient in the parameters, expanded and with common factors pulled out."""
+    coeff = sympy.sympify(coeff)
+    return coeff if coeff.is_Number else sympy.factor_terms(sympy.expand(coeff))
+
+
 def expand(
     R: sympy.Expr, n: float | sympy.Rational = 1.5, site_dependent: Iterable[str] = ()
 ) -> Expansion:
@@ -141,19 +169,32 @@ def expand(
     u, v = symbol("u"), symbol("v")
     r_i = _at_bead(R, 0, site)
     r_ip1 = _at_bead(R, 1, site)
-    g_i = sympy.expand(r_i.xreplace({u: D0 + D1, v: W0 + W1}) - r_ip1.xreplace({u: D1, v: W1}))
-    g_ip1 = sympy.expand(r_ip1.xreplace({u: D1, v: W1}))
+    # g_i = R_i(delta_i + delta_ip1, v_i + v_ip1) - R_{i+1}(delta_ip1, v_ip1) term by term: c u^a v^b gives
+    # c C(a, k) C(b, m) delta_i^k delta_ip1^(a-k) v_i^m v_ip1^(b-m) (binomial theorem; no sympy expand of
+    # the substituted powers, which took minutes for (u+v+1)^16, issue 14)
+    g1_coeffs: dict[tuple[int, ...], sympy.Expr] = {}
+    for (a, b), c in _state_terms(r_i, u, v):
+        for k in range(a + 1):
+            for m in range(b + 1):
+                key = (k, a - k, m, b - m)
+                g1_coeffs[key] = g1_coeffs.get(key, 0) + c * (math.comb(a, k) * math.comb(b, m))
+    g2_coeffs: dict[tuple[int, ...], sympy.Expr] = {}
+    for (a, b), c in _state_terms(r_ip1, u, v):
+        g1_coeffs[(0, a, 0, b)] = g1_coeffs.get((0, a, 0, b), 0) - c
+        g2_coeffs[(a, b)] = g2_coeffs.get((a, b), 0) + c
     s = (n_exact - 1) / 2
     terms: list[Term] = []
-    for (k, l, m, q), coeff in sympy.Poly(g_i, D0, D1, W0, W1).terms():
-        coeff = sympy.factor_terms(coeff)
+    for (k, l, m, q), coeff in g1_coeffs.items():
+        coeff = _tidy(coeff)
         if coeff == 0:
             continue
         terms.append(Term(1, (k, l, m, q), coeff, g1_name(k, l, m, q), k + l + (1 + s) * (m + q) - s))
-    for (p, r), coeff in sympy.Poly(g_ip1, D1, W1).terms():
-        coeff = sympy.factor_terms(coeff)
+    for (p, r), coeff in g2_coeffs.items():
+        coeff = _tidy(coeff)
         if coeff == 0:
             continue
         terms.append(Term(2, (p, r), coeff, g2_name(p, r), p + (1 + s) * r - s))
+    g_i = _expanded(t.coefficient * t.monomial for t in terms if t.equation == 1)
+    g_ip1 = _expanded(t.coefficient * t.monomial for t in terms if t.equation == 2)
     terms.sort(key=lambda t: (t.equation, t.power, t.exponents))
     return Expansion(R=R, n=n_exact, g1=g_i, g2=g_ip1, terms=tuple(terms), site_dependent=site)

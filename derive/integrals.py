@@ -15,6 +15,7 @@ profile's accuracy (see :class:`pulsemap.derive.profile.Profile`) on top of the 
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from typing import Callable, Iterable
 
@@ -22,6 +23,7 @@ import mpmath
 import numpy as np
 
 from . import cache
+from .budget import Budget
 from .profile import Profile, get_profile
 from .sources import DEFAULT_DPS
 from .sources import INTEGRALS_METHOD as METHOD_VERSION
@@ -78,7 +80,37 @@ def _check_exponents(exps: Iterable[int], what: str) -> tuple[int, ...]:
 
 
 # ------------------------------------------------------------------ scalar integrands
+_MEMO_LIMIT = 2_000_000  # entries per function before its table is emptied (memory bound)
+_FUNCS: dict[tuple[str, float], tuple[Callable, Callable, Callable]] = {}
+
+
+def _memo(f: Callable) -> Callable:
+    """``f`` remembering its values by (argument, working precision): mpmath.quad evaluates every
+    integral of one profile at the same nodes, so a derivation with hundreds of integrals computes
+    S, S', S'' there once (bit-identical values; issue 14)."""
+    table: dict = {}
+
+    def memo(t):
+        key = (getattr(t, "_mpf_", t), mpmath.mp.prec)  # the raw tuple hashes faster than an mpf
+        value = table.get(key)
+        if value is None:
+            if len(table) > _MEMO_LIMIT:
+                table.clear()
+            value = table[key] = f(t)
+        return value
+
+    return memo
+
+
 def _scalar_funcs(profile: Profile) -> tuple[Callable, Callable, Callable]:
+    """(S, S', S'') as functions of an mpf/float argument, in the profile's own arithmetic (memoized)."""
+    key = (profile.kind, float(profile.n))
+    if key not in _FUNCS:
+        _FUNCS[key] = tuple(_memo(f) for f in _plain_funcs(profile))
+    return _FUNCS[key]
+
+
+def _plain_funcs(profile: Profile) -> tuple[Callable, Callable, Callable]:
     """(S, S', S'') as functions of an mpf/float argument, in the profile's own arithmetic."""
     if profile.kind == "pade":
         q0, q2, q4, q6, q8 = (mpmath.mpf(c) for c in profile.q)
@@ -178,6 +210,7 @@ def cached_constants(
     check_name: Callable[[str], object],
     compute: Callable[[Profile, str, int], tuple[float, float]],
     error: type[Exception],
+    budget: "Budget | None" = None,
 ) -> dict[str, Constant]:
     """Constants ``names`` from the cache table ``key(profile, dps)`` in ``namespace``; the missing
     ones computed as (value, error bound) by ``compute`` and stored. Every name is checked by
@@ -192,13 +225,30 @@ def cached_constants(
     table_key = key(prof, dps)
     table = _good_entries(cache.load(namespace, table_key), namespace, table_key) if use_cache else {}
     missing = [name for name in wanted if name not in table]
-    for name in missing:
-        table[name] = list(compute(prof, name, dps))
-    if missing and use_cache:
-        fresh = _good_entries(cache.load(namespace, table_key, quiet=True), namespace, table_key, quiet=True)
-        fresh.update(table)
-        cache.store(namespace, table_key, fresh)
+    done: list[str] = []
+    saved = time.perf_counter()
+    try:
+        for k, name in enumerate(missing):
+            if budget is not None:
+                budget.step(f"{namespace} not yet cached (one quadrature each)", k, len(missing))
+            table[name] = list(compute(prof, name, dps))
+            done.append(name)
+            if use_cache and time.perf_counter() - saved > 30.0:  # a long run keeps what it has
+                _store(namespace, table_key, {x: table[x] for x in done})
+                saved = time.perf_counter()
+        if budget is not None and missing:
+            budget.step(f"{namespace} not yet cached (one quadrature each)", len(missing), len(missing))
+    finally:  # also when stopped by the time bound: the next run resumes
+        if done and use_cache:
+            _store(namespace, table_key, {x: table[x] for x in done})
     return {name: Constant(name, table[name][0], table[name][1], prof.kind, prof.n, dps) for name in wanted}
+
+
+def _store(namespace: str, table_key: str, new: dict) -> None:
+    """Merge ``new`` entries into the cached table (re-read first: another process may have added some)."""
+    fresh = _good_entries(cache.load(namespace, table_key, quiet=True), namespace, table_key, quiet=True)
+    fresh.update(new)
+    cache.store(namespace, table_key, fresh)
 
 
 def _good_entries(table: object, namespace: str, key: str, quiet: bool = False) -> dict:
@@ -241,13 +291,15 @@ def constants(
     profile: str = "exact",
     dps: int | None = None,
     use_cache: bool = True,
+    budget: "Budget | None" = None,
 ) -> dict[str, Constant]:
     """The universal constants called ``names``, computed on demand and cached on disk.
 
     Only the names asked for are computed; values already in the cache cost a file read.
+    ``budget`` (derive/budget.py) bounds the time and reports progress.
     """
     return cached_constants("integrals", names, n=n, profile=profile, dps=dps, use_cache=use_cache, key=_cache_key,
-                            check_name=_check_name, compute=_compute_bounded, error=IntegralError)
+                            check_name=_check_name, compute=_compute_bounded, error=IntegralError, budget=budget)
 
 
 def g1(k: int, l: int, m: int, q: int, **kw) -> Constant:

@@ -212,14 +212,20 @@ def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> Longwa
     # several powers: Eq. 31a, closed form if sympy finds one in time
     if any(c is None for c in coeffs):
         return LongwaveLaw(P, powers, coeffs, symb, f13, eps, "quadrature", None, None)
-    F = sum((sympy.nsimplify(c, rational=False) * B**p for c, p in zip(coeffs, powers)), sympy.Integer(0))
-    G = bounded(sympy.integrate, (1 / F, B), seconds)
+    G = bounded(integrate_reciprocal, (coeffs, powers, B), seconds) if seconds > 0 else None
     implicit = None
     kind = "quadrature"
     if G is not None and not G.has(sympy.Integral):
         implicit = sympy.Float(f13 / eps, 17) * (G.xreplace({B: A**P}) - G.xreplace({B: A0**P})) + I0
         kind = "implicit"
     return LongwaveLaw(P, powers, coeffs, symb, f13, eps, kind, None, implicit)
+
+
+def integrate_reciprocal(coeffs, powers, B: sympy.Symbol) -> sympy.Expr:
+    """int dB / sum_p C_p B^p by sympy (run under a time bound: the nsimplify of many C_p and the
+    integral itself can take minutes for a high-degree R)."""
+    F = sum((sympy.nsimplify(c, rational=False) * B**p for c, p in zip(coeffs, powers)), sympy.Integer(0))
+    return sympy.integrate(1 / F, B)
 
 
 def user_names(law) -> set[str]:

@@ -1,3 +1,7 @@
-"""Numerical side of pulsemap: map iteration, laws, stationary shocks, DNS. numpy + scipy only."""
+"""Numerical side of pulsemap: map iteration, laws, stationary shocks, DNS. numpy + scipy only.
+
+Internal: the public interface is ``pulsemap.derive``, ``scene``, ``run`` and ``scenes``
+(:mod:`pulsemap.solvers.api`) and the ``pulsemap`` command; everything else may change.
+"""
 
 from pulsemap.derive.provenance import __version__  # noqa: F401  (one source for the version)

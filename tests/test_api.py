@@ -24,7 +24,7 @@ def test_import_is_cheap_and_the_surface_is_small():
             "print(heavy); print(sorted(pulsemap.__all__))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
     assert out[0] == "[]"
-    assert out[1] == str(sorted(["Derivation", "Result", "__version__", "derive", "run", "scene", "scenes"]))
+    assert out[1] == str(sorted(["Derivation", "Result", "__version__", "derive", "dressed", "run", "scene", "scenes"]))
     for name in pulsemap.__all__:
         assert getattr(pulsemap, name) is not None
 

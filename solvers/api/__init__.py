@@ -9,8 +9,9 @@ needs them.
 """
 
 from pulsemap.solvers.api.derivation import Derivation, derive
+from pulsemap.solvers.api.dressed import dressed
 from pulsemap.solvers.api.result import Result
 from pulsemap.solvers.api.running import run
 from pulsemap.solvers.api.scenes import scene, scenes
 
-__all__ = ["Derivation", "Result", "derive", "run", "scene", "scenes"]
+__all__ = ["Derivation", "Result", "derive", "dressed", "run", "scene", "scenes"]

@@ -12,7 +12,6 @@ stops as soon as the last requested contact has peaked or the pulse has died.
 from __future__ import annotations
 
 import numbers
-import sys
 import time as _time
 from dataclasses import replace
 from typing import TYPE_CHECKING, Sequence
@@ -21,6 +20,7 @@ import numpy as np
 
 from pulsemap.solvers.chain import scaling as _scaling
 from pulsemap.solvers.chain import window as _window
+from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
     ENERGY_BLOWUP, ENGINES, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
     OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy, initial_state, make_rhs,
@@ -243,14 +243,15 @@ def simulate(
     solver = make_solver(chosen, beads, exponent, force, y0, t_limit, rtol, atol)
     track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
                               death_fraction=death_fraction, overtake_factor=overtake_factor,
-                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1)
+                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1,
+                              method=chosen)
     budget = default_max_steps(last) if max_steps is None else max_steps
     drift = 0.0
-    wall_report = wall0
+    report = DNSProgress("dns", last, enabled=progress)
 
     def on_step(t_old: float, y_old: Array, t_new: float, y_new: Array, dense_factory) -> bool:
         """Bookkeeping after one accepted step (energy every step); True stops the run."""
-        nonlocal drift, wall_report
+        nonlocal drift
         e = energy(y_new[0::2], y_new[1::2], exponent)
         if track.check_state(t_new, e, e0, ENERGY_BLOWUP):
             return True
@@ -262,10 +263,7 @@ def simulate(
             front.record(found, state_at(dense()))
         if track.check_progress(t_new, t_limit, budget):
             return True
-        if progress and _time.perf_counter() - wall_report > 2.0:
-            wall_report = _time.perf_counter()
-            print(f"[dns] t={t_new:.4g} contact {track.next_contact - 1}/{last} nfev={solver.nfev}",
-                  file=sys.stderr)
+        report.update(t_new, track.next_contact - 1, f"{chosen}, {solver.nfev} RHS evaluations")
         return False
 
     try:

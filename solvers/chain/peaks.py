@@ -224,6 +224,16 @@ def primary_pulse_lost(peaks: np.ndarray, k: int, first: int, death_fraction: fl
 # ----------------------------------------------------------------------------- run bookkeeping
 
 
+IMPLICIT = ("LSODA", "Radau", "BDF")
+
+
+def budget_advice(method: str) -> str:
+    """What to try when the step budget runs out: an implicit method, unless one is already in use."""
+    if method in IMPLICIT:
+        return f"{method} is already an implicit method: raise max_steps or ask for fewer contacts"
+    return "too stiff for the method? try method='LSODA'"
+
+
 @dataclass
 class PeakTracker:
     """Peaks found so far and the stop rules of one DNS run (full chain or moving window).
@@ -251,11 +261,12 @@ class PeakTracker:
     reason: str = ""
     blew_up: bool = False
     steps: int = 0
+    method: str = ""  # the integrator, for the advice when the step budget runs out
 
     @classmethod
     def start(cls, first: int, last: int, velocity: float, exponent: float, *, peak_fraction: float,
               death_fraction: float, overtake_factor: float, stall_factor: float,
-              next_contact: int = 1) -> "PeakTracker":
+              next_contact: int = 1, method: str = "") -> "PeakTracker":
         """Tracker at t = 0; the first stall window is stall_factor contact times (~A^-s).
 
         ``next_contact``: the first contact still to peak (1 for an impact on bead 1; past the
@@ -263,7 +274,8 @@ class PeakTracker:
         return cls(first, last, peak_fraction, death_fraction, overtake_factor, stall_factor,
                    np.full(last, np.nan), np.full(last, np.nan),
                    first_threshold(velocity, exponent, peak_fraction),
-                   stall_factor / contact_rate(velocity, exponent), next_contact=int(next_contact))
+                   stall_factor / contact_rate(velocity, exponent), next_contact=int(next_contact),
+                   method=str(method))
 
     def record(self, found: list[Peak], offset: int = 0) -> None:
         """Store peaks found in one step (contacts relative to ``offset``); stop at a lost pulse."""
@@ -297,7 +309,7 @@ class PeakTracker:
             self.reason = f"t_max reached (t={t:.6g}, next contact {self.next_contact})"
         elif self.steps >= max_steps:
             self.reason = (f"step budget of {max_steps} steps used up at t={t:.6g} before contact "
-                           f"{self.next_contact} (too stiff for the method? try method='LSODA')")
+                           f"{self.next_contact} ({budget_advice(self.method)})")
         return self.reason
 
     def check_state(self, t: float, e: float, e0: float, limit: float) -> str:

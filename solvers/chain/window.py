@@ -26,7 +26,6 @@ contact, n = 1.5 and n = 3, v0 = 1, unperturbed and damped from bead 16); see
 
 from __future__ import annotations
 
-import sys
 import time as _time
 from dataclasses import dataclass, replace
 from typing import Callable
@@ -36,6 +35,7 @@ import scipy.integrate as _integrate
 
 from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, energy, make_rhs, make_solver, run_scipy
 from pulsemap.solvers.chain.front import memo, state_at
+from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.peaks import PeakTracker, QuinticStep, scan_step, velocity_scale
 
 Array = np.ndarray
@@ -337,9 +337,11 @@ def simulate_windowed(
     scale_x, scale_v = velocity_scale(velocity, exponent), velocity
     moving = 1 if launch is None else launch.front(exponent)  # beads in motion at t = 0
     run = _Run(lo=0, hi=min(beads, moving + rule.ahead + rule.chunk + 1))
+    report = DNSProgress("dns-window", last, enabled=progress)
     track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
                               death_fraction=death_fraction, overtake_factor=overtake_factor,
-                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1)
+                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1,
+                              method=method)
     if launch is None:
         y = np.zeros(2 * run.hi)
         y[1] = velocity
@@ -374,10 +376,7 @@ def simulate_windowed(
         if track.check_progress(t_new, t_max, max_steps):
             run.action = "stop"
             return True
-        if progress and _time.perf_counter() - run.wall_report > 2.0:
-            run.wall_report = _time.perf_counter()
-            print(f"[dns-window] t={t_new:.4g} contact {track.next_contact - 1}/{last} "
-                  f"window [{run.lo + 1}, {run.hi}]", file=sys.stderr)
+        report.update(t_new, track.next_contact - 1, f"{method}, window beads {run.lo + 1}..{run.hi}")
         if needs_shift(track.next_contact, run.lo, run.hi, beads, rule):
             run.action = "shift"
             return True

@@ -208,6 +208,15 @@ def cmd_derive(args: argparse.Namespace) -> int:
             raise UsageError(f"--param {name} given twice")
         params[name] = value
     pert = check_all_used(make_perturbation(args.expr, args.eps, params))
+    if args.model == "dressed":  # its coefficients come from DNS fits (solvers/studies/dressed.py)
+        from pulsemap.solvers.studies import dressed
+
+        dd = dressed.derive_dressed(pert, n=args.n, A0_value=args.A0, i0=args.i0, variant=args.variant,
+                                    fold=args.fold, profile=args.profile)
+        print(dressed.to_latex(dd) if args.latex else dressed.to_text(dd))
+        if args.json:
+            write_json(args.json, dressed.to_json(dd))
+        return 0
     d = derive_model(
         pert,
         args.model,
@@ -219,6 +228,8 @@ def cmd_derive(args: argparse.Namespace) -> int:
         i0=args.i0,
         dps=args.dps,
         sympy_seconds=args.sympy_seconds,
+        max_seconds=args.max_seconds,
+        progress=progress_log(args.quiet),
     )
     print(to_latex(d) if args.latex else to_text(d))
     if args.json:
@@ -229,13 +240,21 @@ def cmd_derive(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------------- run
 def cmd_run(args: argparse.Namespace) -> int:
     """``pulsemap run SCENE``: DNS, map and long-wave peaks per contact, errors, timings."""
+    from pulsemap.solvers.studies.ranking import rank_models
     from pulsemap.solvers.studies.run import plot, run_scene, to_csv, to_text
+    from pulsemap.solvers.studies.run_report import nothing_ran
 
     scene = load_scene_with_sets(args.scene, args.sets)
     methods = args.methods.split(",") if args.methods else None
+    snapshots = _contact_list(args.snapshots, "--snapshots") if args.snapshots else ()
     result = run_scene(scene, methods=methods, profile=args.profile, variant=args.variant,
-                       progress=not args.quiet, seed_peak=args.seed_peak)
-    print(to_text(result))
+                       progress=not args.quiet, seed_peak=args.seed_peak, snapshots=snapshots)
+    why = nothing_ran(result)
+    if why:
+        raise UsageError(why)
+    if not args.no_rank and any(m != "dns" for m in result["choices"]["methods"]):
+        result["ranking"] = rank_models(scene, result)
+    print(to_text(result, every=1 if args.all else None))
     if args.json:
         write_json(args.json, result)
     if args.csv:
@@ -243,6 +262,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.plot:
         plot(result, args.plot, log_y=args.log_y)
     return 0
+
+
+def _contact_list(text: str, option: str) -> tuple[int, ...]:
+    """'20,40,60' -> (20, 40, 60), a one-line usage error otherwise."""
+    try:
+        return tuple(int(x) for x in text.replace(" ", "").split(",") if x)
+    except ValueError:
+        raise UsageError(f"{option} {text!r}: give a comma list of contact numbers, e.g. 20,40,60") from None
 
 
 def cmd_scenes(args: argparse.Namespace) -> int:
@@ -336,14 +363,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--n", type=number, default=1.5, help="contact exponent n > 1 (default 1.5)")
     p.add_argument("--profile", default="exact", help="exact (default) or pade")
     p.add_argument("--variant", default=None, help="map variant: paper (default), corrected, 1d")
-    p.add_argument("--model", default="map", choices=("map", "energy", "momentum"),
-                   help="map (default: the paper's map, long-wave law, Eq. 41), energy or momentum balance")
+    p.add_argument("--model", default="map", choices=("map", "energy", "momentum", "dressed"),
+                   help="map (default: the paper's map, long-wave law, Eq. 41), energy or momentum balance, "
+                        "dressed (the energy law's second order: k1 derived, k2, cross terms and onset lag calibrated)")
     p.add_argument("--fold", metavar="NAME", help="locate the saddle-node of Eq. 41 in parameter NAME")
     p.add_argument("--A0", type=number, default=None, help="initial amplitude for the law's singular index")
     p.add_argument("--i0", type=number, default=0.0, help="contact index of A0 (default 0)")
     p.add_argument("--dps", type=int, default=None, help="mpmath working precision (digits)")
     p.add_argument("--sympy-seconds", type=number, default=2.0,
                    help="time bound for sympy's closed-form integration (default 2 s)")
+    p.add_argument("--max-seconds", type=number, default=None, metavar="S",
+                   help="stop the derivation after S seconds with a message (integrals done so far stay cached)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--latex", action="store_true", help="print LaTeX instead of text")
     p.add_argument("--json", metavar="OUT", help="write the derivation as JSON ('-' for stdout)")
     p.set_defaults(func=cmd_derive)
@@ -362,6 +393,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seed map and law with this peak at contact first_perturbed - 1 (default: the DNS "
                         "peak there, or v0 through kappa_n without the DNS)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.add_argument("--all", action="store_true", help="print every contact (default: at most 40 rows, evenly spaced)")
+    p.add_argument("--no-rank", action="store_true",
+                   help="skip the ranking of every model against this DNS (shown by default, milliseconds per model)")
+    p.add_argument("--snapshots", metavar="C1,C2,...",
+                   help="contacts at whose peak time the DNS keeps the strains delta_j around the pulse (JSON)")
     add_set_option(p)
     p.set_defaults(func=cmd_run)
 

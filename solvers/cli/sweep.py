@@ -115,7 +115,7 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
             scene, args.param, lo, hi, points=args.points, impulses=impulses, last=args.contacts,
             max_last=args.max_contacts, refine=args.refine, rtol=args.rtol, predict_points=args.predict_points,
             profiles=profiles, variant=args.variant, out=args.out, executor=ex, max_workers=workers,
-            progress=not args.quiet, retry_failed=args.retry_failed, dns=not args.no_dns)
+            progress=not args.quiet, retry_failed=args.retry_failed, dns=not args.no_dns, relaxed=args.relaxed)
     return _report(args, report, to_text, plot)
 
 
@@ -180,6 +180,8 @@ def register(sub) -> None:
     p.add_argument("--predict-points", type=_positive_int, default=61, metavar="P",
                    help="parameter values of the prediction (default 61)")
     p.add_argument("--no-dns", action="store_true", help="prediction only")
+    p.add_argument("--relaxed", action="store_true",
+                   help="also the relaxed map's fixed points, fold and thresholds (segment runs: ~10 s per value, cached)")
     _add_sweep_options(p)
     p.set_defaults(func=cmd_bifurcation)
 

@@ -11,6 +11,7 @@ value in a file. An unknown key is refused with the closest known key.
 from __future__ import annotations
 
 import difflib
+import re
 import sys
 from typing import Any, Iterable, Mapping, Sequence
 
@@ -95,15 +96,29 @@ def with_sets(scene: Scene, assignments: Iterable[str | tuple[str, Any]]) -> Sce
     data = scene.as_dict()
     if data["chain"].get("beads") is None:
         del data["chain"]["beads"]
+    current = _flat(scene.as_dict())
     for key, value in items:
         check_key(key, scene)
+        if isinstance(current.get(key), str) and isinstance(value, (int, float)) and not isinstance(value, bool):
+            value = _text(value)  # a text key given a number: R = 0, a name 2 (as written, not as parsed)
         set_key(data, key, value)
+    new_r = data["perturbation"].get("R")
+    if new_r != current.get("perturbation.R") and isinstance(new_r, str):
+        # a new R keeps the parameters it names (and those set here) and drops the others, as with_overrides
+        named = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", new_r))
+        given = {k[len(PARAMS_PREFIX):] for k, _ in items if k.startswith(PARAMS_PREFIX)}
+        data["perturbation"]["params"] = {k: v for k, v in data["perturbation"].get("params", {}).items()
+                                          if k in named or k in given}
     shown = ", ".join(f"{k}={v}" for k, v in items)
     source = data.pop("source", scene.source) or scene.name
     try:
         return parse_scene(data, source)
     except SceneError as exc:
         raise SceneError(f"--set {shown}: {exc}") from None
+
+
+def _text(value: float | int) -> str:
+    return str(value) if isinstance(value, int) else repr(value)
 
 
 def describe_sets(assignments: Sequence[str]) -> str:

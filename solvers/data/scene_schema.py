@@ -11,9 +11,10 @@ import math
 import numbers
 from typing import Any, Mapping
 
-METHODS = ("map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "relaxed", "dns")
+METHODS = ("map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "relaxed", "dressed-law",
+           "dns")
 """The ways a scene can be computed, in canonical order (balance models: derive/balance.py; relaxed:
-solvers/models/relaxed.py)."""
+solvers/models/relaxed.py; dressed-law: solvers/studies/dressed.py)."""
 DEFAULT_METHODS = ("map", "longwave", "dns")
 """What a scene without [output] methods computes."""
 PROFILES = ("exact", "pade")

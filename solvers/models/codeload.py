@@ -86,7 +86,7 @@ def _ensure(source) -> ModuleType:
         except GeneratedCodeError as exc:
             raise GeneratedModuleError(
                 f"generated module {shipped} shipped with pulsemap is damaged ({_reason(exc)}): reinstall "
-                "pulsemap, or rewrite it with 'pulsemap generate'") from None
+                f"pulsemap (a maintainer's checkout: pulsemap generate --into {PACKAGE_DIR})") from None
         return _exec(shipped)
     if cached.is_file():
         try:

@@ -131,13 +131,14 @@ class SegmentTable:
     runs: dict[int, list[float]] = field(default_factory=dict)
     _bulk: object | None = None
     _onset: list | None = None
+    _range: tuple | None = None  # (log P lo, log P hi) of the bulk points, or () when too few
     closed: set = field(default_factory=set)  # "low"/"high": no relaxed pulse beyond the lattice's end
 
     # ------------------------------------------------------------ runs
     def add(self, j: int) -> list[float]:
         if j not in self.runs:
             self.runs[j] = cached_segment(self.spec, j)
-            self._bulk = self._onset = None
+            self._bulk = self._onset = self._range = None
         return self.runs[j]
 
     def span(self) -> tuple[int, int]:
@@ -187,8 +188,10 @@ class SegmentTable:
         return x[order], y[order]
 
     def bulk_range(self) -> tuple[float, float] | None:
-        x, _ = self.bulk_points()
-        return (float(x[0]), float(x[-1])) if x.size >= 4 else None
+        if self._range is None:
+            x, _ = self.bulk_points()
+            self._range = (float(x[0]), float(x[-1])) if x.size >= 4 else ()
+        return self._range or None
 
     def bulk(self):
         """log r(log P) of the relaxed map (smoothing spline through the pooled runs)."""
@@ -197,25 +200,26 @@ class SegmentTable:
         return self._bulk
 
     def onset(self) -> list:
-        """[(log P_0 of the runs alive at k, log P_k/P_{k-1})] for k = 1..ONSET, sorted by log P_0."""
+        """For k = 1..ONSET: (log P_0 of the runs alive at k, log P_k/P_{k-1}, their cubic spline or None)."""
+        from scipy.interpolate import CubicSpline
+
         if self._onset is None:
             out = []
             for k in range(1, ONSET + 1):
                 pts = sorted((math.log(p[0]), math.log(p[k] / p[k - 1])) for p in self.runs.values() if len(p) > k)
-                out.append((np.array([a for a, _ in pts]), np.array([b for _, b in pts])))
+                x, y = np.array([a for a, _ in pts]), np.array([b for _, b in pts])
+                out.append((x, y, CubicSpline(x, y) if x.size >= 4 else None))
             self._onset = out
         return self._onset
 
     def onset_ratios(self, log_p0: float) -> list[float] | None:
         """log ratios of contacts 1..ONSET after entry at P_0 (cubic in log P_0); None where the
         runs around P_0 died within the onset (the pulse dies there) or P_0 is off the lattice."""
-        from scipy.interpolate import CubicSpline
-
         out = []
-        for x, y in self.onset():
-            if x.size < 4 or not x[0] <= log_p0 <= x[-1]:
+        for x, _, spline in self.onset():
+            if spline is None or not x[0] <= log_p0 <= x[-1]:
                 return None
-            out.append(float(CubicSpline(x, y)(log_p0)))
+            out.append(float(spline(log_p0)))
         return out
 
 

@@ -50,6 +50,7 @@ from pulsemap.solvers.studies.bifurcation_dns import (
     probe,
 )
 from pulsemap.solvers.studies.bifurcation_predict import predict, predicted_threshold, stable_peak
+from pulsemap.solvers.studies.bifurcation_relaxed import predict_relaxed, relaxed_threshold
 from pulsemap.solvers.studies.bifurcation_report import plot, to_text
 from pulsemap.solvers.studies.sweep import SweepError
 
@@ -145,16 +146,22 @@ def bifurcation(
     progress: bool = False,
     retry_failed: bool = False,
     dns: bool = True,
+    relaxed: bool = False,
+    relaxed_points: int = 7,
 ) -> dict:
     """Predicted stationary branches and fold; DNS outcomes, stationary amplitudes and thresholds.
 
-    ``retry_failed`` reruns the points ``out`` holds with an error (pulsemap.solvers.studies.sweep.run_sweep)."""
+    ``retry_failed`` reruns the points ``out`` holds with an error (pulsemap.solvers.studies.sweep.run_sweep).
+    ``relaxed``: also the fixed points and fold of the relaxed map (bifurcation_relaxed.py) on
+    ``relaxed_points`` values, and per impulse the threshold it predicts for the entry peak."""
     max_last = max_last or 4 * last
     impulses = _check_arguments(scene, name, lo, hi, points, predict_points, refine, rtol, last, max_last,
                                 impulses, dns)
     report: dict[str, Any] = {"scene": scene.as_dict(), "param": name, "range": [lo, hi], "prediction": {}}
     for prof in profiles:
         report["prediction"][prof] = predict(scene, name, lo, hi, predict_points, prof, variant)
+    if relaxed:
+        report["relaxed"] = predict_relaxed(scene, name, lo, hi, relaxed_points, _peak_range(scene, report, profiles))
     if not dns:
         return report
     folds = report["prediction"][profiles[0]]["folds"]
@@ -168,6 +175,8 @@ def bifurcation(
     state = bisect(runner, rows, impulses, last, max_last, refine)
     thresholds = _thresholds(scene, name, report, rows, state, impulses, profiles)
     _compare_stable(rows, report, profiles)
+    if relaxed:
+        _relaxed_thresholds(scene, name, lo, hi, report, thresholds, rows, last)
     report["dns"] = {
         "impulses": impulses, "values": values, "last_contact": last, "max_last": max_last, "rtol": rtol,
         "window": chain["dns"]["window"], "settle_window": settle_window, "settle_tol": settle_tol,
@@ -178,6 +187,38 @@ def bifurcation(
     }
     report["sweeps"] = runner.sweeps
     return report
+
+
+def _peak_range(scene, report: dict, profiles) -> tuple[float, float]:
+    """Peaks the relaxed map's fixed points are sought in: a decade either side of Eq. 41's fold peak
+    (else of the scene's incoming peak through kappa_n)."""
+    folds = report["prediction"][profiles[0]]["folds"] if profiles else []
+    if folds:
+        centre = folds[0]["peak"]
+    else:
+        from pulsemap.solvers.chain.kappa import peak_from_velocity
+
+        centre = peak_from_velocity(scene.velocity, scene.exponent)
+    return centre / 10.0, centre * 10.0
+
+
+def _relaxed_thresholds(scene, name: str, lo: float, hi: float, report: dict, thresholds: list[dict],
+                        rows: list[dict], last: int) -> None:
+    """Per impulse the relaxed model's threshold for its entry peak, and each DNS stationary amplitude
+    next to the relaxed map's stable fixed point."""
+    fold = report["relaxed"]["folds"][0]["value"] if report["relaxed"]["folds"] else None
+    for t in thresholds:
+        if t["entry_peak"] is None:
+            continue
+        rt = relaxed_threshold(scene, name, lo, hi, t["entry_peak"])
+        t["predicted"]["relaxed"] = rt["threshold"]
+        if fold is not None and t["threshold"] is not None:
+            t["minus_fold"]["relaxed"] = t["threshold"] - fold
+    for r in rows:
+        sp = stable_peak(report["relaxed"], r["value"])
+        r["predicted_stable_peak_relaxed"] = sp
+        if r.get("amplitude") is not None and sp is not None:
+            r["rel_diff_relaxed"] = (r["amplitude"] - sp) / sp
 
 
 def default_impulses(scene, folds: list[dict]) -> list[float]:

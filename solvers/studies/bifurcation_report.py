@@ -21,6 +21,18 @@ def to_text(report: dict) -> str:
                          f"peak {f['peak']:.6f}")
         else:
             lines.append(f"  predicted fold ({prof} profile): none in the range")
+    rel = report.get("relaxed")
+    if rel:
+        if rel["folds"]:
+            f = rel["folds"][0]
+            peak = "" if f["peak"] is None else f", peak {f['peak']:.4f}"
+            lines.append(f"  fold of the relaxed map (its fixed points, segment runs): {name}* = {f['value']:.4f} "
+                         f"+- {f['uncertainty']:.4f}{peak}")
+        else:
+            lines.append("  fold of the relaxed map: none in the range")
+        for b in rel["branches"]:
+            roots = ", ".join(f"{x['peak']:.4f} ({'stable' if x['stable'] else 'unstable'})" for x in b["roots"])
+            lines.append(f"    {name} = {b['value']:.4g}: stationary peaks {roots or 'none'}")
     dns = report.get("dns")
     if dns:
         lines.append(f"  DNS: {len(dns['values'])} values x {len(dns['impulses'])} impulses, chain to contact "

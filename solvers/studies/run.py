@@ -76,6 +76,7 @@ class RunState:
     dns_peaks: list | None = None
     dns_alive: list | None = None
     contacts: list[int] = field(default_factory=list)
+    snapshots: tuple[int, ...] = ()  # contacts at whose peak time the DNS keeps the strains around the pulse
 
     @property
     def timings(self) -> dict[str, float]:
@@ -87,7 +88,7 @@ class RunState:
 
 
 def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, variant: str | None,
-              seed_peak: float | None) -> RunState:
+              seed_peak: float | None, snapshots: Sequence[int] = ()) -> RunState:
     """Check every choice before anything runs (one-line error with the closest name) and lay out the result."""
     if not isinstance(scene, Scene):
         raise TypeError(f"scene must be a Scene (load_scene(name or path), parse_scene(table, source)), "
@@ -125,7 +126,13 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
     eps = scene.perturbation.eps
     if eps > EPS_WARN and any(m in MODELS for m in methods):
         out["warnings"].append(f"eps = {eps:g} is not small: the reduced models assume eps << 1")
-    return RunState(scene, methods, choice, out, given_seed=seed_peak, contacts=contacts)
+    for c in snapshots:
+        if isinstance(c, bool) or not isinstance(c, int) or not c0 <= c <= c1:
+            raise RunError(f"snapshot contact {c!r} must be an integer in the scene's contacts {c0}..{c1}")
+    if snapshots and "dns" not in methods:
+        raise RunError("snapshots are taken by the DNS: add dns to the methods")
+    return RunState(scene, methods, choice, out, given_seed=seed_peak, contacts=contacts,
+                    snapshots=tuple(sorted(set(snapshots))))
 
 
 def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> None:
@@ -134,7 +141,9 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     scene, out, contacts = state.scene, state.out, state.contacts
     beads, span = dns_span(scene)
     t0 = time.perf_counter()
-    force = make_force(scene, beads)
+    pert = scene.perturbation
+    # R = 0 (or eps = 0): the bare chain of Eq. 1, which conserves energy: its drift checks the run
+    force = None if (pert.R == 0 or pert.eps == 0) else make_force(scene, beads)
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     res = simulate(
@@ -142,6 +151,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
         method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
         atol=float(scene.dns.get("atol", 1e-12)), progress=progress,
         engine=scene.dns.get("engine", "compiled"),
+        snapshots=[c for c in state.snapshots if span[0] <= c <= span[1]],
         **({"window": dns_window} if dns_window is not None else {}),
     )
     state.timings["dns"] = time.perf_counter() - t0
@@ -156,6 +166,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
         "alive": dns_alive,
         "live_contacts": [c for c, a in zip(contacts, dns_alive) if a],
     }
+    out["dns"].update(front_outputs(res, contacts, dns_alive))
     if not all(dns_alive):
         dead = [c for c, a in zip(contacts, dns_alive) if not a]
         state.warnings.append(f"DNS: no live primary pulse at contacts {dead[0]}..{dead[-1]} ({res.stop_reason})")
@@ -163,6 +174,29 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     if dns_seed is not None:
         state.seed_peak = dns_seed
         out["dns"]["seed_peak"] = dns_seed  # peak at first_perturbed - 1, seeds map and law
+
+
+def front_outputs(res, contacts: list[int], alive: list[bool]) -> dict:
+    """What the DNS measured at each reported contact besides the peak (chain/front.py): arrival
+    time of the peak, pulse speed (contacts per unit time), energy of the pulse and of the chain;
+    None where the primary pulse is not alive. The energy drift is the accuracy check of a chain
+    without R (None with R: its energy is not conserved)."""
+    def per_contact(values) -> list:
+        if values is None:
+            return [None] * len(contacts)
+        got = dict(zip((int(c) for c in res.contacts), (float(v) for v in values)))
+        return [got.get(c) if a and got.get(c) is not None and math.isfinite(got[c]) else None
+                for c, a in zip(contacts, alive)]
+
+    return {
+        "arrival_times": per_contact(res.peak_times),
+        "speed": per_contact(res.speed),
+        "pulse_energy": per_contact(res.pulse_energy),
+        "total_energy": per_contact(res.total_energy),
+        "energy_initial": res.energy_initial,
+        "energy_drift": res.energy_drift,
+        "snapshots": [s.as_dict() for s in res.snapshots],
+    }
 
 
 def reuse_dns_run(state: RunState, reuse_dns: dict) -> None:
@@ -201,13 +235,15 @@ def run_scene(
     dns_window: "int | str | None" = None,
     reuse_dns: dict | None = None,
     seed_peak: float | None = None,
+    snapshots: Sequence[int] = (),
 ) -> dict:
     """Run ``scene`` and return the result as JSON-serialisable data (docs/design.rst, "The result of a run").
 
     ``reuse_dns``: the result of an earlier run of the same scene with the DNS; its peaks (and
     its seed) are used instead of running the DNS again (for comparing profiles and variants).
     ``seed_peak``: a measured peak at contact first_perturbed - 1 to seed map and law with
-    (converted by Eq. 32), instead of the DNS peak or v0 through kappa_n.
+    (converted by Eq. 32), instead of the DNS peak or v0 through kappa_n. ``snapshots``: contacts at
+    whose peak time the DNS keeps the strains delta_j, j = k-12..k+4 (result["dns"]["snapshots"]).
     """
     if not isinstance(progress, bool):
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
@@ -215,7 +251,7 @@ def run_scene(
         raise TypeError(f"dns_window must be None, 'auto' or a number of beads, got {type(dns_window).__name__}")
     if reuse_dns is not None and not (isinstance(reuse_dns, dict) and isinstance(reuse_dns.get("peaks"), dict)):
         raise TypeError("reuse_dns must be the result (a dict) of an earlier run_scene of the same scene with the DNS")
-    state = start_run(scene, methods, profile, variant, seed_peak)
+    state = start_run(scene, methods, profile, variant, seed_peak, snapshots)
     if "dns" in state.methods:
         run_dns(state, progress, dns_window)
     if reuse_dns is not None and "dns" not in state.methods:

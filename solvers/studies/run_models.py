@@ -17,6 +17,7 @@ from pulsemap.solvers.models.balance_eval import BalanceRun, evaluate_balance_la
 from pulsemap.solvers.models.codeload import balance_module, force_module, map_module
 from pulsemap.solvers.models.energy_quadrature import bead_force, evaluate_energy_law, iterate_energy_map
 from pulsemap.solvers.models.site_law_eval import evaluate_site_law
+from pulsemap.solvers.studies.run_dressed import prepare_dressed, run_dressed
 from pulsemap.solvers.models.longwave_eval import evaluate_law
 from pulsemap.solvers.models.map_iteration import contact_params, eps0_ratio, iterate_map
 from pulsemap.solvers.studies.forcing import _params
@@ -221,7 +222,8 @@ def run_relaxed(state: "RunState", prm: dict) -> None:
 def run_models(state: "RunState") -> None:
     """Derive, seed and run every reduced model among the methods."""
     mod, balance = derive_models(state)
-    if mod is None and not balance and "relaxed" not in state.methods:
+    dressed = prepare_dressed(state) if "dressed-law" in state.methods else None
+    if mod is None and not balance and "relaxed" not in state.methods and dressed is None:
         return
     modules = [m for m in (mod, *balance.values()) if m is not None and m is not QUADRATURE]
     S0 = float(modules[0].S0 if modules else exact_profile(state.scene.exponent).S0)
@@ -234,6 +236,8 @@ def run_models(state: "RunState") -> None:
         run_map(state, mod, seed_A, prm)
     if "longwave" in state.methods and mod is not None:
         run_longwave(state, mod, seed_A, prm)
+    if dressed is not None:
+        run_dressed(state, dressed, seed_A)
 
 
 class _Quadrature:

@@ -10,6 +10,13 @@ and no traceback.
 * ``API``: a Python call raises a specific ValueError subclass with a one-line message.
 
 Nothing here runs a DNS or a map: every error is found before any computation starts.
+
+Cases that need state or a run live next to the code that catches them (issue 14): damaged
+generated modules in tests/models/test_codeload.py, damaged cache entries and record files in
+tests/test_damaged_state.py, wrong argument types in tests/test_api_types.py, scene-file bounds in
+tests/data/test_toml_bounds.py, extreme velocities and tolerances in tests/chain/test_scaling.py,
+``--json -``/``--csv -`` in tests/cli/test_stdout_document.py, RuntimeWarnings in
+tests/test_no_warnings.py, DNS progress in tests/chain/test_dns_progress.py.
 """
 
 from __future__ import annotations
@@ -97,6 +104,11 @@ CLI = [
      ["n = 1.0000001", "1.01 <= n <= 20", "(n - 1)^(-1/2)"]),
     ("profile: n just above 1", ["profile", "--n", "1.0000001"], ["n = 1.0000001", "1.01 <= n <= 20"]),
     ("profile: n too large", ["profile", "--n", "21"], ["n = 21.0", "1.01 <= n <= 20"]),
+    ("max-seconds zero", ["derive", "-mu*v", "--param", "mu=1", "--max-seconds", "0"],
+     ["max_seconds = 0", "0 < max_seconds <= 86400"]),
+    ("max-seconds nan", ["derive", "-mu*v", "--param", "mu=1", "--max-seconds", "nan"], ["max_seconds = nan"]),
+    ("max-seconds exceeded", ["derive", "u^12*v^12", "--max-seconds", "0.001", "--quiet"],
+     ["derive stopped after", "max_seconds = 0.001", "resumes"]),
     # non-smooth R: the DNS runs it, derive's map and balances refuse it with the reason (issue 14)
     ("Coulomb friction, map", ["derive", "-mu*sign(v)", "--param", "mu=1"],
      ["not a polynomial in u, v", "sign(v) has a kink or a jump at 0", "DNS runs it"]),
@@ -153,6 +165,9 @@ SUBPROCESS = [
     ("unknown option", ["run", "default", "--jsn", "x.json"], ["unrecognized arguments"]),
     ("missing scene file", ["run", "missing.toml"], ["'missing.toml' not found"]),
     ("eps not finite", ["derive", "-mu*v", "--param", "mu=1", "--eps", "inf"], ["eps", "not finite"]),
+    ("unknown suite scene", ["suite", "nosuch"], ["unknown scene 'nosuch'"]),
+    ("velocity beyond float64", ["run", "fig8-eps0.1", "--set", "excitation.velocity=1e300"], ["outside [1e-150, 1e+150]"]),
+    ("rtol below float64", ["run", "fig8-eps0.1", "--set", "dns.rtol=1e-300"], ["rtol >= 2.2e-14"]),
 ]
 
 

@@ -11,6 +11,7 @@ from pulsemap.derive.derivation import derive_all, to_json, to_latex, to_text
 from pulsemap.derive.expansion import D0, D1, W0, W1, ExpansionError, bead_symbol, expand
 from pulsemap.derive.expression import parse_expression, symbol
 from pulsemap.derive.integrals import F_NAMES, constants
+from pulsemap.derive.sources import INTEGRALS_METHOD as METHOD
 from pulsemap.derive.longwave import LAW_RATE, A0, I, I0, longwave_law
 from pulsemap.derive.perturbation import make_perturbation
 from pulsemap.derive.profile import exact_profile
@@ -308,3 +309,42 @@ def test_law_options_out_of_range_are_refused(kw, needle):
         derive_all(pert, **kw)
     with pytest.raises(BalanceError, match=needle):
         derive_balance(pert, "energy", **kw)
+
+
+def test_max_seconds_stops_a_long_derivation_and_the_next_run_resumes(tmp_path, monkeypatch):
+    """derive --max-seconds: DeriveTimeout naming where it stopped; the integrals done stay cached."""
+    from pulsemap.derive import cache
+    from pulsemap.derive.budget import DeriveTimeout
+
+    import time
+
+    from pulsemap.derive import integrals
+
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path))
+    compute = integrals._compute_bounded
+    monkeypatch.setattr(integrals, "_compute_bounded", lambda *a: (time.sleep(0.1), compute(*a))[1])  # >= 10 s in all
+    pert = make_perturbation("u^9*v^9", 0.1)
+    lines = []
+    with pytest.raises(DeriveTimeout, match=r"max_seconds = 2\).*integrals.*of 107 done.*resumes"):
+        derive_all(pert, sympy_seconds=0, max_seconds=2, progress=lines.append)
+    assert lines and lines[0].startswith("derive: integrals not yet cached (one quadrature each) ")
+    assert lines[-1].endswith(" s") and "/107, " in lines[-1]
+    table = cache.load("integrals", f"v{METHOD}|exact|n=1.5|dps=16")
+    assert table and 0 < len(table) < 107  # what was computed before the stop is kept
+    monkeypatch.setattr(integrals, "_compute_bounded", compute)
+    d = derive_all(pert, sympy_seconds=0)  # resumes: only the rest is computed
+    assert len(d.expansion.terms) == 100 and d.stationary is not None
+
+
+@pytest.mark.parametrize("bad", [0, -1, float("nan"), float("inf"), "10", True])
+def test_max_seconds_out_of_range_is_refused(bad):
+    from pulsemap.derive.derivation import DerivationError
+
+    with pytest.raises(DerivationError, match="max_seconds"):
+        derive_all(make_perturbation("-mu*v", 0.1, {"mu": 1}), max_seconds=bad)
+
+
+def test_monomial_text_is_what_sympy_prints():
+    ex = expand(parse_expression("(u+v+1)^4-1 + u^2*v^3", []), 1.5)
+    assert len(ex.terms) > 30
+    assert all(t.monomial_text == str(t.monomial) for t in ex.terms)

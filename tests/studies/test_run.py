@@ -32,7 +32,8 @@ def test_run_json_contract_and_seed_from_dns():
     ok = np.isfinite(d) & np.isfinite(m)
     assert res["errors"]["map"]["max_rel"] == pytest.approx(np.max(np.abs(m[ok] - d[ok]) / d[ok]))
     assert set(res["timings_s"]) >= {"dns", "map", "longwave"}
-    assert to_csv(res).splitlines()[0] == "contact,dns,map,longwave,dns_alive"
+    assert to_csv(res).splitlines()[0] == ("contact,dns,map,longwave,dns_alive,dns_arrival_time,dns_speed,"
+                                           "dns_pulse_energy,dns_total_energy")
 
 
 def test_law_only_scene_runs_no_dns(monkeypatch):

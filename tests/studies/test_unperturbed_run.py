@@ -21,7 +21,7 @@ R = "0"
 eps = 0.1
 [output]
 contacts = [16, 40]
-methods = ["dns", "map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "relaxed"]
+methods = ["dns", "map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "relaxed", "dressed-law"]
 """
 
 
@@ -48,7 +48,7 @@ def test_the_dns_keeps_the_soliton(r0_run):
 
 def test_laws_and_balance_maps_stay_at_the_seed(r0_run):
     seed = r0_run["seed"]["peak"]
-    for name in ("longwave", "energy-map", "energy-law", "momentum-map", "momentum-law"):
+    for name in ("longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "dressed-law"):
         assert r0_run["peaks"][name] == pytest.approx([seed] * len(r0_run["contacts"]), rel=1e-12), name
     assert r0_run["longwave"]["kind"] == "constant"
     assert r0_run["errors"]["longwave"]["max_rel"] < 1e-4

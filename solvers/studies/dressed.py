@@ -1,0 +1,172 @@
+"""``derive --model dressed`` and its API: the dressed law of a perturbation (derive/dressed.py).
+
+k1 per monomial is derived (the energy balance's profile integral, mpmath); k2/k1, the onset lag
+and the next term are calibrated by DNS decrements of launched solitons at small x
+(dressed_calibration.py, cached), and so are the cross terms k2_jl of every pair. The law in closed form needs a uniform polynomial R; for a site-dependent R ``run`` follows the
+coefficients c_j(i) (bead i + 1/2 at contact index i) numerically; a non-polynomial R has no
+monomials (use the energy balance by quadrature).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from itertools import combinations
+
+import numpy as np
+import sympy
+
+from pulsemap.derive.balance import BalanceError, balance_expand, json_header
+from pulsemap.derive.dressed import CrossTerm, DressedError, DressedLaw, DressedTerm
+from pulsemap.derive.expansion import bead_symbol
+from pulsemap.derive.expression import symbol
+from pulsemap.derive.perturbation import Perturbation
+from pulsemap.derive.profile import check_exponent
+from pulsemap.solvers.models.dressed_eval import DressedCoefficients
+from pulsemap.solvers.studies.dressed_calibration import CalibrationError, calibrate, calibrate_cross
+
+CROSS_NOTE = "a cross term k2_jl x_j x_l could not be calibrated: the law neglects it"
+
+
+@dataclass(frozen=True)
+class DressedDerivation:
+    """The dressed law of one perturbation, with the choices and timings that produced it."""
+
+    perturbation: Perturbation
+    n: float
+    law: DressedLaw
+    A0: float | None = None
+    i0: float = 0.0
+    timings_s: dict = field(default_factory=dict)
+
+    def coefficients(self) -> DressedCoefficients:
+        return coefficients(self.law)
+
+    def to_dict(self) -> dict:
+        """The JSON document of ``pulsemap derive --model dressed --json``."""
+        return to_json(self)
+
+    @property
+    def latex(self) -> str:
+        return self.law.latex()
+
+    def __str__(self) -> str:
+        return to_text(self)
+
+
+def coefficients(law: DressedLaw) -> DressedCoefficients:
+    """The law's numbers for the evaluator (solvers/models/dressed_eval.py)."""
+    names = [t.monomial for t in law.terms]
+    cross = tuple((names.index(ct.first), names.index(ct.second), ct.k2) for ct in law.cross if ct.k2 is not None)
+    return DressedCoefficients(
+        c=tuple(t.c for t in law.terms), e=tuple(float(t.e) for t in law.terms), k1=tuple(t.k1 for t in law.terms),
+        rho=tuple(t.rho for t in law.terms), lag=tuple(t.lag for t in law.terms),
+        x_bound=tuple(t.x_bound()[0] for t in law.terms), cross=cross)
+
+
+def coefficient_at(coefficient: sympy.Expr, pert: Perturbation, bead: float) -> float:
+    """A monomial's coefficient in R (bead-indexed parameters, i) at a bead position (continuous)."""
+    sub = {symbol("i"): sympy.Float(bead, 17)}
+    sub.update(pert.scalar_values())
+    for name in pert.site_dependent:
+        sub[bead_symbol(name, 0)] = sympy.Float(float(pert.values_at(name, [bead])[0]), 17)
+    return float(sympy.sympify(coefficient).xreplace(sub))
+
+
+def site_coefficient_functions(pert: Perturbation, law: DressedLaw, i0: float, i1: float, step: float = 1 / 16):
+    """c_j(i) = eps R's coefficient of monomial j at bead i + 1/2 (the energy law's convention, derive/site_law.py),
+    tabulated from i0 to i1 and interpolated linearly: one function per term of ``law``."""
+    ex = balance_expand(pert.R, law.n, "energy", pert.site_dependent)
+    coefs = {str(t.monomial): t.coefficient for t in ex.terms}
+    grid = np.arange(i0, i1 + 2 * step, step)
+    out = []
+    for t in law.terms:
+        vals = np.array([float(pert.eps) * coefficient_at(coefs[t.monomial], pert, g + 0.5) for g in grid])
+        out.append(lambda i, vals=vals: float(np.interp(i, grid, vals)))
+    return tuple(out)
+
+
+def dressed_law(pert: Perturbation, n: float = 1.5, at_bead: float | None = None) -> DressedLaw:
+    """Expand eps R into monomials, calibrate each one (cached) and form the law. A site-dependent R needs
+    ``at_bead``: its coefficients are then taken at that bead (``run`` follows c_j(i) along the chain with
+    ``site_coefficient_functions``)."""
+    n = check_exponent(n)
+    if not pert.is_uniform and at_bead is None:
+        raise DressedError(
+            f"the dressed law in closed form needs a uniform R; R = {pert.text} varies along the chain "
+            f"({', '.join(pert.site_dependent) or 'i'}): run the method dressed-law (it follows c_j(i)) "
+            "or derive the energy law, which takes c_j(i)")
+    try:
+        ex = balance_expand(pert.R, n, "energy", pert.site_dependent)
+    except BalanceError as exc:
+        raise DressedError(f"the dressed law expands R into monomials: {exc}") from None
+    terms = []
+    eps = float(pert.eps)
+    for t in ex.terms:
+        a, b = t.exponents
+        if pert.is_uniform:
+            value = float(sympy.sympify(t.coefficient).xreplace(pert.scalar_params()))
+            if value == 0:
+                continue
+        else:
+            value = coefficient_at(t.coefficient, pert, float(at_bead))
+        try:
+            fit = calibrate(a, b, n)
+        except CalibrationError as exc:
+            raise DressedError(f"monomial {t.monomial}: {exc}") from None
+        s = (sympy.Rational(str(n)) - 1) / 2
+        e = a + (1 + s) * b - 1 - 2 * s
+        terms.append(DressedTerm(
+            monomial=str(t.monomial), exponents=(a, b), c=eps * value, e=sympy.nsimplify(e),
+            k1=fit.k1, k1_method="derived: energy balance, -w_ab/((n+1) E_1), mpmath integrals",
+            rho=fit.k2_over_k1, rho_error=fit.k2_over_k1_error, rho_method=fit.method,
+            lag=fit.onset_lag, lag_error=fit.onset_lag_error,
+            lag_method=f"calibrated: same runs, lag of the DNS behind the law, straight line in x0 to x0 = 0 "
+                       f"(slope {fit.onset_lag_slope:.3g})",
+            next_kind="|x|^(3/2)" if fit.g is not None else "x^2",
+            next_coefficient=fit.g if fit.g is not None else fit.r1,
+        ))
+    if not terms:  # R = 0 or no term does work: the law is A constant
+        return DressedLaw(n=n, terms=(), cross=(), notes=(f"R = {pert.text} does no work on the wave: A stays constant",))
+    cross = []
+    for p, q in combinations(terms, 2):
+        try:
+            cf = calibrate_cross(p.exponents, q.exponents, n)
+            cross.append(CrossTerm(p.monomial, q.monomial, cf.k2, cf.error, cf.method))
+        except CalibrationError as exc:
+            cross.append(CrossTerm(p.monomial, q.monomial, None, None, f"not computed: {exc}"))
+    notes = (CROSS_NOTE,) if any(ct.k2 is None for ct in cross) else ()
+    notes += ("k2/k1, the onset lag, the next term and the cross terms are calibrated (fitted to DNS decrements of "
+              "launched solitons), not derived: the O(x^2) solvability condition of the multiple-scales expansion "
+              "is not implemented; k1 is derived",)
+    return DressedLaw(n=n, terms=tuple(terms), cross=tuple(cross), notes=notes)
+
+
+def derive_dressed(pert: Perturbation, n: float = 1.5, A0_value: float | None = None, i0: float = 0.0,
+                   **ignored) -> DressedDerivation:
+    """``derive --model dressed``: the dressed law of ``pert`` (module docstring)."""
+    for option in ("variant", "fold"):
+        if ignored.get(option) is not None:
+            raise DressedError(f"--{option} applies to the map only, not to the dressed law: drop it or use --model map")
+    if ignored.get("profile") not in (None, "exact"):
+        raise DressedError("the dressed law uses the exact profile (its DNS launches exact solitons): drop --profile")
+    if A0_value is not None and not A0_value > 0:
+        raise DressedError(f"the initial amplitude A0 must be > 0, got {A0_value}")
+    t0 = time.perf_counter()
+    law = dressed_law(pert, n)
+    return DressedDerivation(pert, float(n), law, A0_value, i0, {"total": time.perf_counter() - t0})
+
+
+def to_json(d: DressedDerivation) -> dict:
+    return {**json_header("dressed", d.perturbation), "n": d.n, "profile": "exact",
+            "dressed": d.law.data(d.A0, d.i0), "timings_s": {k: round(v, 6) for k, v in d.timings_s.items()}}
+
+
+def to_text(d: DressedDerivation) -> str:
+    head = [f"Model: dressed law (energy balance + second order, issue 18)",
+            f"R(u, v) = {d.perturbation.R}    eps = {d.perturbation.eps:g}    n = {d.n:g}    profile = exact", ""]
+    return "\n".join(head + d.law.lines(d.A0, d.i0))
+
+
+def to_latex(d: DressedDerivation) -> str:
+    return f"% pulsemap derivation, model: dressed law; R = {d.perturbation.R}\n" + d.law.latex()

@@ -1,0 +1,63 @@
+"""The dressed law (method ``dressed-law``) in a run: form it (studies/dressed.py), seed it, evaluate it."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+from pulsemap.derive.dressed import DressedError
+from pulsemap.derive.profile import exact_profile
+from pulsemap.solvers.models.dressed_eval import evaluate_dressed_law
+from pulsemap.solvers.studies.dressed import coefficients, dressed_law, site_coefficient_functions
+from pulsemap.solvers.studies.methods import MODEL_TITLES
+from pulsemap.solvers.studies.points import on_contacts
+
+if TYPE_CHECKING:  # pragma: no cover
+    from pulsemap.solvers.studies.run import RunState
+
+METHOD = "dressed-law"
+
+
+def prepare_dressed(state: "RunState"):
+    """The dressed law for the scene's R, or None (refused, with the reason in the result and a warning)."""
+    scene, out = state.scene, state.out
+    why = None
+    if state.choice.profile != "exact":
+        why = "the dressed law uses the exact profile (its coefficients come from launched exact solitons)"
+    else:
+        t0 = time.perf_counter()
+        try:
+            law = dressed_law(scene.perturbation, scene.exponent, at_bead=float(scene.first_perturbed) - 0.5)
+        except DressedError as exc:
+            why = str(exc)
+        state.timings["derive_dressed"] = time.perf_counter() - t0
+    if why is not None:
+        state.warnings.append(f"{METHOD} refused: {why}")
+        out[METHOD] = {"model": MODEL_TITLES[METHOD], "refused": why}
+        return None
+    return law
+
+
+def run_dressed(state: "RunState", law, seed_A: float) -> None:
+    """Evaluate the dressed law from the seed (contact first_perturbed - 1) over the scene's contacts."""
+    scene, out = state.scene, state.out
+    S0 = float(exact_profile(scene.exponent).S0)
+    t0 = time.perf_counter()
+    coef = coefficients(law)
+    i0 = float(scene.first_perturbed - 1)
+    if not scene.perturbation.is_uniform:  # c_j(i) along the chain (bead i + 1/2 at contact index i)
+        coef = replace(coef, c_of_i=site_coefficient_functions(scene.perturbation, law, i0, float(scene.contacts[1])))
+    run, beyond = evaluate_dressed_law(coef, S0, seed_A, i0, state.contacts)
+    state.timings[METHOD] = time.perf_counter() - t0
+    out["peaks"][METHOD] = on_contacts(state.contacts, run.contacts, run.peaks)
+    out[METHOD] = {"model": MODEL_TITLES[METHOD], "profile": "exact", "status": run.status, "message": run.message,
+                   "ended_at": run.ended_at, "law_kind": run.law_kind, "beyond_validity_at": beyond,
+                   "coefficients": {t.monomial: {"k1": t.k1, "k2_over_k1": t.rho, "onset_lag": t.lag}
+                                    for t in law.terms},
+                   "calibrated": ["k2_over_k1", "onset_lag"]}
+    if run.status != "ok":
+        state.warnings.append(f"{METHOD}: {run.message}")
+    if beyond is not None and beyond <= state.contacts[-1]:
+        state.warnings.append(f"{METHOD}: from contact index {beyond:.4g} some |x_j| exceeds the two-term law's "
+                              "validity bound (derive --model dressed prints it): its error grows there")
