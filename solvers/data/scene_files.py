@@ -94,7 +94,8 @@ def load_scene(ref: str | Path) -> Scene:
         names = named_scenes()
         stem = path.name[: -len(".toml")] if path.name.endswith(".toml") else path.name
         close = difflib.get_close_matches(stem, names, n=1)
-        hint = f" (did you mean the scene '{close[0]}'?)" if close else ""
+        kind = "suite scene" if close and close[0] in suite_scene_names() else "built-in scene"
+        hint = f" (did you mean the {kind} '{close[0]}'?)" if close else ""
         raise SceneError(
             f"scene file {text!r} not found{hint}: give the path of a .toml file or a built-in "
             "name (pulsemap scenes lists them)"

@@ -21,7 +21,7 @@ def test_every_suite_scene_loads_by_name():
 
 
 def test_a_misspelt_suite_name_gets_a_suggestion():
-    with pytest.raises(SceneError, match="did you mean the scene 'damp-10'"):
+    with pytest.raises(SceneError, match="did you mean the suite scene 'damp-10'"):
         load_scene("damp-1O")
 
 
