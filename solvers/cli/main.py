@@ -275,12 +275,17 @@ def _contact_list(text: str, option: str) -> tuple[int, ...]:
 def cmd_scenes(args: argparse.Namespace) -> int:
     """``pulsemap scenes``: the built-in scenes."""
     from pulsemap.solvers.data.scene import DEFAULT_SCENE, builtin_scenes, load_scene
+    from pulsemap.solvers.data.scene_files import suite_scene_names
 
-    for name in builtin_scenes():
-        sc = load_scene(name)
-        mark = "  (default)" if name == DEFAULT_SCENE else ""
-        print(f"{name:16s} R = {sc.perturbation.text:28s} eps = {sc.perturbation.eps:<5g} v0 = {sc.velocity:<5g} "
-              f"contacts {sc.contacts[0]}..{sc.contacts[1]}  [{', '.join(sc.methods)}]{mark}")
+    for title, names in (("paper scenes", builtin_scenes()), ("suite scenes (stiff and extreme cases)",
+                                                              suite_scene_names())):
+        print(f"{title}:")
+        for name in names:
+            sc = load_scene(name)
+            mark = "  (default)" if name == DEFAULT_SCENE else ""
+            print(f"  {name:16s} R = {sc.perturbation.text:28s} eps = {sc.perturbation.eps:<5g} v0 = {sc.velocity:<5g} "
+                  f"contacts {sc.contacts[0]}..{sc.contacts[1]}  [{', '.join(sc.methods)}]{mark}")
+    print("every name runs as it stands: pulsemap run NAME (or a .toml path)")
     return 0
 
 

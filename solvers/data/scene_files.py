@@ -45,6 +45,17 @@ def builtin_scenes() -> list[str]:
     return sorted(entry.name[: -len(".toml")] for entry in folder.iterdir() if entry.name.endswith(".toml"))
 
 
+def suite_scene_names() -> list[str]:
+    """Names of the suite's scenes (scenes/suite/: stiff and extreme cases), sorted; runnable by name too."""
+    folder = resources.files("pulsemap.solvers.data").joinpath("scenes", "suite")
+    return sorted(entry.name[: -len(".toml")] for entry in folder.iterdir() if entry.name.endswith(".toml"))
+
+
+def named_scenes() -> list[str]:
+    """Every name ``load_scene`` accepts: the built-in scenes, the suite's and the alias default."""
+    return builtin_scenes() + [n for n in suite_scene_names() if n not in builtin_scenes()] + list(ALIASES)
+
+
 def builtin_scene_path(name: str):
     """The packaged TOML file of built-in scene ``name`` (an importlib.resources Traversable)."""
     if not isinstance(name, str):
@@ -72,14 +83,19 @@ def load_scene(ref: str | Path) -> Scene:
         resolved = ALIASES.get(text, text)
         source = f"builtin:{resolved}"
         return parse_scene(_decode(builtin_scene_path(resolved).read_bytes(), source), source)
+    if not looks_like_path and text in suite_scene_names():  # every named scene runs by its name
+        source = f"suite:{text}"
+        entry = resources.files("pulsemap.solvers.data").joinpath("scenes", "suite", f"{text}.toml")
+        return parse_scene(_decode(entry.read_bytes(), source), source)
     path = Path(text).expanduser()
     if path.is_dir():
         raise SceneError(f"{text}: is a directory, not a scene file: give the path of a .toml file in it")
     if not path.exists():
-        names = builtin_scenes() + list(ALIASES)
+        names = named_scenes()
         stem = path.name[: -len(".toml")] if path.name.endswith(".toml") else path.name
         close = difflib.get_close_matches(stem, names, n=1)
-        hint = f" (did you mean the built-in scene '{close[0]}'?)" if close else ""
+        kind = "suite scene" if close and close[0] in suite_scene_names() else "built-in scene"
+        hint = f" (did you mean the {kind} '{close[0]}'?)" if close else ""
         raise SceneError(
             f"scene file {text!r} not found{hint}: give the path of a .toml file or a built-in "
             "name (pulsemap scenes lists them)"

@@ -59,7 +59,7 @@ class _Problem(Exception):
 
 
 def _prefix(source: str, name: str) -> str:
-    if not source or source == f"builtin:{name}":
+    if not source or source in (f"builtin:{name}", f"suite:{name}"):
         return f"scene '{name}': "
     return f"{source} (scene '{name}'): "
 

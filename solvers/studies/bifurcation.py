@@ -48,6 +48,7 @@ from pulsemap.solvers.studies.bifurcation_dns import (
     classify,
     entry_peak,
     probe,
+    resolve_undecided,
 )
 from pulsemap.solvers.studies.bifurcation_predict import predict, predicted_threshold, stable_peak
 from pulsemap.solvers.studies.bifurcation_relaxed import predict_relaxed, relaxed_threshold
@@ -106,7 +107,12 @@ def _thresholds(scene, name: str, report: dict, rows: list[dict], state: dict, i
             t["note"] = t["note"] or "no grid value settled or decayed: lengthen the chain (--contacts)"
         for prof in profiles:
             pred = report["prediction"][prof]
-            t["predicted"][prof] = None if entry is None else predicted_threshold(scene, name, pred, entry)
+            value = None if entry is None else predicted_threshold(scene, name, pred, entry)
+            if value is not None and value == pred["branches"][0]["value"]:
+                # the entry peak clears the lowest root at the range start: the threshold is at or below it
+                t.setdefault("predicted_at_or_below", {})[prof] = value
+                value = None
+            t["predicted"][prof] = value
             if pred["folds"] and t["threshold"] is not None:
                 t["minus_fold"][prof] = t["threshold"] - pred["folds"][0]["value"]
         thresholds.append(t)
@@ -172,6 +178,7 @@ def bifurcation(
                          max_workers=max_workers, progress=progress, retry_failed=retry_failed)
     values = [float(v) for v in np.linspace(lo, hi, points)]
     rows = runner.run([probe(chain, name, val, v0, last) for v0 in impulses for val in values], "bifurcation")
+    rows = resolve_undecided(runner, rows, max_last)  # undecided: again on a chain twice as long
     state = bisect(runner, rows, impulses, last, max_last, refine)
     thresholds = _thresholds(scene, name, report, rows, state, impulses, profiles)
     _compare_stable(rows, report, profiles)

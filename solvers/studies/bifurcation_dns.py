@@ -134,6 +134,20 @@ class ProbeRunner:
         return [_summary(r, self.name, self.first_perturbed, self.settle_window, self.settle_tol) for r in res.records]
 
 
+def resolve_undecided(runner: "ProbeRunner", rows: list[dict], max_last: int) -> list[dict]:
+    """Grid points that are undecided (alive at the end but still drifting: the chain is too short to
+    tell) are run again on a chain twice as long, up to ``max_last`` contacts, until they settle or
+    decay; each rerun row keeps ``rerun_from`` (the shorter chain). The other rows are unchanged."""
+    rows = list(rows)
+    while True:
+        idx = [k for k, r in enumerate(rows) if r["outcome"] == "undecided" and 2 * r["last"] <= max_last]
+        if not idx:
+            return rows
+        batch = [probe(runner.chain, runner.name, rows[k]["value"], rows[k]["v0"], 2 * rows[k]["last"]) for k in idx]
+        for k, row in zip(idx, runner.run(batch, "longer chain")):
+            rows[k] = {**row, "rerun_from": rows[k].get("rerun_from", rows[k]["last"])}
+
+
 def bisect(runner: ProbeRunner, rows: list[dict], impulses: Sequence[float], last: int, max_last: int,
            refine: int) -> dict:
     """Bisection rounds on each impulse's bracket, all impulses at once; an undecided probe is repeated

@@ -38,8 +38,25 @@ def predict(scene, name: str, lo: float, hi: float, points: int = 61, profile: s
             rows.append({"A": float(a), "peak": float(a) * S0, "multiplier": lam, "stable": stable})
         branches.append({"value": float(value), "roots": rows})
     folds = [{"value": float(p), "A": float(a), "peak": float(a) * S0} for p, a in cont.folds]
+    outside = None if folds else fold_outside(mod, base, name, lo, hi, S0)
     return {"profile": profile, "variant": variant, "S0": S0, "branches": branches, "folds": folds,
-            "generated": mod.__name__}
+            "fold_outside": outside, "generated": mod.__name__}
+
+
+def fold_outside(mod, base: dict, name: str, lo: float, hi: float, S0: float, points: int = 41) -> dict | None:
+    """Where Eq. 41 has its fold when [lo, hi] holds none: the nearest one found on ranges widened
+    by (hi - lo) x 1, 2, 4, ..., 64 on each side; None when none is found there either."""
+    from pulsemap.solvers.models.stationary_shock import continue_roots
+
+    width = hi - lo
+    for k in range(7):
+        a, b = lo - width * 2 ** k, hi + width * 2 ** k
+        cont = continue_roots(mod, base, name, a, b, points)
+        found = [(p, x) for p, x in cont.folds if not lo <= p <= hi]
+        if found:
+            p, x = min(found, key=lambda f: min(abs(f[0] - lo), abs(f[0] - hi)))
+            return {"value": float(p), "A": float(x), "peak": float(x) * S0, "searched": [a, b]}
+    return {"value": None, "searched": [lo - 64 * width, hi + 64 * width]}
 
 
 def predicted_threshold(scene, name: str, prediction: dict, peak: float) -> float | None:

@@ -20,7 +20,12 @@ def to_text(report: dict) -> str:
             lines.append(f"  predicted fold ({prof} profile, Eq. 41, {pred['variant']} map): {name}* = {f['value']:.6f}, "
                          f"peak {f['peak']:.6f}")
         else:
-            lines.append(f"  predicted fold ({prof} profile): none in the range")
+            lo, hi = report["range"]
+            out = pred.get("fold_outside") or {}
+            where = (f"; Eq. 41 puts it at {name}* = {out['value']:.6f} (peak {out['peak']:.6f}), outside the range"
+                     if out.get("value") is not None else
+                     (f"; none in [{out['searched'][0]:g}, {out['searched'][1]:g}] either" if out.get("searched") else ""))
+            lines.append(f"  predicted fold ({prof} profile): no fold in [{lo:g}, {hi:g}]{where}")
     rel = report.get("relaxed")
     if rel:
         if rel["folds"]:
@@ -49,7 +54,10 @@ def to_text(report: dict) -> str:
         for t in dns["thresholds"]:
             a, b = t["bracket"]
             if t["threshold"] is not None:
-                pred = ", ".join(f"{p} {v:.4f}" for p, v in t["predicted"].items() if v is not None)
+                pred = ", ".join([f"{p} {v:.4f}" for p, v in t["predicted"].items() if v is not None]
+                                 + [f"{p} <= {v:g} (the range start: no predicted threshold inside [{report['range'][0]:g}, "
+                                    f"{report['range'][1]:g}])" for p, v in (t.get("predicted_at_or_below") or {}).items()]) \
+                    or "none in the range"
                 fold = ", ".join(f"{p} {v:+.4f}" for p, v in t["minus_fold"].items())
                 lines.append(f"  threshold v0 = {t['v0']:g}: {name} = {t['threshold']:.4f} +- {t['uncertainty']:.4f} "
                              f"(settles at {b:.5g}, decays at {a:.5g}; {t['bisections']} bisections); "

@@ -15,14 +15,18 @@ __all__ = ["make_force"]
 
 
 def _params(scene: Scene, beads: int | None) -> dict:
-    """Parameter values: scalars, or per-bead arrays when the scene fixes the chain length."""
+    """Parameter values: scalars, or per-bead arrays. Without [chain] beads, a parameter given as an
+    expression of i is evaluated on the chain the contacts need (as an R containing i is): only
+    lists and random draws fix the chain length themselves (the scene file requires beads for them)."""
     pert = scene.perturbation
     out = {}
+    if beads is None:
+        from pulsemap.solvers.chain.equations import chain_length_for
+
+        beads = chain_length_for(scene.contacts[1])
     for name in pert.used_parameters:
         if name not in pert.site_dependent:
             out[name] = float(pert.params[name])
-        elif beads is None:
-            raise RunError(f"parameter '{name}' varies along the chain: set [chain] beads")
         else:
             out[name] = pert.bead_values(name, beads)
     return out
