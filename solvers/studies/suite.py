@@ -181,20 +181,26 @@ def run_suite(names: Sequence[str] | None = None, *, check: bool = True, repeats
                                            "met": None if ratio is None else bool(ratio <= STIFF_RATIO_TARGET)}}
 
 
+def _pct(x: float | None) -> str:
+    """A relative error in percent (the unit of every error pulsemap prints)."""
+    return "-" if x is None else f"{100.0 * x:.3g}"
+
+
 def to_text(report: dict) -> str:
-    """The suite table, then the warnings and messages, then the stiff ratio."""
+    """The suite table (errors in percent: max relative error of the DNS against its check run and of
+    the map against the DNS), then the warnings and messages, then the stiff ratio."""
     from pulsemap.solvers.studies.bench import fmt
 
-    head = (f"{'scene':18s} {'status':11s} {'method':7s} {'dns [s]':>8s} {'dns err':>9s} {'vs':18s} "
-            f"{'map err':>9s} {'live':>5s}  stop reason")
+    head = (f"{'scene':18s} {'status':11s} {'method':7s} {'dns [s]':>8s} {'dns err %':>9s} {'vs':18s} "
+            f"{'map err %':>9s} {'live':>5s}  stop reason")
     lines = [head, "-" * len(head)]
     for r in report["cases"]:
         if r["status"] == "refused":
             lines.append(f"{r['scene']:18s} {'refused':11s} {r['message']}")
             continue
         lines.append(f"{r['scene']:18s} {r['status']:11s} {r.get('method') or '-':7s} "
-                     f"{fmt(r.get('dns_time_s'), '8.3f'):>8s} {fmt(r.get('dns_error')):>9s} "
-                     f"{r.get('dns_error_vs', '-'):18s} {fmt(r.get('map_error')):>9s} {r.get('live_contacts', 0):5d}"
+                     f"{fmt(r.get('dns_time_s'), '8.3f'):>8s} {_pct(r.get('dns_error')):>9s} "
+                     f"{r.get('dns_error_vs', '-'):18s} {_pct(r.get('map_error')):>9s} {r.get('live_contacts', 0):5d}"
                      f"  {r.get('stop_reason', '')}")
     lines.append("")
     for r in report["cases"]:
