@@ -17,7 +17,7 @@ EVERY_S = 5.0
 
 
 def duration(seconds: float) -> str:
-    """'8.2 s', '45 s', '2 min 05 s', '1 h 02 min' (as studies/progress.py prints them)."""
+    """'8.2 s', '45 s', '2 min 05 s', '1 h 02 min' (every progress line, DNS and studies)."""
     if seconds < 10:
         return f"{seconds:.1f} s"
     s = int(round(seconds))

@@ -23,10 +23,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pulsemap.derive import cache
+
+if TYPE_CHECKING:  # pragma: no cover
+    from pulsemap.solvers.chain.equations import OnSiteForce
 
 NAMESPACE = "relaxed"
 VERSION = 1

@@ -12,17 +12,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
-
-def duration(seconds: float) -> str:
-    """'8.2 s', '45 s', '2 min 05 s', '1 h 02 min'."""
-    if seconds < 10:
-        return f"{seconds:.1f} s"
-    s = int(round(seconds))
-    if s < 60:
-        return f"{s} s"
-    if s < 3600:
-        return f"{s // 60} min {s % 60:02d} s"
-    return f"{s // 3600} h {(s % 3600) // 60:02d} min"
+from pulsemap.solvers.chain.dns_progress import duration  # noqa: F401  (one format for every progress line)
 
 
 def _flat(value: object, prefix: str = "") -> dict[str, object]:

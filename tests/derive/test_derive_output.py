@@ -10,7 +10,6 @@ import sympy
 
 from pulsemap.derive.derivation import derive_all, to_json, to_latex, to_text
 from pulsemap.derive.expression import UserSymbol
-from pulsemap.derive.integrals import F_NAMES
 from pulsemap.derive.longwave import LAW_RATE
 from pulsemap.derive.perturbation import make_perturbation
 

@@ -42,7 +42,7 @@ def test_dressed_law_predicts_a_held_out_launch(a, b, x0):
     first, contacts, A = _held_out(a, b, x0)
 
     def law(i_end, rho, lag):
-        lnA, i = math.log(A[0]), float(first - 1)
+        lnA = math.log(A[0])
         x = x0 * A[0] ** fit.e
         lnA += lag * fit.k1 * x / (1 - rho * x)
         out = [lnA]

@@ -1,7 +1,6 @@
 """Laws for what was refused before (issue 18 item 4): site-dependent R and non-polynomial R in a run."""
 
 import numpy as np
-import pytest
 
 from pulsemap.solvers.data.scene import parse_scene
 from pulsemap.solvers.studies.run import run_scene
