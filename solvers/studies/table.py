@@ -220,8 +220,8 @@ def markdown(rows: list[dict], columns=COLUMNS) -> str:
     lines = [
         "Max / RMS relative error (%) against the DNS over the live range: contacts first_perturbed up to the",
         "last whose DNS peak is >= 2 % of the seed peak (a model that has ended there counts as 100 %);",
-        "every model seeded with the DNS peak at the last unperturbed contact (n = 3/2, DNS DOP853 rtol",
-        "1e-10). Winner: least RMS; in brackets its margin",
+        "every model seeded with the DNS peak at the last unperturbed contact (n = 3/2, DNS rtol 1e-10:",
+        "the compiled RK45 engine where it applies, else scipy). Winner: least RMS; in brackets its margin",
         "over the runner-up. – : undefined (momentum balance with a term without v); a refused model",
         "(e.g. dressed-law outside its range at the seed) counts as 100 %.",
         "",
