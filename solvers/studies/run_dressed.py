@@ -6,10 +6,8 @@ import time
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
-from pulsemap.derive.dressed import DressedError
 from pulsemap.derive.profile import exact_profile
 from pulsemap.solvers.models.dressed_eval import evaluate_dressed_law
-from pulsemap.solvers.studies.dressed import coefficients, dressed_law, site_coefficient_functions
 from pulsemap.solvers.studies.methods import MODEL_TITLES
 from pulsemap.solvers.studies.points import on_contacts
 
@@ -21,6 +19,9 @@ METHOD = "dressed-law"
 
 def prepare_dressed(state: "RunState"):
     """The dressed law for the scene's R, or None (refused, with the reason in the result and a warning)."""
+    from pulsemap.derive.dressed import DressedError  # sympy: only when the dressed law is asked for
+    from pulsemap.solvers.studies.dressed import dressed_law
+
     scene, out = state.scene, state.out
     why = None
     if state.choice.profile != "exact":
@@ -41,6 +42,8 @@ def prepare_dressed(state: "RunState"):
 
 def run_dressed(state: "RunState", law, seed_A: float) -> None:
     """Evaluate the dressed law from the seed (contact first_perturbed - 1) over the scene's contacts."""
+    from pulsemap.solvers.studies.dressed import coefficients, site_coefficient_functions
+
     scene, out = state.scene, state.out
     S0 = float(exact_profile(scene.exponent).S0)
     t0 = time.perf_counter()
