@@ -23,9 +23,9 @@ from types import ModuleType
 from typing import Callable
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from pulsemap.derive.profile import exact_profile
+from pulsemap.solvers.models.amplitude_ode import integrate_amplitude_law
 from pulsemap.solvers.models.balance_eval import BalanceRun
 
 NODES = 24  # Gauss-Legendre points per unit interval of tau
@@ -125,30 +125,13 @@ def evaluate_energy_law(F: Callable, n: float, A0: float, i0: float, contacts) -
     table = wave_table(n)
     Q = n + 1
     contacts = np.asarray(contacts, dtype=float)
-    B0 = A0**Q
 
-    def rhs(i, y):
-        A = max(y[0], 0.0) ** (1 / Q)
-        return [work(lambda x, v: F(x, v, i + 0.5), A, table) / table.E1]
+    def rate(i, B):
+        return work(lambda x, v: F(x, v, i + 0.5), max(B, 0.0) ** (1 / Q), table) / table.E1
 
-    def die(i, y):
-        return y[0] - 1e-12 * B0
-
-    def blow(i, y):
-        return y[0] - 1e12 * B0
-
-    die.terminal = blow.terminal = True
-    end = max(float(contacts.max(initial=i0)), i0 + 1e-9)
-    sol = solve_ivp(rhs, (i0, end), [B0], method="LSODA", rtol=1e-11, atol=1e-14 * B0, dense_output=True,
-                    events=(die, blow))
-    if sol.status < 0:
-        raise EnergyQuadratureError(f"the energy law could not be integrated: {sol.message}")
-    ended_at, status = None, "ok"
-    if sol.status == 1:
-        ended_at = float(sol.t[-1])
-        status = "extinction" if sol.t_events[0].size else "blow-up"
-    stop = float(sol.t[-1])
-    vals = [max(float(sol.sol(c)[0]), 0.0) ** (1 / Q) if c <= stop + 1e-12 else None for c in contacts]
+    vals, ended_at, ended = integrate_amplitude_law(rate, A0, Q, i0, contacts, EnergyQuadratureError,
+                                                    "the energy law")
+    status = ended or "ok"
     msg = f"{status} at contact index {ended_at:.6g}" if ended_at is not None else "ODE solved (LSODA, rtol 1e-11)"
     return BalanceRun("energy", "law", contacts.astype(int), vals, [v * table.S0 if v is not None else None for v in vals],
                       status, msg, ended_at, "quadrature of R over the wave", "exact")

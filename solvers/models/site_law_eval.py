@@ -18,8 +18,8 @@ from types import ModuleType
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
+from pulsemap.solvers.models.amplitude_ode import integrate_amplitude_law
 from pulsemap.solvers.models.longwave_eval import LawRun
 
 if TYPE_CHECKING:  # pragma: no cover  (sympy-free at import time)
@@ -74,26 +74,7 @@ def evaluate_site_law(module: ModuleType, pert: Perturbation, kind: str, A0: flo
         raise SiteLawError(f"the initial amplitude must be a finite number > 0, got {A0!r}")
     rhs, Q = rate_function(module, pert, kind)
     contacts = np.asarray(contacts, dtype=float)
-    B0 = A0**Q
-
-    def die(i, y):
-        return y[0] - 1e-12 * B0
-
-    def blow(i, y):
-        return y[0] - 1e12 * B0
-
-    die.terminal = blow.terminal = True
-    end = max(float(contacts.max(initial=i0)), i0 + 1e-9)
-    sol = solve_ivp(lambda i, y: [rhs(i, y[0])], (i0, end), [B0], method="LSODA", rtol=1e-11, atol=1e-14 * B0,
-                    dense_output=True, events=(die, blow))
-    if sol.status < 0:
-        raise SiteLawError(f"the site-dependent law could not be integrated: {sol.message}")
-    ended_at, ended = None, ""
-    if sol.status == 1:
-        ended_at = float(sol.t[-1])
-        ended = "extinction" if sol.t_events[0].size else "blow-up"
-    stop = float(sol.t[-1])
-    vals = [max(float(sol.sol(c)[0]), 0.0) ** (1.0 / Q) if c <= stop + 1e-12 else None for c in contacts]
+    vals, ended_at, ended = integrate_amplitude_law(rhs, A0, Q, i0, contacts, SiteLawError, "the site-dependent law")
     S0 = float(module.S0)
     return LawRun(contacts.astype(int), vals, [v * S0 if v is not None else None for v in vals],
                   "quadrature (site-dependent)", ended_at, ended)
