@@ -7,7 +7,7 @@ import difflib
 import math
 import numbers
 import re
-from typing import Any, Iterable
+from typing import Any, Iterable, Mapping
 
 
 def closest(word: str, known: Iterable[str]) -> str:
@@ -34,6 +34,18 @@ def choice(value: Any, name: str, choices: Iterable[str]) -> str:
     if value not in choices:
         raise ValueError(f"unknown {name} {value!r}{closest(value, choices)}: choose one of {', '.join(choices)}")
     return value
+
+
+def merged_params(params: Any, keywords: Mapping[str, Any]) -> dict:
+    """The parameter values of ``params`` (a mapping or None) and of keyword arguments, each name once."""
+    if params is not None and not isinstance(params, Mapping):
+        raise TypeError(f"params must be a mapping of parameter names to values, got {type(params).__name__}")
+    values = dict(params or {})
+    for name, value in keywords.items():
+        if name in values:
+            raise ValueError(f"parameter {name!r} given twice (as a keyword and in params)")
+        values[name] = value
+    return values
 
 
 def api_hint(message: str) -> str:

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
-from pulsemap.solvers.api.checks import api_hint, choice, number
+from pulsemap.solvers.api.checks import api_hint, choice, merged_params, number
 
 __all__ = ["Derivation", "derive"]
 
@@ -126,13 +126,7 @@ def derive(
     n = number(n, "n")
     profile = choice(profile, "profile", PROFILES)
     variant = choice(variant, "variant", VARIANTS)
-    if params is not None and not isinstance(params, Mapping):
-        raise TypeError(f"params must be a mapping of parameter names to values, got {type(params).__name__}")
-    values = dict(params or {})
-    for name, value in parameters.items():
-        if name in values:
-            raise ValueError(f"parameter {name!r} given twice (as a keyword and in params)")
-        values[name] = value
+    values = merged_params(params, parameters)
     try:
         pert = check_all_used(make_perturbation(R, eps, values))
         d = derive_all(pert, n=n, profile=profile, variant=variant)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from pulsemap.solvers.api.checks import api_hint, number
+from pulsemap.solvers.api.checks import api_hint, merged_params, number
 
 __all__ = ["dressed"]
 
@@ -43,13 +43,7 @@ def dressed(
     eps, n = number(eps, "eps"), number(n, "n")
     A0 = None if A0 is None else number(A0, "A0")
     i0 = number(i0, "i0")
-    if params is not None and not isinstance(params, Mapping):
-        raise TypeError(f"params must be a mapping of parameter names to values, got {type(params).__name__}")
-    values = dict(params or {})
-    for name, value in parameters.items():
-        if name in values:
-            raise ValueError(f"parameter {name!r} given twice (as a keyword and in params)")
-        values[name] = value
+    values = merged_params(params, parameters)
     try:
         pert = check_all_used(make_perturbation(R, eps, values))
         return derive_dressed(pert, n=n, A0_value=A0, i0=i0)
