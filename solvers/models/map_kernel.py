@@ -8,7 +8,7 @@ Every variant of Eq. 23 has the same shape (derive/amplitude_map.py):
 (``1d``: A_{i+1} -> A_i in F1, F2 unused), so one compiled kernel, given the powers and the
 per-contact coefficients K (the generated module's ``map_power_coefficients``), iterates any R:
 a new R costs no compilation. Newton runs in log-amplitudes with the same damping, iteration
-cap and stopping rule as ``map_iteration._newton``; a contact where Newton fails is handed back
+cap and stopping rule as ``map_step._newton``; a contact where Newton fails is handed back
 (``stopped``) so the caller can finish it with the bracketing fallback.
 """
 
@@ -21,7 +21,7 @@ from numba import njit, prange
 
 Array = np.ndarray
 
-#: Newton's iteration cap and step tolerance (the same as map_iteration._newton).
+#: Newton's iteration cap and step tolerance (the same as map_step._newton).
 NEWTON_ITERATIONS = 60
 NEWTON_STEP_TOL = 1e-13
 
