@@ -30,6 +30,9 @@ from scipy.optimize import brentq
 from pulsemap.derive.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce, make_rhs
 
+#: A peak below this fraction of the launched peak A S(0) is round-off, not the pulse (``_peak``).
+PEAK_FLOOR = 1e-8
+
 
 @dataclass(frozen=True)
 class LaunchResult:
@@ -117,8 +120,8 @@ def soliton_state(beads: int, n: float, A: float, centre: int) -> np.ndarray:
 def launch(beads: int, n: float, A: float, centre: int, contacts: tuple[int, int], force: OnSiteForce | None = None,
            *, rtol: float = 1e-11, atol: float = 1e-14) -> LaunchResult:
     """Integrate Eq. 1 from the launched wave until contact ``contacts[1]`` has peaked; return the peaks
-    of contacts[0]..contacts[1] (each > centre). A peak is None where the pulse has died or the
-    maximum was not found (no NaN)."""
+    of contacts[0]..contacts[1] (each > centre). A peak is None where the pulse has died (below
+    ``PEAK_FLOOR`` of the launched peak) or the maximum was not found (no NaN)."""
     first, last = int(contacts[0]), int(contacts[1])
     if not centre < first <= last <= beads - 2:
         raise ValueError(f"contacts {contacts!r} must satisfy centre < first <= last <= beads - 2")
@@ -132,10 +135,11 @@ def launch(beads: int, n: float, A: float, centre: int, contacts: tuple[int, int
     peaks: list = []
     times: list = []
     t_prev, gap = 0.0, 1.0 / A**s
+    floor = PEAK_FLOOR * A * exact_profile(n).S0
     for k in range(first, last + 1):
-        p, tk = _peak(sol, k, t_prev, min(T, t_prev + 4 * gap))
+        p, tk = _peak(sol, k, t_prev, min(T, t_prev + 4 * gap), floor)
         if p is None and t_prev + 4 * gap < T:
-            p, tk = _peak(sol, k, t_prev, T)
+            p, tk = _peak(sol, k, t_prev, T, floor)
         peaks.append(p)
         times.append(tk)
         if p is None:
@@ -148,13 +152,15 @@ def launch(beads: int, n: float, A: float, centre: int, contacts: tuple[int, int
     return LaunchResult(np.arange(first, last + 1), peaks, times, float(A), int(centre), float(rtol), int(sol.nfev))
 
 
-def _peak(sol, k: int, t_from: float, T: float) -> tuple[float | None, float | None]:
-    """The first maximum of delta_k(t) after t_from (contact k, 1-based), on the dense output."""
+def _peak(sol, k: int, t_from: float, T: float, floor: float) -> tuple[float | None, float | None]:
+    """The first maximum of delta_k(t) above ``floor`` after t_from (contact k, 1-based), on the dense
+    output. The floor keeps round-off ahead of the wave out: an anti-damping force (+c v) amplifies a
+    1e-16 wobble of a bead at rest into a local maximum that is not the pulse."""
     ts = np.linspace(t_from, T, max(100, int(40 * (T - t_from))))
     Y = sol.sol(ts)
     d = Y[2 * (k - 1)] - Y[2 * k]
     dv = Y[2 * (k - 1) + 1] - Y[2 * k + 1]
-    idx = np.nonzero((dv[:-1] > 0) & (dv[1:] <= 0) & (d[:-1] > 0))[0]
+    idx = np.nonzero((dv[:-1] > 0) & (dv[1:] <= 0) & (d[:-1] > floor))[0]
     if idx.size == 0:
         return None, None
     a, b = ts[idx[0]], ts[idx[0] + 1]
