@@ -26,7 +26,7 @@ PARAMS_PREFIX = "perturbation.params."
 #: Keys that name the scene rather than set it (not overridable).
 FIXED = ("source",)
 #: Keys a scene may set that have no default value in it (absent: the documented default applies).
-OPTIONAL = ("dns.engine",)
+OPTIONAL = ("dns.engine", "dns.mode")
 
 
 def _flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:

@@ -12,6 +12,7 @@ from pulsemap.solvers.data.scene_schema import (
     _SCHEMA,
     DNS_DEFAULTS,
     DNS_ENGINES,
+    DNS_MODES,
     DNS_METHODS,
     MAX_BEADS,
     METHODS,
@@ -175,6 +176,8 @@ def _check_dns_table(table: Mapping[str, Any]) -> FrozenMap:
     values["method"] = _check_choice(table["method"], "[dns] method", DNS_METHODS)
     if "engine" in table:
         values["engine"] = _check_choice(table["engine"], "[dns] engine", DNS_ENGINES)
+    if "mode" in table:
+        values["mode"] = _check_choice(table["mode"], "[dns] mode", DNS_MODES)
     return FrozenMap(tuple(values.items()))
 
 

@@ -21,6 +21,7 @@ PROFILES = ("exact", "pade")
 VARIANTS = ("paper", "corrected", "1d")
 DNS_METHODS = ("auto", "DOP853", "RK45", "Radau", "BDF", "LSODA")
 DNS_ENGINES = ("compiled", "scipy")  # [dns] engine, optional (absent: "compiled" where it applies)
+DNS_MODES = ("window", "full")  # [dns] mode, optional (absent: "window", the moving window of chain/window.py)
 DNS_DEFAULTS: Mapping[str, Any] = {"rtol": 1e-10, "atol": 1e-12, "method": "auto"}
 DEFAULT_SCENE = "fig8-eps0.3"
 """What ``load_scene("default")`` returns: linear damping, cheap, the quick start's main job."""
@@ -37,7 +38,7 @@ _SCHEMA: dict[str, tuple[str, ...]] = {
     "perturbation": ("R", "eps", "params"),
     "output": ("contacts", "methods"),
     "model": ("profile", "variant"),
-    "dns": ("rtol", "atol", "method", "engine"),
+    "dns": ("rtol", "atol", "method", "engine", "mode"),
 }
 _TABLES = ("chain", "excitation", "perturbation", "output", "model", "dns")
 _REQUIRED_TABLES = ("excitation", "perturbation", "output")

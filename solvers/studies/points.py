@@ -53,12 +53,21 @@ def dns_span(scene) -> tuple[int, tuple[int, int]]:
     return scene.beads or chain_length_for(c1), (min(c0, scene.first_perturbed - 1), c1)
 
 
+def dns_window_of(scene, dns_window: "int | str | None") -> "int | str | None":
+    """The window a run's DNS uses: ``dns_window`` as given ("scene": the scene's [dns] mode, "window"
+    (the moving window sized by its accuracy rule, "auto") unless it says "full"; None: the full chain)."""
+    if dns_window == "scene":
+        return None if scene.dns.get("mode", "window") == "full" else "auto"
+    return dns_window
+
+
 def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, variant: str | None = None,
-                window: "int | str | None" = None, rtol: float | None = None) -> dict:
+                window: "int | str | None" = "scene", rtol: float | None = None) -> dict:
     """The scene as the plain dict the tasks take; generates the modules it needs (parent only).
 
     Contacts: the DNS tracks first_perturbed - 1 (the map's seed contact) through the scene's
-    last contact. ``window``: None (whole chain, as ``pulsemap run``), "auto" or a width.
+    last contact. ``window``: "scene" (the scene's [dns] mode, as ``pulsemap run``), None (whole
+    chain), "auto" or a width.
     """
     from pulsemap.solvers.models.codeload import force_module, map_module
 
@@ -73,7 +82,7 @@ def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, va
         "contacts": [int(first), int(last)],
         "params": {name: _param_data(pert, name, beads) for name in pert.used_parameters},
         "dns": {"rtol": float(rtol if rtol is not None else scene.dns["rtol"]), "atol": float(scene.dns["atol"]),
-                "method": str(scene.dns["method"]), "window": window,
+                "method": str(scene.dns["method"]), "window": dns_window_of(scene, window),
                 **({"engine": str(scene.dns["engine"])} if "engine" in scene.dns else {})},
         "force": generated_ref(force_module(pert.text, pert.used_parameters)),
     }

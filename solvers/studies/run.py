@@ -39,7 +39,7 @@ from pulsemap.solvers.studies.methods import (
     Choice,
     RunError,
 )
-from pulsemap.solvers.studies.points import dns_span, on_contacts
+from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
 from pulsemap.solvers.studies.run_models import run_models
 from pulsemap.solvers.studies.run_report import plot, to_csv, to_text
 
@@ -136,8 +136,8 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
 
 
 def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> None:
-    """The full equations of motion over the contacts (chain/dns.py); its peak at first_perturbed - 1
-    becomes the models' seed."""
+    """The full equations of motion over the contacts (chain/dns.py) on the moving window unless the
+    scene or the caller asks for the full chain; its peak at first_perturbed - 1 becomes the models' seed."""
     scene, out, contacts = state.scene, state.out, state.contacts
     beads, span = dns_span(scene)
     t0 = time.perf_counter()
@@ -152,7 +152,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
         atol=float(scene.dns.get("atol", 1e-12)), progress=progress,
         engine=scene.dns.get("engine", "compiled"),
         snapshots=[c for c in state.snapshots if span[0] <= c <= span[1]],
-        **({"window": dns_window} if dns_window is not None else {}),
+        window=dns_window_of(scene, dns_window),
     )
     state.timings["dns"] = time.perf_counter() - t0
     dns_peaks = on_contacts(contacts, res.contacts, res.peaks, res.alive)
@@ -161,6 +161,8 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     out["peaks"]["dns"] = dns_peaks
     out["dns"] = {
         "method": res.method, "rtol": res.rtol, "atol": res.atol, "beads": res.beads, "mode": res.mode,
+        "window_beads": int(res.window_beads),
+        **({"window_behind": int(res.window_rule.behind)} if res.window_rule is not None else {}),
         "engine": res.engine, "engine_reason": res.engine_reason,
         "stop_reason": res.stop_reason, "nfev": int(res.nfev),
         "alive": dns_alive,
@@ -232,7 +234,7 @@ def run_scene(
     profile: str | None = None,
     variant: str | None = None,
     progress: bool = False,
-    dns_window: "int | str | None" = None,
+    dns_window: "int | str | None" = "scene",
     reuse_dns: dict | None = None,
     seed_peak: float | None = None,
     snapshots: Sequence[int] = (),
@@ -244,11 +246,15 @@ def run_scene(
     ``seed_peak``: a measured peak at contact first_perturbed - 1 to seed map and law with
     (converted by Eq. 32), instead of the DNS peak or v0 through kappa_n. ``snapshots``: contacts at
     whose peak time the DNS keeps the strains delta_j, j = k-12..k+4 (result["dns"]["snapshots"]).
+    ``dns_window``: "scene" (default: the scene's [dns] mode, the moving window unless it says
+    "full"), "auto" (the moving window), an int (its width in beads) or None (the full chain).
     """
     if not isinstance(progress, bool):
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
     if dns_window is not None and (isinstance(dns_window, bool) or not isinstance(dns_window, (int, str))):
-        raise TypeError(f"dns_window must be None, 'auto' or a number of beads, got {type(dns_window).__name__}")
+        raise TypeError(f"dns_window must be 'scene', 'auto', None or a number of beads, got {type(dns_window).__name__}")
+    if isinstance(dns_window, str) and dns_window not in ("scene", "auto"):
+        raise ValueError(f"dns_window must be 'scene', 'auto', None or a number of beads, got {dns_window!r}")
     if reuse_dns is not None and not (isinstance(reuse_dns, dict) and isinstance(reuse_dns.get("peaks"), dict)):
         raise TypeError("reuse_dns must be the result (a dict) of an earlier run_scene of the same scene with the DNS")
     state = start_run(scene, methods, profile, variant, seed_peak, snapshots)

@@ -113,3 +113,33 @@ def test_reusing_a_dns_run_gives_the_same_errors_as_running_it():
     again = run_scene(scene, methods=["map", "longwave"], reuse_dns=ref)
     assert again["seed"] == full["seed"]
     assert again["errors"] == full["errors"]
+
+
+def test_run_uses_the_moving_window_unless_the_scene_asks_for_the_full_chain():
+    """Issue 19 item 4: a run's DNS is windowed by default ([dns] mode = "window"); mode "full"
+    integrates every bead; both give the same peaks to the window's accuracy rule (1e-8) plus the
+    integrator's tolerance."""
+    import numpy as np
+
+    from pulsemap.solvers.data.overrides import with_sets
+
+    scene = with_sets(load_scene("fig8-eps0.1"), ["output.contacts=[16, 60]"])
+    win = run_scene(scene, methods=["dns"])
+    full = run_scene(with_sets(scene, ["dns.mode=full"]), methods=["dns"])
+    assert win["dns"]["mode"].startswith("window") and win["dns"]["window_behind"] >= 2
+    assert full["dns"]["mode"] == "full" and "window_behind" not in full["dns"]
+    assert win["dns"]["window_beads"] < full["dns"]["window_beads"]
+    a = np.array(win["peaks"]["dns"], float)
+    b = np.array(full["peaks"]["dns"], float)
+    assert np.max(np.abs(a / b - 1)) < 1e-7
+    assert run_scene(scene, methods=["dns"], dns_window=None)["dns"]["mode"] == "full"
+
+
+def test_a_misspelt_dns_mode_is_refused_with_the_choices():
+    from pulsemap.solvers.data.overrides import with_sets
+    from pulsemap.solvers.data.scene import SceneError
+
+    with pytest.raises(SceneError, match="mode 'wind'.*window, full"):
+        with_sets(load_scene("fig8-eps0.1"), ["dns.mode=wind"])
+    with pytest.raises(ValueError, match="dns_window"):
+        run_scene(load_scene("fig8-eps0.1"), methods=["dns"], dns_window="everything")
