@@ -115,9 +115,11 @@ def _at_bead(R: sympy.Expr, offset: int, site_dependent: Iterable[str]) -> sympy
     return R.xreplace(sub) if sub else R
 
 
-def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str, error: type[ValueError] = ExpansionError) -> None:
+def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str, error: type[ValueError] = ExpansionError,
+                             instead: str = "") -> None:
     """R must be a polynomial in u, v (Eq. 10) that vanishes at rest; else ``error`` saying what
-    ``needs`` the polynomial and which ``integrals`` a constant force makes diverge."""
+    ``needs`` the polynomial, what works ``instead`` for a smooth non-polynomial R (if anything)
+    and which ``integrals`` a constant force makes diverge."""
     u, v = symbol("u"), symbol("v")
     if not is_polynomial_in_state(R):
         bad = [a for a in sympy.Add.make_args(sympy.expand(R)) if not is_polynomial_in_state(a)]
@@ -129,7 +131,8 @@ def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str, error: t
             )
         raise error(
             f"R = {R} is not a polynomial in u, v (term {bad[0] if bad else R}): {needs}; "
-            "Taylor-expand it (e.g. sin(u) -> u - u**3/6)"
+            + (f"{instead}; for a closed form, " if instead else "")
+            + "Taylor-expand it (e.g. sin(u) -> u - u**3/6)"
         )
     at_rest = sympy.simplify(R.xreplace({u: 0, v: 0}))
     if at_rest != 0:
