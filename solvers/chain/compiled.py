@@ -2,8 +2,9 @@
 
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')       (paper Eq. 1)
 
-Dormand-Prince 5(4) with PI step control and dense output (solvers/chain/compiled_kernel.py), the same
-leading-edge peaks (root of delta' on the dense output) and the same stop rules and messages as
+Dormand-Prince 5(4) with PI step control and dense output (solvers/chain/compiled_kernel.py), or for a
+stiff force (method 'auto' chose an implicit method) Rodas3 with the exact banded Jacobian
+(solvers/chain/compiled_stiff.py); the same leading-edge peaks (root of delta' on the dense output) and the same stop rules and messages as
 the scipy engines (solvers/peaks.PeakTracker), and the same DNSResult.
 
 Window (``rule``, a solvers.window.WindowRule): exactly ``rule.behind`` beads are kept behind
@@ -24,11 +25,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult
+from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, STIFFNESS_RATIO, DNSResult
 from pulsemap.solvers.chain.peaks import PeakTracker, first_threshold, primary_pulse_lost, contact_rate, velocity_scale
 
 Array = np.ndarray
 METHOD = "RK45"  # Dormand-Prince 5(4), scipy's name for it
+STIFF_METHOD = "Rodas3"  # compiled_stiff.METHOD (that module imports numba: named here for dns.py)
 ENERGY_EVERY = 4  # blow-up guard and energy drift every this many steps (as solvers/window.py)
 DELAY_FACTOR = 2.0  # peaks.primary_pulse_lost's default
 ROOM = 96  # initial buffer beyond ``behind`` (grown on demand)
@@ -85,14 +87,12 @@ def table_from_module(module, index: Array, eps: Array, params: tuple) -> Monomi
 
 
 def unavailable(force, method: str, chosen: str, snapshots: bool = False) -> str:
-    """Why the compiled engine cannot run this case ("" when it can): the scipy engine then runs."""
+    """Why the compiled engine cannot run this case ("" when it can): the scipy engine then runs.
+    A stiff force (method 'auto' chose an implicit ``chosen``) runs the Rosenbrock kernel (``stiff_reason``)."""
     if snapshots:
         return "strain snapshots are recorded by the scipy engine only"
     if method not in ("auto", METHOD):
         return f"method {method} has no compiled kernel (compiled: RK45, Dormand-Prince 5(4))"
-    if chosen not in ("RK45", "DOP853"):
-        return (f"stiff: the force's stiffness hint {force.stiffness_hint:g} exceeds 30 x the contact rate, "
-                f"implicit {chosen} on the scipy engine")
     if force is None:
         return ""
     table = getattr(force, "monomials", None)
@@ -103,9 +103,15 @@ def unavailable(force, method: str, chosen: str, snapshots: bool = False) -> str
     return ""
 
 
-def _reason(code: int, track: PeakTracker, fs: Array, st: Array, t_max: float, max_steps: int) -> str:
+def stiff_reason(force, velocity: float, exponent: float) -> str:
+    """Why the Rosenbrock kernel (compiled_stiff.py) runs: the stiffness hint against the contact rate."""
+    return (f"compiled Rosenbrock ({STIFF_METHOD}): stiffness hint {force.stiffness_hint:.4g} > {STIFFNESS_RATIO:g} x "
+            f"contact rate {contact_rate(velocity, exponent):.4g}")
+
+
+def _reason(code: int, track: PeakTracker, fs: Array, st: Array, t_max: float, max_steps: int, method: str) -> str:
     """The stop message PeakTracker gives for the kernel's code (same wording as the scipy engines)."""
-    from pulsemap.solvers.chain import compiled_kernel as K
+    from pulsemap.solvers.chain import compiled_track as K
     t = float(fs[K.T])
     if code == K.DIED:
         k = int(st[K.DIED_AT])
@@ -118,7 +124,7 @@ def _reason(code: int, track: PeakTracker, fs: Array, st: Array, t_max: float, m
         return track.reason
     if code == K.FAILED:
         return (f"integrator failed at t={t:.6g}: Required step size is less than spacing between numbers. "
-                "(compiled RK45)")
+                f"(compiled {method})")
     track.steps = int(st[K.STEPS]) - 1
     return track.check_progress(t, t_max, max_steps)
 
@@ -149,13 +155,15 @@ class _Run:
     total_e: Array
     y: Array
     f: Array
+    method: str = METHOD  # the kernel: RK45 (compiled_kernel.py) or Rodas3 (compiled_stiff.py)
 
 
 def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, int], table: MonomialTable | None,
             *, rule, rtol: float, atol: float, peak_fraction: float, death_fraction: float, t_max: float,
-            stall_factor: float, overtake_factor: float, max_steps: int) -> _Run:
-    """The kernel's arrays at t = 0: all beads at rest, bead 1 with velocity v0 (Eq. 1)."""
-    from pulsemap.solvers.chain import compiled_kernel as K  # numba: only when the engine runs
+            stall_factor: float, overtake_factor: float, max_steps: int, method: str = METHOD) -> _Run:
+    """The kernel's arrays at t = 0: all beads at rest, bead 1 with velocity v0 (Eq. 1); ``method``:
+    the kernel (RK45 or compiled_stiff.METHOD)."""
+    from pulsemap.solvers.chain import compiled_track as K  # numba: only when the engine runs
 
     first, last = int(contacts[0]), int(contacts[1])
     table = MonomialTable.zero() if table is None else table
@@ -183,13 +191,17 @@ def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, i
     y[1] = velocity
     return _Run(beads, exponent, velocity, first, last, rule, float(rtol), float(atol), t_max, max_steps, table,
                 cap, cf, ci, st, fs, np.full(last, np.nan), np.full(last, np.nan),
-                np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f)
+                np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f, method)
 
 
 def drive(run: _Run, code: int | None = None) -> int:
     """Run the kernel until a stop rule fires (``code``: the kernel's last answer, if it ran already),
     growing the window's buffer whenever it asks for room."""
-    from pulsemap.solvers.chain import compiled_kernel as K
+    from pulsemap.solvers.chain import compiled_track as K
+    if run.method == METHOD:
+        from pulsemap.solvers.chain.compiled_kernel import run as kernel
+    else:
+        from pulsemap.solvers.chain.compiled_stiff import run as kernel
 
     while True:
         if code is not None and code != K.NEED_ROOM:
@@ -201,24 +213,25 @@ def drive(run: _Run, code: int | None = None) -> int:
             y, f = np.zeros(2 * run.cap), np.zeros(2 * run.cap)
             y[: 2 * w], f[: 2 * w] = run.y[: 2 * w], run.f[: 2 * w]
             run.y, run.f = y, f
-        code = int(K.run(run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e,
-                         run.total_e, run.table.exponents, run.table.coefficients))
+        code = int(kernel(run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e,
+                          run.total_e, run.table.exponents, run.table.coefficients))
 
 
 def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSResult:
     """The DNSResult of a finished run, with PeakTracker's stop message for the kernel's code."""
-    from pulsemap.solvers.chain import compiled_kernel as K
+    from pulsemap.solvers.chain import compiled_track as K
 
     cf, st, fs = run.cf, run.st, run.fs
     track = PeakTracker(run.first, run.last, float(cf[K.PEAK_FRAC]), float(cf[K.DEATH_FRAC]),
                         float(cf[K.OVERTAKE]), float(cf[K.STALL_FAC]), run.peaks, run.times,
                         float(fs[K.THRESH]), float(fs[K.STALL]), next_contact=int(st[K.NEXT]),
                         last_peak_time=float(fs[K.LAST_PEAK_T]))
-    reason = _reason(code, track, fs, st, run.t_max, run.max_steps)
+    reason = _reason(code, track, fs, st, run.t_max, run.max_steps, run.method)
     contacts_out, peaks_out, times_out, alive = track.outcome()
     return DNSResult(
         contacts=contacts_out, peaks=peaks_out, peak_times=times_out, alive=alive, stop_reason=reason,
-        method=METHOD, rtol=run.rtol, atol=run.atol, beads=int(run.beads), nfev=int(st[K.NFEV]), njev=0,
+        method=run.method, rtol=run.rtol, atol=run.atol, beads=int(run.beads), nfev=int(st[K.NFEV]),
+        njev=int(st[K.NJEV]),
         wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.exponents.shape[0] == 0 else None,
         exponent=float(run.exponent), velocity=float(run.velocity), t_end=float(fs[K.T]),
         mode="full" if run.rule is None else "window/compiled", window_beads=int(st[K.WIDEST]),
@@ -231,7 +244,7 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
 def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
                       table: MonomialTable | None, *, engine_reason: str = "", **settings) -> DNSResult:
     """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it; ``settings``:
-    rule, rtol, atol, peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps)."""
+    rule, rtol, atol, peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps, method)."""
     run = prepare(beads, exponent, velocity, contacts, table, **settings)
     wall0 = _time.perf_counter()
     code = drive(run)

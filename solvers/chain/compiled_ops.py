@@ -3,8 +3,8 @@
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + sum_m c_m[i] x_i^(a_m) v_i^(b_m)     (Eq. 1)
 
 The right-hand side on a window with a coasting left bead and a wall, the window's energies, the
-Dormand-Prince 5(4) tableau and its dense output, the root of delta' on it, and the pulse-loss
-rule of peaks.primary_pulse_lost.
+Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-loss rule of
+peaks.primary_pulse_lost.
 """
 
 from __future__ import annotations
@@ -106,46 +106,24 @@ def segment_energy(y, a, b, n):
 
 
 @njit(cache=True)
-def _dense(theta, i, y0, y1, h, k1, k3, k4, k5, k6, k7):
-    """Component i of the DOPRI5 dense output at t_old + theta h (Hairer's CONTD5)."""
-    ydiff = y1[i] - y0[i]
-    bspl = h * k1[i] - ydiff
-    r4 = ydiff - h * k7[i] - bspl
-    r5 = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i])
-    return y0[i] + theta * (ydiff + (1.0 - theta) * (bspl + theta * (r4 + (1.0 - theta) * r5)))
+def hermite_dense(rc, y0, y1, f0, f1, h, w2):
+    """Dense-output coefficients (compiled_track.dense_value) of the cubic Hermite interpolant of
+    (y0, f0) and (y1, f1): rc3 = 0, order 3 (the Rosenbrock kernel's)."""
+    for i in range(w2):
+        ydiff = y1[i] - y0[i]
+        bspl = h * f0[i] - ydiff
+        rc[0, i] = ydiff
+        rc[1, i] = bspl
+        rc[2, i] = ydiff - h * f1[i] - bspl
+        rc[3, i] = 0.0
 
 
 @njit(cache=True)
-def _locate(p, q, y0, y1, h, k1, k3, k4, k5, k6, k7):
-    """theta of the root of delta' = v_p - v_q in (0, 1] on the dense output (Illinois method)."""
-    a, b = 0.0, 1.0
-    fa = y0[2 * p + 1] - y0[2 * q + 1]
-    fb = y1[2 * p + 1] - y1[2 * q + 1]
-    if fb == 0.0:
-        return 1.0
-    side = 0
-    c = 1.0
-    for _ in range(200):
-        c = (a * fb - b * fa) / (fb - fa)
-        if not (a < c < b):
-            c = 0.5 * (a + b)
-        fc = (_dense(c, 2 * p + 1, y0, y1, h, k1, k3, k4, k5, k6, k7)
-              - _dense(c, 2 * q + 1, y0, y1, h, k1, k3, k4, k5, k6, k7))
-        if fc == 0.0:
-            return c
-        if fc > 0.0:
-            a, fa = c, fc
-            if side == -1:
-                fb *= 0.5
-            side = -1
-        else:
-            b, fb = c, fc
-            if side == 1:
-                fa *= 0.5
-            side = 1
-        if (b - a) * abs(h) < 1e-15 + 4.0 * 2.220446049250313e-16 * abs(h) * c:
-            break
-    return c
+def dopri_dense(rc, y0, y1, h, k1, k3, k4, k5, k6, k7, w2):
+    """The DOPRI5 dense output's coefficients (Hairer's CONTD5: the Hermite cubic plus rc3, order 4)."""
+    hermite_dense(rc, y0, y1, k1, k7, h, w2)
+    for i in range(w2):
+        rc[3, i] = h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i])
 
 
 @njit(cache=True)

@@ -183,7 +183,8 @@ def simulate(
     k - snapshot_span[0] .. k + snapshot_span[1] are kept.
 
     ``engine="compiled"`` (default) runs chain/compiled.py (numba Dormand-Prince 5(4), method
-    'auto' or 'RK45', the force as a monomial table) where it applies, else the scipy engine;
+    'auto' or 'RK45', the force as a monomial table; Rodas3 with the exact Jacobian when 'auto'
+    finds the force stiff) where it applies, else the scipy engine;
     ``engine="scipy"`` always the scipy engine. The result's ``engine_reason`` says which and why.
     """
     if force is not None and not isinstance(force, OnSiteForce):
@@ -222,12 +223,15 @@ def simulate(
         why_scipy = ("a launched solitary wave starts on the scipy engine only" if launch is not None
                      else compiled.unavailable(force, method, chosen, bool(snapshots)))
         if not why_scipy:
+            stiff = chosen in IMPLICIT_METHODS
             return compiled.simulate_compiled(
                 beads, exponent, velocity, (first, last), None if force is None else force.monomials,
                 rule=None if window is None else _window.resolve_rule(window, window_accuracy), rtol=rtol,
                 atol=atol, peak_fraction=peak_fraction, death_fraction=death_fraction, t_max=t_limit,
                 stall_factor=stall_factor, overtake_factor=overtake_factor,
-                max_steps=default_max_steps(last) if max_steps is None else int(max_steps))
+                max_steps=default_max_steps(last) if max_steps is None else int(max_steps),
+                method=compiled.STIFF_METHOD if stiff else compiled.METHOD,
+                engine_reason=compiled.stiff_reason(force, velocity, exponent) if stiff else "")
     if window is not None:
         return replace(_window.simulate_windowed(
             beads, exponent, velocity, (first, last), force, rule=_window.resolve_rule(window, window_accuracy),

@@ -134,9 +134,12 @@ def test_engine_selection_and_reasons():
         simulate(beads, 1.5, 1.0, short, force, engine="numba")
 
 
-def test_stiff_scene_goes_to_the_implicit_scipy_engine():
+def test_stiff_scene_goes_to_the_compiled_rosenbrock_kernel():
+    """method 'auto' on a stiff force: Rodas3 on the compiled engine, the scipy engine's LSODA on request
+    (tests/chain/test_compiled_stiff.py compares their peaks)."""
     res = scene_run("damp-1000", window="auto")
-    assert res.engine == "scipy" and res.method == "LSODA" and "stiff" in res.engine_reason
+    assert res.engine == "compiled" and res.method == "Rodas3" and "stiffness hint" in res.engine_reason
+    assert scene_run("damp-1000", window="auto", engine="scipy").method == "LSODA"
 
 
 def test_scene_key_and_run_record_the_engine():

@@ -1,0 +1,204 @@
+"""numba kernel for stiff on-site forces: moving-window Rodas3 (Rosenbrock) integration of paper Eq. 1.
+
+    x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i'),
+    F_i(x, v) = sum_m c_m[i] x^(a_m) v^(b_m)                               (paper Eq. 1)
+
+Rodas3 (Sandu et al. 1997, Atmos. Environ. 31: 3459; Hairer & Wanner's Rosenbrock form, 4 stages,
+3 new right-hand sides, order 3, embedded order 2, stiffly accurate and L-stable):
+
+    (1/(h gamma) - J) K_i = f(t + alpha_i h, y + sum_j a_ij K_j) + sum_j c_ij K_j / h + gamma_i h df/dt,
+    y1 = y + sum_i m_i K_i,  error estimate K_4.
+
+J is the exact Jacobian of Eq. 1 at the step's start: tridiagonal in the beads with 2x2 blocks
+(contact stiffness n delta^(n-1) couples neighbours; dF/dx, dF/dv from the monomial table sit on
+the diagonal), so eliminating K_x leaves a tridiagonal system in K_v: one factorisation and four
+O(window) solves per step. df/dt is the coasting left bead's push. Dense output: the cubic
+Hermite interpolant of (y, f) at the step's ends (order 3, compiled_track.hermite_dense; f at the
+new point is the next step's first stage). Window, peaks, stop rules: compiled_track.py, as the
+explicit kernel (compiled_kernel.py), with the same state layout.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from pulsemap.solvers.chain.compiled_kernel import start
+from pulsemap.solvers.chain.compiled_ops import _pow, hermite_dense, rhs
+from pulsemap.solvers.chain.compiled_track import (
+    ATOL, BEADS, CAPACITY, EXP, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, NJEV, REJECTED, RTOL, T,
+    accept, next_step, peak_in_step, shift_window, track_step)
+
+METHOD = "Rodas3"  # compiled.STIFF_METHOD
+ORDER = 3  # of the step (the embedded one: 2); the dense output is a cubic Hermite (order 3)
+GAMMA = 0.5
+C21, C31, C32, C41, C42, C43 = 4.0, 1.0, -1.0, 1.0, -1.0, -8.0 / 3.0
+GAMMA1, GAMMA2 = 0.5, 1.5  # gamma_i = sum_j gamma_ij (stages 3, 4: 0)
+SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 6.0
+
+
+@njit(cache=True)
+def jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, band):
+    """Eq. 1's Jacobian on the window: band[0, j] the stiffness n delta^(n-1) of the contact left of
+    local bead j (j = 0: the coasting bead; band[0, w]: the wall), band[1], band[2] dF/dx, dF/dv.
+    Returns df/dt of v_0 (the coasting bead's push)."""
+    s = band[0]
+    s[0] = 0.0
+    ft = 0.0
+    if has_left:
+        d = lx + lv * (t - lt) - y[0]
+        if d > 0.0:
+            s[0] = n * _pow(d, n - 1.0)
+            ft = s[0] * lv
+    for j in range(w - 1):
+        d = y[2 * j] - y[2 * j + 2]
+        s[j + 1] = n * _pow(d, n - 1.0) if d > 0.0 else 0.0
+    d = y[2 * w - 2] if wall else 0.0  # the wall ahead
+    s[w] = n * _pow(d, n - 1.0) if d > 0.0 else 0.0
+    width = coef.shape[1]
+    for j in range(w):
+        x = y[2 * j]
+        v = y[2 * j + 1]
+        col = min(lo + j, width - 1)
+        gx, gv = 0.0, 0.0
+        for m in range(exps.shape[0]):
+            c = coef[m, col]
+            a, b = exps[m, 0], exps[m, 1]
+            if c != 0.0:
+                if a > 0:
+                    gx += c * a * x ** (a - 1) * v**b
+                if b > 0:
+                    gv += c * b * x**a * v ** (b - 1)
+        band[1, j] = gx
+        band[2, j] = gv
+    return ft
+
+
+@njit(cache=True)
+def factor(hg, w, band):
+    """LU (Thomas) of the tridiagonal system in K_v left by eliminating K_x = hg (r_x + K_v) from
+    (1/hg - J) K = r: band[3] the inverse pivots, band[4] the normalised super-diagonal.
+    False when a pivot is not finite or zero (the step is then rejected)."""
+    s, dfx, dfv, dinv, cp = band[0], band[1], band[2], band[3], band[4]
+    prev = 0.0
+    for j in range(w):
+        b = 1.0 / hg - dfv[j] + hg * (s[j] + s[j + 1] - dfx[j])
+        if j > 0:
+            b -= -hg * s[j] * prev
+        if not (np.isfinite(b) and b != 0.0):
+            return False
+        dinv[j] = 1.0 / b
+        prev = -hg * s[j + 1] * dinv[j] if j < w - 1 else 0.0
+        cp[j] = prev
+    return True
+
+
+@njit(cache=True)
+def solve(r, k, hg, w, band):
+    """K from (1/hg - J) K = r with factor's LU (interleaved r, K; O(w))."""
+    s, dfx, dinv, cp = band[0], band[1], band[3], band[4]
+    prev = 0.0
+    for j in range(w):
+        rhs_v = r[2 * j + 1] + hg * (dfx[j] - s[j] - s[j + 1]) * r[2 * j]
+        if j > 0:
+            rhs_v += hg * s[j] * r[2 * j - 2]
+        if j < w - 1:
+            rhs_v += hg * s[j + 1] * r[2 * j + 2]
+        prev = (rhs_v + hg * s[j] * prev) * dinv[j] if j > 0 else rhs_v * dinv[j]
+        k[2 * j + 1] = prev
+    for j in range(w - 2, -1, -1):
+        k[2 * j + 1] -= cp[j] * k[2 * j + 3]
+    for j in range(w):
+        k[2 * j] = hg * (r[2 * j] + k[2 * j + 1])
+
+
+@njit(cache=True)
+def rodas3_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, work, band):
+    """One Rodas3 step from (t, y) with f = f(t, y): yn and the error estimate err (= K_4).
+    False when the linear system is singular. ``work``: (6, >= 2w) scratch."""
+    w2 = 2 * w
+    k1, k2, k3, r, ys, fy = work[0], work[1], work[2], work[3], work[4], work[5]
+    hg = GAMMA * h
+    ft = jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, band)
+    if not factor(hg, w, band):
+        return False
+    for i in range(w2):
+        r[i] = f[i]
+    r[1] += GAMMA1 * h * ft
+    solve(r, k1, hg, w, band)
+    for i in range(w2):
+        r[i] = f[i] + C21 / h * k1[i]
+    r[1] += GAMMA2 * h * ft
+    solve(r, k2, hg, w, band)
+    for i in range(w2):
+        ys[i] = y[i] + 2.0 * k1[i]
+    rhs(t + h, ys, fy, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+    for i in range(w2):
+        r[i] = fy[i] + (C31 * k1[i] + C32 * k2[i]) / h
+    solve(r, k3, hg, w, band)
+    for i in range(w2):
+        ys[i] = y[i] + 2.0 * k1[i] + k3[i]
+    rhs(t + h, ys, fy, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+    for i in range(w2):
+        r[i] = fy[i] + (C41 * k1[i] + C42 * k2[i] + C43 * k3[i]) / h
+    solve(r, err, hg, w, band)
+    for i in range(w2):
+        yn[i] = ys[i] + err[i]
+    return True
+
+
+@njit(cache=True)
+def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
+    """compiled_kernel.run with Rodas3 steps (same arguments, state and stop codes; st[NJEV] counts
+    the Jacobians, one per attempted step). Step control: h_new = h min(6, max(0.2, 0.9 err^(-1/3))),
+    no growth right after a rejection."""
+    n = cf[EXP]
+    rtol, atol = cf[RTOL], cf[ATOL]
+    beads = ci[BEADS]
+    cap = ci[CAPACITY]
+    work = np.empty((10, 2 * cap))
+    band = np.empty((5, cap + 1))
+    rc = np.empty((4, 2 * cap))
+    yn, fn, err_v, pk = work[6], work[7], work[8], work[9]
+    start(fs[T], y, f, st, fs, cf, ci, exps, coef, work)
+    t, h = fs[T], fs[H]
+    while True:
+        h, code = next_step(t, h, st, fs, cf, ci)
+        if code != 0:
+            return code
+        st[NJEV] += 1
+        lo, w, wall, has_left = st[LO], st[HI] - st[LO], st[HI] < beads, st[HAS_LEFT] == 1
+        w2 = 2 * w
+        lx, lv, lt = fs[LEFT_X], fs[LEFT_V], fs[LEFT_T]
+        err = np.inf
+        if rodas3_step(t, h, y, f, yn, err_v, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, work, band):
+            st[NFEV] += 2
+            err = 0.0
+            for i in range(w2):
+                e = err_v[i] / (atol + rtol * max(abs(y[i]), abs(yn[i])))
+                err += e * e
+            err = np.sqrt(err / w2)
+        if not np.isfinite(err):
+            fac = FAC_MIN
+        else:
+            fac = FAC_MAX if err == 0.0 else min(FAC_MAX, max(FAC_MIN, SAFE * err ** (-1.0 / ORDER)))
+        if not err <= 1.0:  # rejected (NaN and a singular system included)
+            h = h * min(fac, SAFE)
+            st[REJECTED] = 1
+            continue
+        if st[REJECTED] == 1:
+            fac = min(fac, 1.0)
+        st[REJECTED] = 0
+        h_new = h * fac
+        t_old = t
+        t = t + h
+        rhs(t, yn, fn, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        st[NFEV] += 1
+        if peak_in_step(y, yn, st, ci):
+            hermite_dense(rc, y, yn, f, fn, h, w2)
+        code = track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e)
+        accept(t, h_new, y, f, yn, fn, w2, fs)  # fn = f(t, yn): the next step's first stage
+        h = h_new
+        if code != 0:
+            return code
+        w = shift_window(t, y, f, w, st, fs, cf, ci, exps, coef)

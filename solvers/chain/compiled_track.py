@@ -1,0 +1,232 @@
+"""numba bookkeeping after an accepted step of the compiled DNS of paper Eq. 1, shared by every kernel.
+
+    x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')             (paper Eq. 1)
+
+The kernels (compiled_kernel.py: Dormand-Prince 5(4); compiled_stiff.py: Rodas3) differ only in how
+a step is taken and in their dense output; what follows a step is here: the blow-up guard, the
+leading-edge peaks (root of delta' = v_k - v_{k+1} on the dense output, PeakTracker.record
+semantics), the stop rules (PeakTracker.check_progress order) and the moving window's shifts.
+
+Dense output (Hairer's CONTD5 form), per component i at t_old + theta h:
+    y(theta) = y0 + theta (rc0 + (1 - theta) (rc1 + theta (rc2 + (1 - theta) rc3)))
+DOPRI5 fills rc0..rc3 from its stages (order 4); rc3 = 0 is the cubic Hermite interpolant of
+(y0, f0, y1, f1) (order 3), which the Rosenbrock kernel uses (compiled_ops.dopri_dense, hermite_dense).
+
+Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from pulsemap.solvers.chain.compiled_ops import PULSE_HALF_WIDTH, _pow, pulse_lost, rhs, segment_energy, window_energy
+
+# --- return codes of a kernel's run (solvers/chain/compiled.py turns them into PeakTracker's messages)
+LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM = 1, 2, 3, 4, 5, 6, 7, 8
+
+# --- float state fs[...] (resumable between calls)
+T, H, FACOLD, LEFT_X, LEFT_V, LEFT_T, E0, E_GONE, DRIFT, THRESH, LAST_PEAK_T, STALL, E_LAST = range(13)
+N_FS = 13
+# --- int state st[...]
+LO, HI, NEXT, STEPS, NFEV, HAS_LEFT, REJECTED, DIED_AT, WIDEST, SHIFTS, STARTED, LOST, NJEV = range(13)
+N_ST = 13  # NJEV: Jacobians (the stiff kernel's)
+# --- float config cf[...]
+EXP, RTOL, ATOL, T_MAXC, SCALE_X, SCALE_V, AHEAD_THR, PEAK_FRAC, DEATH_FRAC, OVERTAKE, STALL_FAC, E_LIMIT, \
+    DELAY_FAC = range(13)
+N_CF = 13
+# --- int config ci[...]
+BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY = range(8)
+N_CI = 8
+
+
+@njit(cache=True)
+def dense_value(theta, i, y0, rc):
+    """Component i of the dense output at t_old + theta h (module docstring)."""
+    return y0[i] + theta * (rc[0, i] + (1.0 - theta) * (rc[1, i] + theta * (rc[2, i] + (1.0 - theta) * rc[3, i])))
+
+
+@njit(cache=True)
+def locate(p, q, y0, y1, rc, h):
+    """theta of the root of delta' = v_p - v_q in (0, 1] on the dense output (Illinois method)."""
+    a, b = 0.0, 1.0
+    fa = y0[2 * p + 1] - y0[2 * q + 1]
+    fb = y1[2 * p + 1] - y1[2 * q + 1]
+    if fb == 0.0:
+        return 1.0
+    side = 0
+    c = 1.0
+    for _ in range(200):
+        c = (a * fb - b * fa) / (fb - fa)
+        if not (a < c < b):
+            c = 0.5 * (a + b)
+        fc = dense_value(c, 2 * p + 1, y0, rc) - dense_value(c, 2 * q + 1, y0, rc)
+        if fc == 0.0:
+            return c
+        if fc > 0.0:
+            a, fa = c, fc
+            if side == -1:
+                fb *= 0.5
+            side = -1
+        else:
+            b, fb = c, fc
+            if side == 1:
+                fa *= 0.5
+            side = 1
+        if (b - a) * abs(h) < 1e-15 + 4.0 * 2.220446049250313e-16 * abs(h) * c:
+            break
+    return c
+
+
+@njit(cache=True, inline="always")
+def next_step(t, h, st, fs, cf, ci):
+    """The next step's size (h clipped to t_max) and a stop code: NEED_ROOM when no bead can be added
+    ahead (the caller grows the buffer), FAILED when h underflows; t and h are saved for a resume."""
+    if st[HI] - st[LO] >= ci[CAPACITY] and st[HI] < ci[BEADS]:
+        fs[T], fs[H] = t, h
+        return h, NEED_ROOM
+    if h > cf[T_MAXC] - t:
+        h = cf[T_MAXC] - t
+    if abs(h) <= 10.0 * 2.220446049250313e-16 * abs(t) or not np.isfinite(h):
+        fs[T], fs[H] = t, h
+        return h, FAILED
+    return h, 0
+
+
+@njit(cache=True, inline="always")
+def peak_in_step(y, yn, st, ci):
+    """True when the next contact's delta' turns from + to - over the step (the dense output is needed)."""
+    k = st[NEXT]
+    if k > min(ci[LASTC], st[HI] - 1):
+        return False
+    p = k - 1 - st[LO]
+    return y[2 * p + 1] - y[2 * p + 3] > 0.0 and yn[2 * p + 1] - yn[2 * p + 3] <= 0.0
+
+
+@njit(cache=True, inline="always")
+def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e):
+    """After an accepted step t_old -> t (state y -> yn, dense output rc): the blow-up guard (energy
+    every ci[ENERGY_EVERY] steps), the leading-edge peaks completed in the step, at each requested
+    contact's peak the energies of front.FrontRecorder (``pulse_e``: beads k-8..k+8, ``total_e``:
+    the window plus what dropped beads carried; ``pk``: scratch), then the stop rules.
+    Returns the stop code (0: go on)."""
+    n = cf[EXP]
+    lo = st[LO]
+    w2 = 2 * w
+    first, last = ci[FIRST], ci[LASTC]
+    has_left = st[HAS_LEFT] == 1
+    code = 0
+    if st[STEPS] % ci[ENERGY_EVERY] == 0 or not np.isfinite(yn[w2 - 1] + yn[0]):
+        e_now = window_energy(t, yn, w, n, has_left, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T]) + fs[E_GONE]
+        fs[E_LAST] = e_now
+        if not np.isfinite(e_now) or not e_now <= cf[E_LIMIT] * fs[E0]:
+            return BLOWUP
+        fs[DRIFT] = max(fs[DRIFT], abs(e_now - fs[E0]) / fs[E0])
+    k = st[NEXT]
+    top = min(last, st[HI] - 1)
+    t_floor = t_old
+    while k <= top:
+        p = k - 1 - lo
+        q = k - lo
+        if not (y[2 * p + 1] - y[2 * q + 1] > 0.0 and yn[2 * p + 1] - yn[2 * q + 1] <= 0.0):
+            break
+        theta = locate(p, q, y, yn, rc, h)
+        t_pk = t_old + theta * h
+        value = dense_value(theta, 2 * p, y, rc) - dense_value(theta, 2 * q, y, rc)
+        if not value > fs[THRESH] or t_pk < t_floor:
+            break
+        peaks[k - 1] = value
+        times[k - 1] = t_pk
+        if k >= first:
+            for i in range(w2):
+                pk[i] = dense_value(theta, i, y, rc)
+            kl = k - 1 - lo
+            pulse_e[k - first] = segment_energy(pk, max(0, kl - PULSE_HALF_WIDTH), min(w, kl + PULSE_HALF_WIDTH + 1), n)
+            total_e[k - first] = segment_energy(pk, 0, w, n) + fs[E_GONE]
+        fs[STALL] = cf[STALL_FAC] * (t_pk - fs[LAST_PEAK_T])
+        fs[LAST_PEAK_T] = t_pk
+        fs[THRESH] = cf[PEAK_FRAC] * value
+        st[NEXT] = k + 1
+        why = pulse_lost(peaks, times, k, first, cf[DEATH_FRAC], cf[OVERTAKE], cf[DELAY_FAC])
+        if why != 0:
+            st[DIED_AT] = k
+            st[LOST] = why
+            break
+        t_floor = t_pk
+        k += 1
+    st[STEPS] += 1
+    if st[DIED_AT] > 0:
+        code = DIED
+    elif st[NEXT] > last:
+        code = LAST_PEAKED
+    elif t - fs[LAST_PEAK_T] > fs[STALL]:
+        code = STALLED
+    elif t >= cf[T_MAXC]:
+        code = T_MAX
+    elif st[STEPS] >= ci[MAX_STEPS]:
+        code = BUDGET
+    return code
+
+
+@njit(cache=True, inline="always")
+def drop_behind(t, y, f, w, st, fs, cf, ci):
+    """Drop the beads more than ``behind`` behind the last peaked contact (the last one coasts, or the
+    chain gets a free end); the energy they carry goes to fs[E_GONE]. Returns (w, the caller must
+    re-evaluate f: the first bead lost its left contact)."""
+    n = cf[EXP]
+    lo = st[LO]
+    drop = st[NEXT] - 1 - ci[BEHIND] - lo
+    if drop <= 0:
+        return w, False
+    e_before = window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T])
+    j = drop - 1  # local index of the last dropped bead
+    if ci[COAST] == 1:
+        fs[LEFT_X], fs[LEFT_V], fs[LEFT_T] = y[2 * j], y[2 * j + 1], t
+        st[HAS_LEFT] = 1
+    else:
+        st[HAS_LEFT] = 0
+    for i in range(2 * (w - drop)):
+        y[i] = y[i + 2 * drop]
+        f[i] = f[i + 2 * drop]  # coast: the new left contact pushes exactly as before
+    st[LO] = lo + drop
+    w -= drop
+    fs[E_GONE] += e_before - window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T])
+    st[SHIFTS] += 1
+    return w, ci[COAST] == 0
+
+
+@njit(cache=True, inline="always")
+def add_ahead(y, f, w, st, cf, ci):
+    """A bead at rest ahead when the last one has moved by more than the threshold (relative to
+    v0^(2/(n+1)) and v0): the wall it replaces pushed exactly as it does (F(0, 0) = 0 is checked by
+    the caller). Returns w; records the widest window."""
+    if st[HI] < ci[BEADS] and (abs(y[2 * w - 2]) / cf[SCALE_X] + abs(y[2 * w - 1]) / cf[SCALE_V]) > cf[AHEAD_THR]:
+        y[2 * w] = 0.0
+        y[2 * w + 1] = 0.0
+        f[2 * w] = 0.0
+        d = y[2 * w - 2]
+        f[2 * w + 1] = _pow(d, cf[EXP]) if d > 0.0 else 0.0
+        st[HI] += 1
+        w += 1
+    if w > st[WIDEST]:
+        st[WIDEST] = w
+    return w
+
+
+@njit(cache=True, inline="always")
+def accept(t, h, y, f, yn, fn, w2, fs):
+    """The step is taken: y <- yn, f <- fn (f at the new point), t and the next h saved."""
+    for i in range(w2):
+        y[i] = yn[i]
+        f[i] = fn[i]
+    fs[T], fs[H] = t, h
+
+
+@njit(cache=True, inline="always")
+def shift_window(t, y, f, w, st, fs, cf, ci, exps, coef):
+    """drop_behind (f re-evaluated when the chain got a free end), then add_ahead: the new w."""
+    w, refresh = drop_behind(t, y, f, w, st, fs, cf, ci)
+    if refresh:  # free: the first bead lost its left contact
+        rhs(t, y, f, w, st[LO], cf[EXP], False, 0.0, 0.0, 0.0, st[HI] < ci[BEADS], exps, coef)
+        st[NFEV] += 1
+    return add_ahead(y, f, w, st, cf, ci)

@@ -1,0 +1,134 @@
+"""The compiled Rosenbrock engine (solvers/chain/compiled_stiff.py, Rodas3) for stiff forces, paper Eq. 1.
+
+Stated tolerance: on the suite's stiff scenes (stiffness hint > 30 x contact rate), at rtol 1e-9 the
+compiled engine's leading-edge peaks agree with scipy's Radau (rtol 1e-11, its own moving window)
+to STIFF_TOL relative on every live contact, with the same live contacts and the same stop rule;
+at rtol 1e-7 they are at least 10x further off (convergence in the tolerance). The step itself is
+third order (fixed steps against an independent Radau solution) and its Jacobian is Eq. 1's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from pulsemap.solvers.chain.compiled import MonomialTable
+from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.run import make_force
+from pulsemap.solvers.studies.suite import resolve
+
+STIFF_TOL = 1e-7
+RADAU = dict(engine="scipy", method="Radau", rtol=1e-11, atol=1e-13, window="auto")
+STIFF_SCENES = ["damp-100", "damp-1000", "stiff-foundation"]
+
+
+def rel(a, b) -> float:
+    return float(np.max(np.abs(np.asarray(a) / np.asarray(b) - 1.0)))
+
+
+def stiff_run(name: str, **kw):
+    """The scene's chain and force from contact 1 (the unperturbed approach is integrated by the
+    stiff method too) to 20 past the first perturbed bead: the strong on-site force kills the pulse."""
+    scene = load_scene(resolve(name))
+    beads, _ = dns_span(scene)
+    return simulate(beads, scene.exponent, scene.velocity, (1, scene.first_perturbed + 20), make_force(scene, beads),
+                    **kw)
+
+
+@pytest.mark.parametrize("name", STIFF_SCENES)
+def test_stiff_suite_scenes_agree_with_radau(name):
+    ref = stiff_run(name, **RADAU)
+    err = {}
+    for rtol in (1e-7, 1e-9):
+        fast = stiff_run(name, rtol=rtol, atol=rtol * 1e-2, window="auto")
+        assert fast.engine == "compiled" and fast.method == "Rodas3" and fast.mode == "window/compiled"
+        assert fast.engine_reason.startswith("compiled Rosenbrock (Rodas3): stiffness hint")
+        assert np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 10
+        assert fast.stop_reason.split("(")[0] == ref.stop_reason.split("(")[0]
+        assert fast.njev >= fast.steps > 0
+        err[rtol] = rel(fast.peaks[fast.alive], ref.peaks[ref.alive])
+    assert err[1e-9] < STIFF_TOL
+    assert err[1e-9] < 0.1 * err[1e-7]
+
+
+def test_scipy_engine_still_runs_the_implicit_method_on_request():
+    res = stiff_run("damp-1000", engine="scipy", window="auto", rtol=1e-6, atol=1e-8)
+    assert res.engine == "scipy" and res.method == "LSODA"
+    named = stiff_run("damp-1000", method="Radau", window="auto", rtol=1e-6, atol=1e-8)
+    assert named.engine == "scipy" and "no compiled kernel" in named.engine_reason
+
+
+# ---------------------------------------------------------------- the step on a small compressed window
+
+W, N = 6, 1.5
+LEFT = (0.7, 1.2, 0.0)  # coasting left bead: x = 0.7 + 1.2 t
+
+
+def small_window(mu: float):
+    """Six compressed beads (every contact stays closed), a coasting left bead and a wall; R = -mu v - 5 u."""
+    from pulsemap.solvers.chain.compiled_ops import rhs
+
+    table = MonomialTable.of([[0, 1], [1, 0]], [[-mu], [-5.0]])
+    y0 = np.zeros(2 * W)
+    y0[0::2] = [0.55, 0.45, 0.35, 0.25, 0.15, 0.05]
+    y0[1::2] = [1.0, 0.8, 0.5, 0.3, 0.1, 0.0]
+
+    def f(t, y):
+        out = np.empty_like(y)
+        rhs(t, y, out, W, 0, N, True, *LEFT, True, table.exponents, table.coefficients)
+        return out
+
+    return table, y0, f
+
+
+def test_jacobian_and_linear_solve_are_eq1s():
+    from pulsemap.solvers.chain import compiled_stiff as S
+
+    table, y0, f = small_window(30.0)
+    band = np.empty((5, W + 1))
+    t = 0.1
+    ft = S.jacobian(t, y0, W, 0, N, True, *LEFT, True, table.exponents, table.coefficients, band)
+    step = 1e-6
+    fd = np.column_stack([(f(t, y0 + step * e) - f(t, y0 - step * e)) / (2 * step) for e in np.eye(2 * W)])
+    s = band[0]
+    jac = np.zeros((2 * W, 2 * W))
+    for j in range(W):
+        jac[2 * j, 2 * j + 1] = 1.0
+        jac[2 * j + 1, 2 * j] = band[1, j] - s[j] - s[j + 1]
+        jac[2 * j + 1, 2 * j + 1] = band[2, j]
+        if j > 0:
+            jac[2 * j + 1, 2 * j - 2] = s[j]
+        if j < W - 1:
+            jac[2 * j + 1, 2 * j + 2] = s[j + 1]
+    assert np.max(np.abs(jac - fd)) < 1e-6
+    assert abs(ft - (f(t + step, y0) - f(t - step, y0))[1] / (2 * step)) < 1e-6
+    hg = 0.01
+    assert S.factor(hg, W, band)
+    r, k = np.random.default_rng(0).normal(size=2 * W), np.empty(2 * W)
+    S.solve(r, k, hg, W, band)
+    np.testing.assert_allclose((np.eye(2 * W) / hg - jac) @ k, r, atol=1e-12)
+
+
+@pytest.mark.parametrize("mu", [0.0, 20.0])
+def test_rodas3_step_is_third_order(mu):
+    """Fixed steps h, h/2, ... against Radau at rtol 1e-13: the error falls 2^3 per halving."""
+    from pulsemap.solvers.chain import compiled_stiff as S
+
+    table, y0, f = small_window(mu)
+    t_end = 0.4
+    ref = solve_ivp(f, (0.0, t_end), y0, method="Radau", rtol=1e-13, atol=1e-15).y[:, -1]
+    errors = []
+    for m in (20, 40, 80, 160):
+        h = t_end / m
+        y, yn, err = y0.copy(), np.empty(2 * W), np.empty(2 * W)
+        work, band = np.empty((6, 2 * W)), np.empty((5, W + 1))
+        for i in range(m):
+            assert S.rodas3_step(i * h, h, y, f(i * h, y), yn, err, W, 0, N, True, *LEFT, True, table.exponents,
+                                 table.coefficients, work, band)
+            y = yn.copy()
+        errors.append(np.max(np.abs(y - ref)))
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(orders > 2.75) and orders[-1] < 3.25 and errors[-1] < 1e-7
