@@ -110,6 +110,8 @@ def with_sets(scene: Scene, assignments: Iterable[str | tuple[str, Any]]) -> Sce
         data["perturbation"]["params"] = {k: v for k, v in data["perturbation"].get("params", {}).items()
                                           if k in named or k in given}
     shown = ", ".join(f"{k}={v}" for k, v in items)
+    if not any(k == "name" for k, _ in items):  # the name says the scene was changed (the source still names its file)
+        data["name"] = f"{scene.name} [{shown}]"
     source = data.pop("source", scene.source) or scene.name
     try:
         return parse_scene(data, source)

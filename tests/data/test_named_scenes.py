@@ -27,7 +27,7 @@ def test_a_misspelt_suite_name_gets_a_suggestion():
 
 def test_run_a_suite_scene_by_name(capsys):
     assert main(["run", "damp-10", "--methods", "dns", "--set", "output.contacts=[16, 20]", "--quiet"]) == 0
-    assert capsys.readouterr().out.startswith("scene damp-10:")
+    assert capsys.readouterr().out.startswith("scene damp-10 [output.contacts=[16, 20]]:")  # --set is named
 
 
 def test_scenes_lists_the_suite(capsys):

@@ -16,7 +16,9 @@ def test_a_set_equals_the_same_value_in_the_file(tmp_path):
     base = load_scene(str(write_scene(tmp_path, scene_toml(eps=0.1), "a.toml")))
     edited = load_scene(str(write_scene(tmp_path, scene_toml(eps=0.25, contacts=(16, 22)), "b.toml")))
     got = with_sets(base, ["perturbation.eps=0.25", "output.contacts=[16, 22]"])
-    assert got.as_dict() | {"source": None} == edited.as_dict() | {"source": None}
+    assert got.as_dict() | {"source": None, "name": None} == edited.as_dict() | {"source": None, "name": None}
+    assert got.name == f"{base.name} [perturbation.eps=0.25, output.contacts=[16, 22]]"  # says it was changed
+    assert with_sets(base, ["name=mine", "perturbation.eps=0.25"]).name == "mine"
 
 
 def test_values_are_toml_or_text():
