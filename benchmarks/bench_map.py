@@ -19,7 +19,7 @@ import numpy as np
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.models import codeload
 from pulsemap.solvers.models.map_iteration import iterate_map, iterate_map_many
-from pulsemap.solvers.studies.forcing import _params
+from pulsemap.solvers.studies.forcing import parameter_values
 
 CONTACTS = 2000
 CHAINS = 1024
@@ -37,7 +37,7 @@ def best(fn, repeat: int = 5) -> float:
 
 def main() -> None:
     scene = load_scene("vdp-mu3-v2.3")
-    prm = _params(scene, scene.beads)
+    prm = parameter_values(scene, scene.beads)
     mod = codeload.map_module(scene.perturbation.R, list(scene.perturbation.params), scene.exponent, "exact", "paper")
     eps = float(scene.perturbation.eps)
     t0 = time.perf_counter()

@@ -16,7 +16,7 @@ import time
 
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.models.relaxed import iterate_relaxed, model_for_scene
-from pulsemap.solvers.studies.forcing import _params
+from pulsemap.solvers.studies.forcing import parameter_values
 from pulsemap.solvers.studies.run import run_scene
 
 SCENES = ["fig6-eps0.3", "fig7-eps0.3", "fig8-eps0.3", "vdp-mu3-v2.3"]
@@ -30,7 +30,7 @@ def main(names: list[str]) -> None:
             os.environ["PULSEMAP_CACHE_DIR"] = tmp
             ref = run_scene(scene, methods=["dns"])
             seed, c0, c1 = ref["dns"]["seed_peak"], scene.first_perturbed - 1, scene.contacts[1]
-            prm = _params(scene, scene.beads)
+            prm = parameter_values(scene, scene.beads)
             t0 = time.perf_counter()
             model = model_for_scene(scene, prm)
             run = iterate_relaxed(model, seed, c0, c1)  # the tables grow as the iteration needs them

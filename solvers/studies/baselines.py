@@ -161,11 +161,11 @@ def script_force(scene, beads: int) -> Callable[[int, float, float], float]:
     first_perturbed.
     """
     from pulsemap.solvers.models.codeload import force_module
-    from pulsemap.solvers.studies.forcing import _params
+    from pulsemap.solvers.studies.forcing import parameter_values
 
     pert = scene.perturbation
     mod = force_module(pert.text, pert.used_parameters)
-    prm = _params(scene, beads)  # scalars, or arrays over the beads for site-dependent parameters
+    prm = parameter_values(scene, beads)  # scalars, or arrays over the beads for site-dependent parameters
     columns = [np.broadcast_to(np.asarray(prm[name], float), beads) for name in mod.PARAMS]
     per_bead = [tuple(float(c[i]) for c in columns) for i in range(beads)]
     eps, first = float(pert.eps), int(scene.first_perturbed)

@@ -11,10 +11,10 @@ from pulsemap.solvers.studies.methods import RunError
 from pulsemap.solvers.studies.points import chain_force
 from pulsemap.solvers.studies.sweep import SweepError
 
-__all__ = ["make_force"]
+__all__ = ["make_force", "parameter_values"]
 
 
-def _params(scene: Scene, beads: int | None) -> dict:
+def parameter_values(scene: Scene, beads: int | None) -> dict:
     """Parameter values: scalars, or per-bead arrays. Without [chain] beads, a parameter given as an
     expression of i is evaluated on the chain the contacts need (as an R containing i is): only
     lists and random draws fix the chain length themselves (the scene file requires beads for them)."""
@@ -38,7 +38,7 @@ def make_force(scene: Scene, beads: int) -> OnSiteForce:
     pert = scene.perturbation
     mod = force_module(pert.text, pert.used_parameters)
     chain = {"beads": beads, "first_perturbed": scene.first_perturbed, "eps": float(pert.eps)}
-    values = _params(scene, beads)
+    values = parameter_values(scene, beads)
     zeros = np.zeros(beads)
     try:
         force = chain_force(mod, chain, values)

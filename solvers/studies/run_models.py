@@ -20,7 +20,7 @@ from pulsemap.solvers.models.site_law_eval import evaluate_site_law
 from pulsemap.solvers.studies.run_dressed import prepare_dressed, run_dressed
 from pulsemap.solvers.models.longwave_eval import evaluate_law
 from pulsemap.solvers.models.map_iteration import contact_params, eps0_ratio, iterate_map
-from pulsemap.solvers.studies.forcing import _params
+from pulsemap.solvers.studies.forcing import parameter_values
 from pulsemap.solvers.studies.methods import (
     BALANCE_METHODS,
     DRIFT_WARN,
@@ -228,7 +228,7 @@ def run_models(state: "RunState") -> None:
     modules = [m for m in (mod, *balance.values()) if m is not None and m is not QUADRATURE]
     S0 = float(modules[0].S0 if modules else exact_profile(state.scene.exponent).S0)
     seed_A = seed_models(state, S0)
-    prm = _params(state.scene, state.scene.beads)
+    prm = parameter_values(state.scene, state.scene.beads)
     if "relaxed" in state.methods:
         run_relaxed(state, prm)
     run_balance(state, balance, seed_A, prm)

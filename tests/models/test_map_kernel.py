@@ -8,7 +8,7 @@ import pytest
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.models import codeload
 from pulsemap.solvers.models.map_iteration import MapIterationError, iterate_map, iterate_map_many
-from pulsemap.solvers.studies.forcing import _params
+from pulsemap.solvers.studies.forcing import parameter_values
 
 VDP = "-(u - mu*(1-u**2)*v)"
 
@@ -16,9 +16,9 @@ VDP = "-(u - mu*(1-u**2)*v)"
 def _module(scene_name: str, variant: str):
     scene = load_scene(scene_name)
     pert = scene.perturbation
-    site = tuple(name for name, value in pert.params.items() if np.ndim(_params(scene, scene.beads)[name]) > 0)
+    site = tuple(name for name, value in pert.params.items() if np.ndim(parameter_values(scene, scene.beads)[name]) > 0)
     mod = codeload.map_module(pert.R, list(pert.params), scene.exponent, "exact", variant, site)
-    return scene, mod, _params(scene, scene.beads)
+    return scene, mod, parameter_values(scene, scene.beads)
 
 
 @pytest.mark.parametrize("variant", ["paper", "corrected", "1d"])
