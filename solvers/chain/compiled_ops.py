@@ -25,7 +25,7 @@ E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253
 D1, D3, D4, D5, D6, D7 = (-12715105075.0 / 11282082432.0, 87487479700.0 / 32700410799.0,
                           -10690763975.0 / 1880347072.0, 701980252875.0 / 199316789632.0,
                           -1453857185.0 / 822651844.0, 69997945.0 / 29380423.0)
-BETA = 0.04  # PI control (Hairer's DOPRI5 default, also solvers/window.FORTRAN_BETA["dopri5"])
+BETA = 0.04  # PI control (Hairer's DOPRI5 default, also solvers/chain/hairer.FORTRAN_BETA["dopri5"])
 SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 10.0
 PULSE_HALF_WIDTH = 8  # front.PULSE_HALF_WIDTH (beads each side of a peaked contact carrying the pulse)
 

@@ -319,7 +319,7 @@ def run_scipy(solver: _integrate.OdeSolver, on_step) -> tuple[float, Array, int,
 
     ``on_step(t_old, y_old, t_new, y_new, dense_factory) -> bool`` is called after every
     accepted step; True stops. Returns (t, y, nfev, last step size); a failed step raises
-    RuntimeError (same contract as window.run_fortran).
+    RuntimeError (same contract as hairer.run_fortran).
     """
     while True:
         t_old, y_old = solver.t, solver.y.copy()

@@ -173,7 +173,7 @@ def test_quintic_step_locates_an_analytic_maximum():
 
 def test_exact_stepper_is_the_method_order():
     """One DOP853 step of the window's scheme on y' = y: error ~h^9."""
-    from pulsemap.solvers.chain.window import exact_stepper
+    from pulsemap.solvers.chain.hairer import exact_stepper
 
     step = exact_stepper(lambda t, y: y, "DOP853")
     for h in (0.5, 0.25):
