@@ -7,7 +7,7 @@ import argparse
 
 def register(sub) -> None:
     """Add the ``bench`` sub-command to the ``pulsemap`` parser."""
-    from pulsemap.solvers.cli.main import number
+    from pulsemap.solvers.cli.common import number
 
     p = sub.add_parser(
         "bench",
@@ -29,7 +29,7 @@ def register(sub) -> None:
     p.add_argument("--no-baselines", action="store_true", help="skip baselines (a) and (b)")
     p.add_argument("--no-models", action="store_true", help="skip the map and the laws")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    from pulsemap.solvers.cli.main import add_set_option
+    from pulsemap.solvers.cli.common import add_set_option
 
     add_set_option(p)
     p.set_defaults(func=cmd_bench)
@@ -39,7 +39,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from pulsemap.solvers.studies.bench import BenchError, Ladder, plot, quick_ladder, run_bench, to_csv, to_text
-    from pulsemap.solvers.cli.main import UsageError, progress_log, write_json, write_text
+    from pulsemap.solvers.cli.common import UsageError, progress_log, write_json, write_text
     from pulsemap.solvers.data.plotting import pyplot
 
     if args.repeats is not None and args.repeats < 1:

@@ -26,7 +26,7 @@ def register(sub) -> None:
 
 
 def cmd_suite(args: argparse.Namespace) -> int:
-    from pulsemap.solvers.cli.main import UsageError, progress_log, write_json
+    from pulsemap.solvers.cli.common import UsageError, progress_log, write_json
     from pulsemap.solvers.studies.suite import run_suite, suite_scenes, to_text
 
     if args.list:

@@ -34,7 +34,7 @@ _positive_int = _int_at_least(0)
 
 
 def _floats(text: str) -> list[float]:
-    from pulsemap.solvers.cli.main import UsageError
+    from pulsemap.solvers.cli.common import UsageError
 
     try:
         values = [float(x) for x in text.replace(" ", "").split(",") if x]
@@ -48,7 +48,7 @@ def _floats(text: str) -> list[float]:
 @contextlib.contextmanager
 def executor_for(args: argparse.Namespace):
     """(executor or None, max_workers) from --scheduler / --workers."""
-    from pulsemap.solvers.cli.main import UsageError
+    from pulsemap.solvers.cli.common import UsageError
 
     if getattr(args, "scheduler", None):
         try:
@@ -78,14 +78,14 @@ def _add_sweep_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", metavar="OUT", help="write the report as JSON ('-' for stdout)")
     p.add_argument("--plot", metavar="FIG.png", help="plot (needs matplotlib)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    from pulsemap.solvers.cli.main import add_set_option
+    from pulsemap.solvers.cli.common import add_set_option
 
     add_set_option(p)
 
 
 def _report(args: argparse.Namespace, report: dict, to_text, plot) -> int:
     """Print the report, and write its --json and --plot."""
-    from pulsemap.solvers.cli.main import write_json
+    from pulsemap.solvers.cli.common import write_json
 
     print(to_text(report))
     if args.json:
@@ -98,7 +98,7 @@ def _report(args: argparse.Namespace, report: dict, to_text, plot) -> int:
 def cmd_bifurcation(args: argparse.Namespace) -> int:
     """``pulsemap bifurcation``: Eq. 41 branches and fold vs the DNS, thresholds."""
     from pulsemap.solvers.studies.bifurcation import bifurcation, plot, to_text
-    from pulsemap.solvers.cli.main import UsageError, load_scene_with_sets
+    from pulsemap.solvers.cli.common import UsageError, load_scene_with_sets
     from pulsemap.solvers.data.scene import PROFILES
 
     scene = load_scene_with_sets(args.scene, args.sets)
@@ -122,7 +122,7 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
 def cmd_ensemble(args: argparse.Namespace) -> int:
     """``pulsemap ensemble``: M random realisations, map and DNS of each, statistics per contact."""
     from pulsemap.solvers.studies.ensemble import ensemble, plot, to_text
-    from pulsemap.solvers.cli.main import load_scene_with_sets
+    from pulsemap.solvers.cli.common import load_scene_with_sets
 
     scene = load_scene_with_sets(args.scene, args.sets)
     if args.contacts:
@@ -136,7 +136,7 @@ def cmd_ensemble(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """``pulsemap sweep``: a scene over a grid of values of any scene key."""
-    from pulsemap.solvers.cli.main import load_scene_with_sets, write_json
+    from pulsemap.solvers.cli.common import load_scene_with_sets, write_json
     from pulsemap.solvers.studies.scene_sweep import scene_sweep, to_text
 
     scene = load_scene_with_sets(args.scene, args.sets)
@@ -151,7 +151,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def register(sub) -> None:
-    from pulsemap.solvers.cli.main import number
+    from pulsemap.solvers.cli.common import number
 
     p = sub.add_parser("sweep", help="run a scene over a grid of values of any scene key (--over KEY=A:B:K)")
     p.add_argument("scene", metavar="SCENE", help="a TOML scene file or a scene name (see 'pulsemap scenes')")
