@@ -277,33 +277,11 @@ def simulate(
     track.reason = track.reason or f"t_max reached (t={solver.t:.6g}, next contact {track.next_contact})"
 
     wall = _time.perf_counter() - wall0
-    contacts_out, peaks, times, alive = track.outcome()
-    return DNSResult(
-        contacts=contacts_out,
-        peaks=peaks,
-        peak_times=times,
-        alive=alive,
-        stop_reason=track.reason,
-        method=chosen,
-        rtol=float(rtol),
-        atol=float(atol),
-        beads=beads,
-        nfev=int(solver.nfev),
-        njev=int(getattr(solver, "njev", 0)),
-        wall_time_s=wall,
-        energy_drift=drift if force is None else None,
-        exponent=exponent,
-        velocity=velocity,
-        t_end=float(solver.t),
-        window_beads=beads,
-        blew_up=track.blew_up,
-        steps=track.steps,
-        energy_initial=e0,
-        pulse_energy=front.pulse,
-        total_energy=front.total,
-        snapshots=tuple(front.snapshots),
-        engine="scipy",
-        engine_reason=why_scipy,
+    return DNSResult.tracked(
+        track, front, method=chosen, rtol=float(rtol), atol=float(atol), beads=beads, nfev=int(solver.nfev),
+        njev=int(getattr(solver, "njev", 0)), wall_time_s=wall, energy_drift=drift if force is None else None,
+        exponent=exponent, velocity=velocity, t_end=float(solver.t), window_beads=beads, energy_initial=e0,
+        engine="scipy", engine_reason=why_scipy,
     )
 
 

@@ -107,6 +107,17 @@ class DNSResult:
         """Pulse speed at each requested contact (contacts per unit time, front.pulse_speed)."""
         return pulse_speed(self.peak_times)
 
+    @classmethod
+    def tracked(cls, track: PeakTracker, front, **fields) -> "DNSResult":
+        """The result of a scipy-engine run: peaks, stop reason, blow-up flag and steps from its
+        PeakTracker, energies and snapshots from its front.FrontRecorder (None: not recorded),
+        everything else from ``fields``."""
+        contacts, peaks, times, alive = track.outcome()
+        recorded = {} if front is None else {"pulse_energy": front.pulse, "total_energy": front.total,
+                                             "snapshots": tuple(front.snapshots)}
+        return cls(contacts=contacts, peaks=peaks, peak_times=times, alive=alive, stop_reason=track.reason,
+                   blew_up=track.blew_up, steps=track.steps, **recorded, **fields)
+
 
 # ----------------------------------------------------------------------------- small helpers
 

@@ -342,32 +342,9 @@ def simulate_windowed(
         widest = max(widest, run.hi - run.lo)
 
     wall_s = _time.perf_counter() - wall0
-    contacts_out, peaks, times, alive = track.outcome()
-    return DNSResult(
-        contacts=contacts_out,
-        peaks=peaks,
-        peak_times=times,
-        alive=alive,
-        stop_reason=track.reason,
-        method=method,
-        rtol=float(rtol),
-        atol=float(atol),
-        beads=beads,
-        nfev=int(nfev),
-        njev=int(njev),
-        wall_time_s=wall_s,
-        energy_drift=run.drift if force is None else None,
-        exponent=exponent,
-        velocity=velocity,
-        t_end=float(t),
-        blew_up=track.blew_up,
-        steps=track.steps,
-        energy_initial=e0,
-        pulse_energy=None if front is None else front.pulse,
-        total_energy=None if front is None else front.total,
-        snapshots=() if front is None else tuple(front.snapshots),
-        mode=f"window/{engine}",
-        window_beads=int(widest),
-        window_shifts=int(shifts),
-        window_rule=rule,
+    return DNSResult.tracked(
+        track, front, method=method, rtol=float(rtol), atol=float(atol), beads=beads, nfev=int(nfev), njev=int(njev),
+        wall_time_s=wall_s, energy_drift=run.drift if force is None else None, exponent=exponent, velocity=velocity,
+        t_end=float(t), energy_initial=e0, mode=f"window/{engine}", window_beads=int(widest),
+        window_shifts=int(shifts), window_rule=rule,
     )
