@@ -34,6 +34,7 @@ STIFF_METHOD = "Rodas3"  # compiled_stiff.METHOD (that module imports numba: nam
 ENERGY_EVERY = 4  # blow-up guard and energy drift every this many steps (as solvers/window.py)
 DELAY_FACTOR = 2.0  # peaks.primary_pulse_lost's default
 ROOM = 96  # initial buffer beyond ``behind`` (grown on demand)
+PAUSE_STEPS = 20_000  # accepted steps between progress checks (~2-20 ms of kernel time)
 
 
 @dataclass(frozen=True)
@@ -194,17 +195,24 @@ def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, i
                 np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f, method)
 
 
-def drive(run: _Run, code: int | None = None) -> int:
+def drive(run: _Run, code: int | None = None, report=None) -> int:
     """Run the kernel until a stop rule fires (``code``: the kernel's last answer, if it ran already),
-    growing the window's buffer whenever it asks for room."""
+    growing the window's buffer whenever it asks for room. With ``report`` (a dns_progress.DNSProgress)
+    the kernel pauses every PAUSE_STEPS accepted steps so the reporter can print its line; a pause
+    changes no number (the kernel's state is complete between calls)."""
     from pulsemap.solvers.chain import compiled_track as K
     if run.method == METHOD:
         from pulsemap.solvers.chain.compiled_kernel import run as kernel
     else:
         from pulsemap.solvers.chain.compiled_stiff import run as kernel
 
+    if report is not None and report.enabled:
+        run.ci[K.PAUSE_EVERY] = PAUSE_STEPS
     while True:
-        if code is not None and code != K.NEED_ROOM:
+        if code == K.PAUSED:
+            report.update(float(run.fs[K.T]), int(run.st[K.NEXT]) - 1,
+                          f"compiled {run.method}, {int(run.st[K.NFEV])} RHS evaluations")
+        elif code is not None and code != K.NEED_ROOM:
             return code
         if code == K.NEED_ROOM:
             w = int(run.st[K.HI] - run.st[K.LO])
@@ -242,10 +250,14 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
 
 
 def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
-                      table: MonomialTable | None, *, engine_reason: str = "", **settings) -> DNSResult:
+                      table: MonomialTable | None, *, engine_reason: str = "", progress: bool = False,
+                      **settings) -> DNSResult:
     """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it; ``settings``:
-    rule, rtol, atol, peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps, method)."""
+    rule, rtol, atol, peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps, method).
+    ``progress``: a line on stderr at most every 5 s (dns_progress.DNSProgress), as the scipy engines."""
+    from pulsemap.solvers.chain.dns_progress import DNSProgress
+
     run = prepare(beads, exponent, velocity, contacts, table, **settings)
     wall0 = _time.perf_counter()
-    code = drive(run)
+    code = drive(run, report=DNSProgress("dns", run.last, enabled=progress) if progress else None)
     return result(run, code, _time.perf_counter() - wall0, engine_reason)

@@ -23,7 +23,7 @@ from pulsemap.solvers.chain.compiled_ops import (
     C4, C5, E1, E3, E4, E5, E6, E7, FAC_MAX, FAC_MIN, SAFE, dopri_dense, rhs)
 from pulsemap.solvers.chain.compiled_track import (
     ATOL, BEADS, CAPACITY, EXP, FACOLD, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, REJECTED, RTOL, STARTED,
-    T, T_MAXC, accept, next_step, peak_in_step, shift_window, track_step)
+    PAUSED, T, T_MAXC, accept, next_step, pause_now, peak_in_step, shift_window, track_step)
 
 
 @njit(cache=True)
@@ -149,3 +149,5 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
         if code != 0:
             return code
         w = shift_window(t, y, f, w, st, fs, cf, ci, exps, coef)
+        if pause_now(st, ci):
+            return PAUSED

@@ -27,7 +27,7 @@ from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import _pow, hermite_dense, rhs
 from pulsemap.solvers.chain.compiled_track import (
     ATOL, BEADS, CAPACITY, EXP, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, NJEV, REJECTED, RTOL, T,
-    accept, next_step, peak_in_step, shift_window, track_step)
+    PAUSED, accept, next_step, pause_now, peak_in_step, shift_window, track_step)
 
 METHOD = "Rodas3"  # compiled.STIFF_METHOD
 ORDER = 3  # of the step (the embedded one: 2); the dense output is a cubic Hermite (order 3)
@@ -202,3 +202,5 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
         if code != 0:
             return code
         w = shift_window(t, y, f, w, st, fs, cf, ci, exps, coef)
+        if pause_now(st, ci):
+            return PAUSED

@@ -23,7 +23,7 @@ from numba import njit
 from pulsemap.solvers.chain.compiled_ops import PULSE_HALF_WIDTH, _pow, pulse_lost, rhs, segment_energy, window_energy
 
 # --- return codes of a kernel's run (solvers/chain/compiled.py turns them into PeakTracker's messages)
-LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM = 1, 2, 3, 4, 5, 6, 7, 8
+LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM, PAUSED = 1, 2, 3, 4, 5, 6, 7, 8, 9
 
 # --- float state fs[...] (resumable between calls)
 T, H, FACOLD, LEFT_X, LEFT_V, LEFT_T, E0, E_GONE, DRIFT, THRESH, LAST_PEAK_T, STALL, E_LAST = range(13)
@@ -36,8 +36,8 @@ EXP, RTOL, ATOL, T_MAXC, SCALE_X, SCALE_V, AHEAD_THR, PEAK_FRAC, DEATH_FRAC, OVE
     DELAY_FAC = range(13)
 N_CF = 13
 # --- int config ci[...]
-BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY = range(8)
-N_CI = 8
+BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY, PAUSE_EVERY = range(9)
+N_CI = 9  # PAUSE_EVERY: return PAUSED after every this many accepted steps (0: never), for progress lines
 
 
 @njit(cache=True)
@@ -220,6 +220,13 @@ def accept(t, h, y, f, yn, fn, w2, fs):
         y[i] = yn[i]
         f[i] = fn[i]
     fs[T], fs[H] = t, h
+
+
+@njit(cache=True, inline="always")
+def pause_now(st, ci) -> bool:
+    """True after every ci[PAUSE_EVERY]-th accepted step (the state is complete: the caller resumes
+    exactly where the kernel stopped, so a paused run gives the same numbers as one that is not)."""
+    return ci[PAUSE_EVERY] > 0 and st[STEPS] % ci[PAUSE_EVERY] == 0
 
 
 @njit(cache=True, inline="always")

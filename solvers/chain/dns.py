@@ -231,7 +231,7 @@ def simulate(
                 stall_factor=stall_factor, overtake_factor=overtake_factor,
                 max_steps=default_max_steps(last) if max_steps is None else int(max_steps),
                 method=compiled.STIFF_METHOD if stiff else compiled.METHOD,
-                engine_reason=compiled.stiff_reason(force, velocity, exponent) if stiff else "")
+                engine_reason=compiled.stiff_reason(force, velocity, exponent) if stiff else "", progress=progress)
     if window is not None:
         return replace(_window.simulate_windowed(
             beads, exponent, velocity, (first, last), force, rule=_window.resolve_rule(window, window_accuracy),

@@ -215,3 +215,34 @@ def test_extreme_velocity_runs_compiled_in_the_unit_frame(name, v0):
     ref = simulate(60, 1.5, v0, (15, 40), force, engine="scipy", method="DOP853", **kw)
     assert fast.engine == "compiled" and ref.engine == "scipy" and np.array_equal(fast.alive, ref.alive)
     assert fast.alive.sum() >= 5 and rel(fast.peaks[fast.alive], ref.peaks[ref.alive]) < PEAK_TOL
+
+
+@pytest.mark.parametrize("stiff", [False, True])
+def test_progress_lines_pause_the_kernel_without_changing_a_number(monkeypatch, stiff):
+    """With progress the compiled kernels (explicit and Rosenbrock) pause every PAUSE_STEPS accepted
+    steps for a line on stderr; the peaks, times and counts equal those of an unpaused run bit for bit."""
+    from pulsemap.solvers.chain import compiled
+    from pulsemap.solvers.chain.dns_progress import DNSProgress
+
+    scene = load_scene("fig8-eps0.1")
+    beads, span = dns_span(scene)
+    table = make_force(scene, beads).monomials
+    method = compiled.STIFF_METHOD if stiff else compiled.METHOD
+    kw = dict(rule=rule_of_window(), rtol=1e-8, atol=1e-10, peak_fraction=1e-2, death_fraction=1e-3, t_max=1e4,
+              stall_factor=5.0, overtake_factor=1.25, max_steps=10**6, method=method)
+    plain = compiled.prepare(beads, 1.5, 1.0, span, table, **kw)
+    code_plain = compiled.drive(plain)
+    monkeypatch.setattr(compiled, "PAUSE_STEPS", 50)
+    lines: list[str] = []
+    paused = compiled.prepare(beads, 1.5, 1.0, span, table, **kw)
+    code_paused = compiled.drive(paused, report=DNSProgress("dns", paused.last, every=0.0, sink=lines.append))
+    assert code_paused == code_plain
+    steps = int(plain.st[3])  # compiled_track.STEPS
+    assert len(lines) == steps // 50 and all(line.startswith("[dns] contact ") for line in lines)
+    assert f"compiled {method}" in lines[-1]
+    for name in ("peaks", "times", "pulse_e", "total_e", "st", "fs"):
+        assert np.array_equal(getattr(plain, name), getattr(paused, name), equal_nan=True), name
+
+
+def rule_of_window():
+    return rule_for_accuracy(1e-8)
