@@ -4,6 +4,7 @@ beads 1..N (derive/perturbation.py's Perturbation.bead_values and rest_force).""
 from __future__ import annotations
 
 import numbers
+from functools import lru_cache
 from typing import Any, Mapping
 
 import numpy as np
@@ -34,6 +35,15 @@ def _bead_values(name: str, value: ParamValue, beads: int) -> np.ndarray:
     if isinstance(value, IndexExpression):
         return _evaluate(value.expr, {}, beads, f"parameter '{name}' = {value.text!r}")
     raise PerturbationError(f"parameter '{name}' has an unsupported value {value!r}")
+
+
+@lru_cache(maxsize=64)
+def _frozen_bead_values(name: str, value: ParamValue, beads: int) -> np.ndarray:
+    """_bead_values, read-only and kept (a law's right-hand side reads a random draw's bead at every
+    evaluation: drawing the chain again each time was most of the cost)."""
+    arr = _bead_values(name, value, beads)
+    arr.flags.writeable = False
+    return arr
 
 
 _NUMPY_FUNCTIONS = (

@@ -23,7 +23,7 @@ from typing import Any, Mapping
 import numpy as np
 import sympy
 
-from pulsemap.derive.bead_values import _bead_values, _check_beads, _evaluate, _numeric
+from pulsemap.derive.bead_values import _bead_values, _check_beads, _evaluate, _frozen_bead_values, _numeric
 from pulsemap.derive.expression import SYMBOLS, ExpressionError, parse_expression, symbol
 from pulsemap.derive.param_values import (DRAW_KEYS, IndexExpression, ParamMap, ParamValue, PerturbationError,
                                           RandomDraw, _check_name, _exact, _finite_float, _is_scalar, _kind,
@@ -118,7 +118,7 @@ class Perturbation:
                                         f"{float(pos[~np.isfinite(out)][0]):g}")
             return out
         beads = len(value) if isinstance(value, tuple) else int(max(1, np.ceil(pos.max() + 0.5)))
-        arr = _bead_values(name, value, beads)
+        arr = _frozen_bead_values(name, value, beads)
         k = np.clip(np.floor(pos + 0.5).astype(int), 1, arr.size)
         return arr[k - 1]
 

@@ -73,6 +73,16 @@ def coefficient_at(coefficient: sympy.Expr, pert: Perturbation, bead: float) -> 
     return float(sympy.sympify(coefficient).xreplace(sub))
 
 
+def coefficient_along(coefficient: sympy.Expr, pert: Perturbation, beads: np.ndarray) -> np.ndarray:
+    """coefficient_at at every bead position of ``beads`` at once (one lambdified numpy evaluation)."""
+    site = list(pert.site_dependent)
+    expr = sympy.sympify(coefficient).xreplace(pert.scalar_values())
+    f = sympy.lambdify([symbol("i"), *(bead_symbol(name, 0) for name in site)], expr, "numpy")
+    with np.errstate(all="ignore"):
+        vals = f(beads, *(pert.values_at(name, beads) for name in site))
+    return np.broadcast_to(np.asarray(vals, dtype=float), beads.shape).copy()
+
+
 def site_coefficient_functions(pert: Perturbation, law: DressedLaw, i0: float, i1: float, step: float = 1 / 16):
     """c_j(i) = eps R's coefficient of monomial j at bead i + 1/2 (the energy law's convention, derive/site_law.py),
     tabulated from i0 to i1 and interpolated linearly: one function per term of ``law``."""
@@ -81,7 +91,7 @@ def site_coefficient_functions(pert: Perturbation, law: DressedLaw, i0: float, i
     grid = np.arange(i0, i1 + 2 * step, step)
     out = []
     for t in law.terms:
-        vals = np.array([float(pert.eps) * coefficient_at(coefs[t.monomial], pert, g + 0.5) for g in grid])
+        vals = float(pert.eps) * coefficient_along(coefs[t.monomial], pert, grid + 0.5)
         out.append(lambda i, vals=vals: float(np.interp(i, grid, vals)))
     return tuple(out)
 
