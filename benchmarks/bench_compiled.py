@@ -9,10 +9,10 @@ full chain, DOP853 at rtol 1e-12 (its distance to rtol 1e-11 printed). Error: ma
 error over the reference's live contacts (studies.bench.peak_error); the cost of a line at 1e-6
 is interpolated log-log between the runs that bracket it (studies.bench.cost_at). Printed:
 
-1. compiled (window, warm, best of K) vs a careful user's script: vectorised numpy RHS on the full
-   chain, solve_ivp(DOP853, t_eval=grid of 0.05, dense_output=True), peaks as the first grid
-   maximum of delta_k refined by brentq on delta_k' of the dense output, at equal 1e-6 max
-   relative peak error (one run per tolerance);
+1. compiled (window, warm, best of K) vs a careful user's script (solvers/studies/reference_script.py,
+   also run by `pulsemap bench`): vectorised numpy RHS on the full chain, solve_ivp(DOP853,
+   t_eval=grid of 0.05, dense_output=True), peaks as the first grid maximum of delta_k refined by
+   brentq on delta_k' of the dense output, at equal 1e-6 max relative peak error (one run per tolerance);
 2. compiled vs today's scipy window engine (window="auto", Hairer's DOP853), at the same rtol and
    at equal 1e-6 error;
 3. time(contacts 4000) / time(contacts 1000), compiled window, vdp;
@@ -35,14 +35,11 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
-
 from pulsemap.solvers.chain.dns import simulate
-from pulsemap.solvers.chain.peaks import velocity_scale
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bench import Point, cost_at, peak_error
 from pulsemap.solvers.studies.points import dns_span, on_contacts
+from pulsemap.solvers.studies.reference_script import script_peaks
 from pulsemap.solvers.studies.run import make_force
 
 TARGET = 1e-6
@@ -64,53 +61,6 @@ def best_time(run, repeats: int, cpu: bool = False):
         result = run()
         best, best_cpu = min(best, time.perf_counter() - t0), min(best_cpu, time.process_time() - c0)
     return (result, best, best_cpu) if cpu else (result, best)
-
-
-# ----------------------------------------------------------------------------- the user's script
-
-
-def script_peaks(beads, n, v0, contacts, force, rtol, t_end, dt=0.05):
-    """A careful user's script: vectorised Eq. 1 on the full chain, DOP853 with dense output,
-    first grid maximum of each delta_k above 1e-2 x the previous peak, refined by brentq on delta_k'."""
-    first, last = contacts
-    f_on = None if force is None else force.force
-
-    def rhs(t, y):
-        x, v = y[:beads], y[beads:]
-        d = np.maximum(x[:-1] - x[1:], 0.0) ** n
-        a = np.zeros(beads)
-        a[:-1] -= d
-        a[1:] += d
-        if f_on is not None:
-            a += f_on(x, v)
-        return np.concatenate([v, a])
-
-    y0 = np.zeros(2 * beads)
-    y0[beads] = v0
-    grid = np.arange(0.0, t_end, dt)
-    sol = solve_ivp(rhs, (0.0, grid[-1]), y0, method="DOP853", t_eval=grid, rtol=rtol, atol=rtol * 1e-2,
-                    dense_output=True)
-    xs = sol.y[: last + 1]
-    peaks = np.full(last, np.nan)
-    threshold, t_floor = 1e-2 * velocity_scale(v0, n), 0.0
-    for k in range(1, last + 1):
-        d = xs[k - 1] - xs[k]
-        ok = (d[1:-1] > d[:-2]) & (d[1:-1] >= d[2:]) & (d[1:-1] > threshold) & (grid[1:-1] >= t_floor)
-        idx = np.flatnonzero(ok)
-        if not idx.size:
-            break
-        j = idx[0] + 1
-
-        def rate(t, k=k):
-            s = sol.sol(t)
-            return s[beads + k - 1] - s[beads + k]
-
-        a, b = grid[j - 1], grid[j + 1]
-        t_pk = brentq(rate, a, b, xtol=1e-14) if rate(a) > 0 > rate(b) else grid[j]
-        s = sol.sol(t_pk)
-        peaks[k - 1] = s[k - 1] - s[k]
-        threshold, t_floor = 1e-2 * peaks[k - 1], t_pk
-    return peaks[first - 1:]
 
 
 # ----------------------------------------------------------------------------- sections
@@ -144,7 +94,7 @@ def equal_accuracy(name: str, quick: bool, repeats: int) -> None:
     t_end = float(np.nanmax(ref.peak_times)) + 2.0
     for rtol in ((1e-7, 1e-8) if quick else (1e-6, 1e-7, 1e-8, 1e-9)):
         t0 = time.perf_counter()
-        peaks = script_peaks(beads, scene.exponent, scene.velocity, span, force, rtol, t_end)
+        peaks = script_peaks(beads, scene.exponent, scene.velocity, span, force, rtol, t_end, dt=0.05).peaks
         sec = time.perf_counter() - t0
         err, missing = peak_error([None if not np.isfinite(p) else float(p) for p in peaks], live(ref, ref))
         lines["script"].append(Point("baseline", "script", f"rtol {rtol:g}", rtol, err, missing, sec))

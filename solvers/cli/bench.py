@@ -11,9 +11,11 @@ def register(sub) -> None:
 
     p = sub.add_parser(
         "bench",
-        help="error against run time: DNS tolerance/method ladder, baselines, map and laws",
-        description="Work-precision per scene: the DNS (moving window) over a ladder of tolerances and "
-        "methods (DOP853, RK45, Radau, BDF, LSODA), baseline (b) the full-chain DNS, baseline (a) a "
+        help="error against run time: compiled and scipy DNS engines, a user's script (warm and cold), baselines, models",
+        description="Work-precision per scene: the compiled DNS engine, the scipy DNS engine (moving window; "
+        "DOP853, RK45, Radau, BDF, LSODA) and a careful user's vectorised scipy DOP853 script over ladders of "
+        "tolerances, each also cold (first call of a fresh process, empty numba cache: JIT included), with "
+        "their ratios at equal accuracy; baseline (b) the full-chain DNS, baseline (a) a "
         "loop-RHS solve_ivp script with peaks off a grid, and every reduced model (map profiles x "
         "variants, long-wave and balance laws), each against a reference DNS (tightest tolerance, "
         "convergence checked); warm-up then best of K; speed ratios at equal accuracy.",
@@ -28,6 +30,8 @@ def register(sub) -> None:
     p.add_argument("--target", type=number, default=1e-6, help="accuracy for the speed ratios (1e-6)")
     p.add_argument("--no-baselines", action="store_true", help="skip baselines (a) and (b)")
     p.add_argument("--no-models", action="store_true", help="skip the map and the laws")
+    p.add_argument("--no-engines", action="store_true", help="skip the compiled engine and the user's script")
+    p.add_argument("--no-cold", action="store_true", help="skip the cold runs (fresh processes, JIT included)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     from pulsemap.solvers.cli.common import add_set_option
 
@@ -48,7 +52,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise UsageError(f"--target must lie in (0, 1), got {args.target:g}")
     ladder = quick_ladder() if args.quick else Ladder()
     ladder = replace(ladder, repeats=args.repeats or ladder.repeats, target=args.target,
-                     baselines=not args.no_baselines, models=not args.no_models)
+                     baselines=not args.no_baselines, models=not args.no_models, engines=not args.no_engines,
+                     cold=not args.no_cold)
     if args.plot:
         pyplot(BenchError)  # fail before the runs, not after
     log = progress_log(args.quiet)

@@ -4,8 +4,11 @@ For one scene (``bench_scene``):
 
 * reference: the DNS of paper Eq. 1 on the full chain, DOP853 at the tightest tolerance of the
   ladder; its convergence is the max relative difference to the run at the next tolerance;
-* the DNS (moving window, solvers/window.py) over a ladder of tolerances with explicit
-  (DOP853, RK45) and implicit (Radau, BDF, LSODA) methods;
+* the DNS on the scipy engine (moving window, solvers/window.py) over a ladder of tolerances with
+  explicit (DOP853, RK45) and implicit (Radau, BDF, LSODA) methods;
+* the compiled engine (numba RK45, moving window) and the careful user's vectorised script
+  (studies/reference_script.py) over their ladders, and each of the three engines once more cold
+  (first call of a fresh process, empty numba cache): :mod:`~pulsemap.solvers.studies.bench_engines`;
 * baseline (b): the full-chain vectorised DNS (``simulate(window=None)``), same ladder;
 * baseline (a): the script a user writes today (solvers/baselines.py: loop RHS, solve_ivp RK45,
   peaks off a sampled grid) over a ladder of tolerances and sampling steps;
@@ -31,6 +34,7 @@ The measurements are :mod:`~pulsemap.solvers.studies.bench_measure`, the lines m
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import asdict
 from typing import Callable, Sequence
@@ -43,6 +47,7 @@ from pulsemap.solvers.studies.bench_measure import (
     BenchError,
     Ladder,
     Point,
+    best_line,
     best_of,
     cost_at,
     fmt,
@@ -50,6 +55,7 @@ from pulsemap.solvers.studies.bench_measure import (
     quick_ladder,
     tolerances,
 )
+from pulsemap.solvers.studies.bench_engines import cold_runs, engine_ratios, reference_points
 from pulsemap.solvers.studies.bench_report import plot, to_csv, to_text
 
 def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = lambda s: None) -> dict:
@@ -76,6 +82,10 @@ def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = l
     live = [c for c, p in zip(contacts, ref) if p is not None]
 
     points = dns_points(scene, contacts, ref, ladder, "auto", ladder.methods, "dns", log)
+    if ladder.engines:
+        points += dns_points(scene, contacts, ref, ladder, "auto", ("RK45",), "compiled", log, engine="compiled",
+                             rtols=ladder.compiled_rtols)
+        points += reference_points(scene, contacts, ref, ladder, log)
     if ladder.baselines:
         points += dns_points(scene, contacts, ref, ladder, None, ladder.full_methods, "baseline-b", log)
         points += script_points(scene, contacts, ref, ladder, log)
@@ -92,6 +102,11 @@ def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = l
         lines.setdefault(f"{p.kind}|{p.line}", []).append(p)
     costs = {key: cost_at(pts, ladder.target) for key, pts in lines.items() if pts[0].kind != "model"}
     ratios = summarize(points, costs, default_dns, ladder.target, scene)
+    cold = {}
+    if ladder.engines:
+        if ladder.cold:
+            cold = cold_runs(scene, ref, [asdict(p) for p in points], ladder.target, log)
+        ratios["engines"] = engine_ratios(costs, cold)
     return {
         "scene": scene.name,
         "beads": beads,
@@ -105,6 +120,8 @@ def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = l
         "points": [asdict(p) for p in points],
         "cost_at_target": {key: {"time_s": t, "how": how} for key, (t, how) in costs.items()},
         "ratios": ratios,
+        "cold": cold,
+        "load_average": os.getloadavg()[0],
         "bench_time_s": time.perf_counter() - wall0,
     }
 
@@ -113,16 +130,11 @@ def _timed_dns(result: dict) -> tuple[dict, float]:
     return result, float(result["timings_s"]["dns"])
 
 
-def _best(costs: dict, kind: str) -> tuple[float | None, str]:
-    found = [(t, key.split("|", 1)[1]) for key, (t, _) in costs.items() if key.startswith(kind + "|") and t]
-    return min(found) if found else (None, "")
-
-
 def summarize(points: list[Point], costs: dict, default_dns: float | None, target: float, scene) -> dict:
     """Speed ratios at equal accuracy, and the models' speed against the DNS."""
-    dns_t, dns_line = _best(costs, "dns")
-    b_t, b_line = _best(costs, "baseline-b")
-    a_t, a_line = _best(costs, "baseline-a")
+    dns_t, dns_line = best_line(costs, "dns")
+    b_t, b_line = best_line(costs, "baseline-b")
+    a_t, a_line = best_line(costs, "baseline-a")
     out: dict = {
         "target": target,
         "dns": {"time_s": dns_t, "line": dns_line},

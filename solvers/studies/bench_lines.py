@@ -10,7 +10,7 @@ import numpy as np
 
 from pulsemap.solvers.studies.bench_measure import Ladder, Point, best_of, fmt, peak_error, tolerances
 
-__all__ = ["dns_points", "model_points", "reference_run", "script_points"]
+__all__ = ["dns_points", "model_points", "reference_run", "script_points", "script_span"]
 
 
 def reference_run(scene, rtol: float) -> dict:
@@ -22,8 +22,9 @@ def reference_run(scene, rtol: float) -> dict:
 
 
 def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, methods, kind: str,
-               log: Callable[[str], None]) -> list[Point]:
-    """The DNS of the scene over the tolerance ladder for each method (window or full chain)."""
+               log: Callable[[str], None], engine: str = "scipy", rtols=None) -> list[Point]:
+    """The DNS of the scene over the tolerance ladder (``rtols``, default ladder.rtols) for each method
+    (window or full chain) on ``engine`` ("scipy": the reference engine, "compiled": the numba one)."""
     from pulsemap.solvers.chain.dns import simulate
     from pulsemap.solvers.studies.points import dns_span, on_contacts
     from pulsemap.solvers.studies.forcing import make_force
@@ -33,20 +34,36 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
     mode = "window" if window else "full"
     out = []
     for method in methods:
-        for rtol in ladder.rtols:
+        for rtol in (ladder.rtols if rtols is None else rtols):
             def run(method=method, rtol=rtol):
                 res = simulate(beads, scene.exponent, scene.velocity, span, force, method=method, window=window,
-                               engine="scipy", **tolerances(scene, rtol))  # the scipy engine's lines
+                               engine=engine, **tolerances(scene, rtol))
                 return res, res.wall_time_s
 
             res, best = best_of(run, ladder.repeats)
             err, missing = peak_error(on_contacts(contacts, res.contacts, res.peaks, res.alive), ref)
-            point = Point(kind, f"{mode} {method}", f"rtol {rtol:g}", rtol, err, missing, best, int(res.nfev),
-                          "" if missing == 0 else res.stop_reason)
+            note = "" if missing == 0 else res.stop_reason
+            if res.engine != engine:  # the compiled engine refused the case: say so, the point is the scipy engine's
+                note = (note + "; " if note else "") + f"ran on the {res.engine} engine: {res.engine_reason}"
+            point = Point(kind, f"{mode} {method}", f"rtol {rtol:g}", rtol, err, missing, best, int(res.nfev), note)
             log(f"  {kind:10s} {point.line:14s} {point.setting:11s} err {fmt(err)} missing {missing:3d} "
                 f"time {best:8.4f} s nfev {res.nfev}")
             out.append(point)
     return out
+
+
+def script_span(scene) -> tuple[float, float]:
+    """(t_end, contact time) of a script run: 3 contact times past the last live peak of a windowed
+    DNS at rtol 1e-8 (as short as a user who knows when the pulse gets there would make it)."""
+    from pulsemap.solvers.chain.dns import contact_rate, simulate
+    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.studies.points import dns_span
+
+    beads, span = dns_span(scene)
+    probe = simulate(beads, scene.exponent, scene.velocity, span, make_force(scene, beads),
+                     window="auto", **tolerances(scene, 1e-8))
+    contact_time = 1.0 / contact_rate(scene.velocity, scene.exponent)
+    return float(np.nanmax(probe.peak_times[probe.alive])) + 3.0 * contact_time, contact_time
 
 
 def script_points(scene, contacts: list[int], ref: list, ladder: Ladder,
@@ -58,15 +75,10 @@ def script_points(scene, contacts: list[int], ref: list, ladder: Ladder,
     times (dt scaled by the contact time v0^(-(n-1)/(n+1)), so extreme v0 get the same grid).
     """
     from pulsemap.solvers.studies.baselines import baseline_script, script_force
-    from pulsemap.solvers.chain.dns import contact_rate, simulate
     from pulsemap.solvers.studies.points import dns_span, on_contacts
-    from pulsemap.solvers.studies.forcing import make_force
 
     beads, span = dns_span(scene)
-    probe = simulate(beads, scene.exponent, scene.velocity, span, make_force(scene, beads),
-                     window="auto", **tolerances(scene, 1e-8))
-    contact_time = 1.0 / contact_rate(scene.velocity, scene.exponent)
-    t_end = float(np.nanmax(probe.peak_times[probe.alive])) + 3.0 * contact_time
+    t_end, contact_time = script_span(scene)
     force_py = script_force(scene, beads)
     out = []
     for rtol, dt in ladder.script:

@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
-__all__ = ["BenchError", "Ladder", "Point", "best_of", "cost_at", "fmt", "peak_error", "quick_ladder", "tolerances"]
+__all__ = ["BenchError", "Ladder", "Point", "best_line", "best_of", "cost_at", "fmt", "peak_error", "quick_ladder", "tolerances"]
 
 TARGET = 1e-6
 DNS_METHODS = ("DOP853", "RK45", "Radau", "BDF", "LSODA")
@@ -33,12 +33,17 @@ class Ladder:
     max_samples: float = 2e7  # baseline (a): numbers held at once (2N x samples); larger grids in segments
     models: bool = True
     baselines: bool = True
+    compiled_rtols: tuple[float, ...] = (1e-5, 1e-6, 1e-7, 1e-8, 1e-9)  # the compiled engine's line
+    script_rtols: tuple[float, ...] = (1e-6, 1e-7, 1e-8, 1e-9)  # the careful user's script (reference_script.py)
+    engines: bool = True  # the compiled engine and the careful user's script
+    cold: bool = True  # each of them (and the scipy engine) once more in a fresh process, numba cache empty
 
 
 def quick_ladder(repeats: int = 1) -> Ladder:
     """A few-seconds version: three tolerances, three methods, one baseline (a) setting."""
     return Ladder(rtols=(1e-5, 1e-7, 1e-9), reference_rtol=1e-11, check_rtol=1e-10, methods=QUICK_METHODS,
-                  full_methods=("DOP853",), script=((1e-7, 0.005), (1e-10, 0.002)), repeats=repeats)
+                  full_methods=("DOP853",), script=((1e-7, 0.005), (1e-10, 0.002)), repeats=repeats,
+                  compiled_rtols=(1e-5, 1e-7, 1e-9), script_rtols=(1e-7, 1e-9))
 
 
 @dataclass(frozen=True)
@@ -64,6 +69,12 @@ def best_of(run: Callable[[], tuple[object, float]], repeats: int) -> tuple[obje
         result, seconds = run()
         best = min(best, seconds)
     return result, best
+
+
+def best_line(costs: dict, kind: str) -> tuple[float | None, str]:
+    """(time, line) of the cheapest line of ``kind`` at the target (``costs``: {"kind|line": (time, how)})."""
+    found = [(t, key.split("|", 1)[1]) for key, (t, _) in costs.items() if key.startswith(kind + "|") and t]
+    return min(found) if found else (None, "")
 
 
 def peak_error(peaks: Sequence[float | None], ref: Sequence[float | None]) -> tuple[float | None, int]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pulsemap.solvers.studies.bench_measure import BenchError, fmt
 
-__all__ = ["plot", "to_csv", "to_text"]
+__all__ = ["engine_lines", "plot", "to_csv", "to_text"]
 
 
 def to_text(reports: list[dict]) -> str:
@@ -23,11 +23,13 @@ def to_text(reports: list[dict]) -> str:
         rat = r["ratios"]
         t = rat["target"]
         lines.append(f"  at max rel error {t:g} (log-log interpolation on each line; best line of each kind):")
-        for key, label in (("dns", "pulsemap DNS"), ("baseline_b", "baseline (b) full chain"),
+        for key, label in (("dns", "DNS, scipy engine"), ("baseline_b", "baseline (b) full chain"),
                            ("baseline_a", "baseline (a) user script")):
             e = rat[key]
             lines.append(f"    {label:26s} {fmt(e['time_s'], '.4g'):>10s} s  {e['line']}")
         lines.append(f"    ratio (b)/DNS = {fmt(rat['dns_vs_b'], '.3g')}   ratio (a)/DNS = {fmt(rat['dns_vs_a'], '.3g')}")
+        if "engines" in rat:
+            lines += engine_lines(rat["engines"], r.get("cold", {}), t)
         if "models" in rat:
             m = rat["models"]
             lines.append(f"    map ({m['map_line']}): {fmt(m['map_time_s'], '.3g')} s, max rel err {fmt(m['map_error'])};"
@@ -39,6 +41,30 @@ def to_text(reports: list[dict]) -> str:
                          f"{m['most_accurate']['line']} (max rel err {fmt(m['most_accurate']['error'])})")
         lines.append(f"  (benchmark took {r['bench_time_s']:.1f} s)")
     return "\n".join(lines)
+
+
+def engine_lines(e: dict, cold: dict, target: float) -> list[str]:
+    """The compiled engine against the careful user's script and the scipy engine, warm and cold."""
+    out = [f"  engines at max rel error {target:g}, warm (best of K, log-log interpolation):"]
+    for key, label in (("compiled", "compiled engine"), ("scipy", "scipy engine"), ("script", "user's script")):
+        out.append(f"    {label:26s} {fmt(e[key]['time_s'], '.4g'):>10s} s  {e[key]['line']}")
+    out.append(f"    RATIO script / compiled = {fmt(e['compiled_vs_script'], '.4g')}   "
+               f"RATIO scipy engine / compiled = {fmt(e['compiled_vs_scipy'], '.4g')}")
+    if cold:
+        out.append("  cold (first call in a fresh process, empty numba cache: JIT included; the cheapest run "
+                   f"reaching {target:g}):")
+        for kind, label in (("compiled", "compiled engine"), ("dns", "scipy engine"), ("script", "user's script")):
+            c = cold.get(kind)
+            if c:
+                out.append(f"    {label:26s} {c['first_call_s']:10.4g} s ({c['first_call_cpu_s']:.3g} s CPU)  "
+                           f"{c['line']} {c['setting']}, err {fmt(c['error'])}; whole process {c['process_wall_s']:.3g} s"
+                           f" ({c['process_cpu_s']:.3g} s CPU)")
+        k = e["cold"]
+        out.append(f"    RATIO cold script / compiled = {fmt(k.get('compiled_vs_script'), '.4g')} "
+                   f"(CPU {fmt(k.get('compiled_vs_script_cpu'), '.4g')}, whole process CPU "
+                   f"{fmt(k.get('compiled_vs_script_process_cpu'), '.4g')})   RATIO cold scipy engine / compiled = "
+                   f"{fmt(k.get('compiled_vs_scipy'), '.4g')} (CPU {fmt(k.get('compiled_vs_scipy_cpu'), '.4g')})")
+    return out
 
 
 def to_csv(reports: list[dict]) -> str:
@@ -59,7 +85,8 @@ def plot(reports: list[dict], path: str) -> None:
 
     plt = pyplot(BenchError)
     fig, axes = plt.subplots(1, len(reports), figsize=(6.5 * len(reports), 4.8), squeeze=False)
-    styles = {"dns": "o-", "baseline-b": "s--", "baseline-a": "^:", "model": "x"}
+    styles = {"dns": "o-", "baseline-b": "s--", "baseline-a": "^:", "model": "x", "compiled": "D-", "script": "v-."}
+    names = {"dns": "scipy engine", "compiled": "compiled engine", "script": "user's script"}
     for ax, r in zip(axes[0], reports):
         lines: dict[str, list] = {}
         for p in r["points"]:
@@ -67,9 +94,14 @@ def plot(reports: list[dict], path: str) -> None:
                 lines.setdefault((p["kind"], p["line"]), []).append((p["time_s"], p["error"]))
         for (kind, line), pts in lines.items():
             xs, ys = zip(*pts)
-            ax.loglog(xs, ys, styles.get(kind, "o"), label=f"{kind} {line}" if kind != "model" else line, ms=4)
+            ax.loglog(xs, ys, styles.get(kind, "o"), label=f"{names.get(kind, kind)} {line}" if kind != "model" else line,
+                      ms=4)
+        for kind, c in r.get("cold", {}).items():  # cold: first call of a fresh process (JIT included)
+            if c["error"] is not None and c["error"] > 0:
+                ax.loglog([c["first_call_s"]], [c["error"]], styles.get(kind, "o")[0], mfc="none", ms=9, mew=1.5,
+                          label=f"cold {names.get(kind, kind)} ({c['setting']})")
         ax.axhline(r["target"], color="grey", lw=0.8, label=f"target {r['target']:g}")
-        ax.set_xlabel("run time [s] (best of K)")
+        ax.set_xlabel("run time [s] (warm: best of K; hollow: cold first call)")
         ax.set_ylabel("max relative peak error vs reference DNS")
         ax.set_title(r["scene"])
         ax.legend(fontsize=6)

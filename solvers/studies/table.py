@@ -91,10 +91,11 @@ def _scene(name: str, eps: float | None, sets: tuple = ()):
 
 
 def scene_row(name: str, progress: bool = False, columns=COLUMNS, eps: float | None = None,
-              sets: tuple = ()) -> dict:
+              sets: tuple = (), scene=None) -> dict:
     """Errors of every column for one scene (one DNS, reused by every model); ``eps`` overrides the
-    scene's, ``sets`` are --set assignments ('key=value', data/overrides.py)."""
-    scene = _scene(name, eps, sets)
+    scene's, ``sets`` are --set assignments ('key=value', data/overrides.py); ``scene``: the scene
+    already loaded so (else loaded here)."""
+    scene = _scene(name, eps, sets) if scene is None else scene
     t0 = time.perf_counter()
     ref = run_scene(scene, methods=["dns"], progress=progress)
     row = {
@@ -190,7 +191,7 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
             continue
         report.start(name)
         t0 = time.perf_counter()
-        row = scene_row(name, columns=columns, eps=eps, sets=sets)
+        row = scene_row(name, columns=columns, eps=eps, sets=sets, scene=scenes[name])
         report.finish(name, "done", time.perf_counter() - t0)
         if rows_file is not None:  # repairs a line cut short first, flushed to disk
             append_record(rows_file, row)

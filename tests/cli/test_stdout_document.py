@@ -35,7 +35,7 @@ COMMANDS = [
     ("derive", ["-mu*v", "--param", "mu=1", "--sympy-seconds", "0"], "R(u, v)"),
     ("run", ["TINY", "--quiet"], "scene tiny"),
     ("table", ["TINY", "--rows", "ROWS", "--quiet"], "Scenes won"),
-    ("bench", ["TINY", "--quick", "--no-baselines", "--no-models", "--repeats", "1"], "tiny"),
+    ("bench", ["TINY", "--quick", "--no-baselines", "--no-models", "--no-cold", "--repeats", "1"], "tiny"),
     ("suite", ["TINY", "--no-check"], "tiny"),
     ("bifurcation", ["vdp-mu3-v2.3", "--param", "mu", "--range", "2", "4", "--no-dns", "--predict-points", "5",
                      "--workers", "1", "--quiet"], "fold"),
@@ -61,7 +61,7 @@ def test_json_dash_is_the_only_thing_on_stdout(command, argv, word, tiny, tmp_pa
 
 @pytest.mark.parametrize("command, argv, head", [
     ("run", ["TINY", "--quiet"], "contact,dns,map,longwave"),
-    ("bench", ["TINY", "--quick", "--no-baselines", "--no-models", "--repeats", "1"], "scene,kind,line"),
+    ("bench", ["TINY", "--quick", "--no-baselines", "--no-models", "--no-cold", "--repeats", "1"], "scene,kind,line"),
 ], ids=["run", "bench"])
 def test_csv_dash_writes_csv_to_stdout(command, argv, head, tiny, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)

@@ -47,7 +47,8 @@ def tiny_report(tmp_path_factory):
     path = tmp_path_factory.mktemp("bench") / "tiny.toml"
     path.write_text(SCENE_TOML)
     ladder = Ladder(rtols=(1e-5, 1e-7, 1e-9), reference_rtol=1e-12, check_rtol=1e-11,
-                    methods=("DOP853", "LSODA"), full_methods=("DOP853",), script=((1e-8, 0.005),), repeats=1)
+                    methods=("DOP853", "LSODA"), full_methods=("DOP853",), script=((1e-8, 0.005),), repeats=1,
+                    engines=False)  # the engines' lines and cold runs: test_bench_engines.py
     return bench_scene(load_scene(str(path)), ladder)
 
 
