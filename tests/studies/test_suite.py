@@ -9,6 +9,8 @@ import pytest
 
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.suite import (
+    CHECK_CONTACTS,
+    check_contacts,
     max_rel,
     non_finite,
     other_method,
@@ -46,7 +48,8 @@ def test_helpers():
     assert non_finite({"a": [1.0, float("nan")], "b": {"c": float("inf")}, "d": "x"}) == ["a[1]", "b.c"]
     assert non_finite({"a": [1.0, None]}) == []
     assert max_rel([1.0, 2.0, None], [1.0, 1.0, 3.0]) == (1.0, 1)
-    assert other_method("DOP853") == "LSODA" and other_method("LSODA") == "DOP853"
+    assert other_method("DOP853") == "LSODA" and other_method("RK45") == "LSODA" and other_method("LSODA") == "RK45"
+    assert check_contacts((16, 120)) == (16, 120) and check_contacts((16, 9990)) == (16, 15 + CHECK_CONTACTS)
     assert silent_model_errors({"map_error": 0.7, "longwave_error": 0.1, "warnings": []}) == [
         "map off the DNS by 70 % (max rel) and nothing in the run output warned"]
     assert silent_model_errors({"map_error": 0.7, "warnings": ["map: pulse died at contact 9"]}) == []
@@ -63,9 +66,30 @@ def test_unstable_foundation_is_stopped_by_the_guard_without_nan():
 def test_stiff_damping_goes_implicit_and_agrees_with_explicit_check():
     row = run_case("damp-100")
     assert row["method"] in ("Rodas3", "LSODA", "Radau", "BDF") and row["status"].startswith("ok")
-    assert row["dns_error_vs"].startswith("DOP853")
+    assert row["dns_error_vs"].startswith("RK45")  # explicit, on the compiled engine
     assert row["dns_error"] is not None and row["dns_error"] < 1e-6 and row["dns_error_mismatch"] == 0
     assert any("pulse died" in w for w in row["warnings"])  # the map is told the pulse is gone
+
+
+def test_a_long_scene_is_checked_over_its_first_contacts(tmp_path, monkeypatch):
+    """The check run stops after CHECK_CONTACTS contacts; the error is over those, as an independent
+    LSODA run over exactly those contacts gives it, and the 'vs' column says where it stops."""
+    from conftest import scene_toml
+    from pulsemap.solvers.studies import suite
+    from pulsemap.solvers.studies.run import run_scene
+
+    path = tmp_path / "long.toml"
+    path.write_text(scene_toml("long", eps=0.01, contacts=(16, 40)))
+    monkeypatch.setattr(suite, "CHECK_CONTACTS", 10)
+    row = run_case(str(path))
+    scene = load_scene(str(path))
+    rtol = scene.dns["rtol"] / 100
+    assert row["method"] == "RK45" and row["dns_error_vs"] == f"LSODA rtol {rtol:g} to 25"
+    first = run_scene(scene, dns_window="auto")["peaks"]["dns"]
+    check = run_scene(scene.with_overrides(dns={"rtol": rtol, "atol": scene.dns["atol"] / 100, "method": "LSODA"}),
+                      methods=["dns"], dns_window="auto")["peaks"]["dns"]
+    assert len(first) == 25 and row["dns_error"] == pytest.approx(max_rel(first[:10], check[:10])[0], rel=1e-6)
+    assert 0 < row["dns_error"] < 1e-5
 
 
 def test_large_eps_is_warned():
