@@ -16,6 +16,7 @@ checked against N in :meth:`Perturbation.bead_values`.
 from __future__ import annotations
 
 import difflib
+import math
 import numbers
 from dataclasses import dataclass
 from typing import Any, Mapping
@@ -119,6 +120,8 @@ class Perturbation:
             return out
         beads = len(value) if isinstance(value, tuple) else int(max(1, np.ceil(pos.max() + 0.5)))
         arr = _frozen_bead_values(name, value, beads)
+        if pos.size == 1 and math.isfinite(pos[0]):  # one position (a law's right-hand side, at every evaluation): no array arithmetic
+            return np.array([arr[min(max(math.floor(float(pos[0]) + 0.5), 1), arr.size) - 1]]).reshape(pos.shape)
         k = np.clip(np.floor(pos + 0.5).astype(int), 1, arr.size)
         return arr[k - 1]
 
