@@ -418,7 +418,7 @@ def test_table_appends_rows_and_skips_finished_scenes(tmp_path, monkeypatch):
 
     calls = []
 
-    def fake_row(name, progress=False, columns=table_mod.COLUMNS, eps=None, sets=()):
+    def fake_row(name, progress=False, columns=table_mod.COLUMNS, eps=None, sets=(), scene=None):
         calls.append(name)
         scene = table_mod._scene(name, eps, sets)
         return {"scene": name, "key": table_mod.row_key(scene.as_dict(), columns), "R": "x", "eps": 0.1, "v0": 1.0,
