@@ -254,13 +254,9 @@ def cached_smoothing_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray):
     """scipy's GCV smoothing spline through (x, y, w), its knots and coefficients cached on disk by a
     digest of the data and the scipy version (GCV costs ~40 ms of Python loops per fit; the cached
     spline is the same BSpline, bit for bit). None when the fit is ill-posed."""
-    import hashlib
-
-    import scipy
     from scipy.interpolate import BSpline, make_smoothing_spline
 
-    digest = hashlib.sha256(b"".join(np.ascontiguousarray(a, float).tobytes() for a in (x, y, w))).hexdigest()
-    key = f"relaxed-bulk-fit|v1|scipy={scipy.__version__}|n={x.size}|data={digest}"
+    key = bulk_fit_key(x, y, w)
     hit = cache.load(NAMESPACE, key, _spline_problem)
     if hit is not None:
         return BSpline(np.array(hit["t"], float), np.array(hit["c"], float), int(hit["k"]))
@@ -270,6 +266,16 @@ def cached_smoothing_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray):
         return None
     cache.store(NAMESPACE, key, {"t": spline.t.tolist(), "c": spline.c.tolist(), "k": int(spline.k)})
     return spline
+
+
+def bulk_fit_key(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> str:
+    """The cache key of a bulk fit: a digest of its data and the scipy version that fits it."""
+    import hashlib
+
+    import scipy
+
+    digest = hashlib.sha256(b"".join(np.ascontiguousarray(a, float).tobytes() for a in (x, y, w))).hexdigest()
+    return f"relaxed-bulk-fit|v1|scipy={scipy.__version__}|n={x.size}|data={digest}"
 
 
 def _spline_problem(value) -> str | None:

@@ -308,3 +308,16 @@ def test_eps_accepts_numbers_and_numeric_strings() -> None:
     assert make_perturbation("-v", np.float64(0.2), {}).eps == 0.2
     with pytest.raises(PerturbationError, match="eps = -0.2 must be >= 0"):  # the sign belongs in R
         make_perturbation("-v", np.float64(-0.2), {})
+
+
+def test_values_at_one_position_is_the_bead_of_the_array_path() -> None:
+    """values_at's one-position shortcut (a law's right-hand side) gives the array path's value,
+    the draw is kept read-only, and bead_values still hands out a fresh writable copy."""
+    pert = make_perturbation("-mu*v", 0.1, {"mu": {"uniform": [0.5, 2.0], "seed": 3}})
+    positions = np.array([0.2, 1.0, 1.49, 1.5, 7.5, 17.3, 49.9, 60.0])
+    many = pert.values_at("mu", positions)
+    one = [float(pert.values_at("mu", [p])[0]) for p in positions]
+    assert one == many.tolist()
+    beads = pert.bead_values("mu", 61)
+    beads[0] = -1.0  # the caller's copy: the kept draw is not touched
+    assert pert.values_at("mu", [1.0])[0] == many[1] != -1.0

@@ -129,3 +129,18 @@ def test_api_dressed():
         pulsemap.dressed("-sin(u)")
     with pytest.raises(TypeError, match="R must be"):
         pulsemap.dressed(3)
+
+
+def test_site_coefficients_along_a_grid_equal_the_pointwise_ones():
+    """coefficient_along (one lambdified evaluation over the grid) against coefficient_at (sympy
+    substitution per bead position) on a random foundation: the same numbers."""
+    from pulsemap.derive.balance import balance_expand
+    from pulsemap.solvers.data.scene import load_scene
+    from pulsemap.solvers.studies.dressed import coefficient_along, coefficient_at
+
+    pert = load_scene("fig13-seed2").perturbation
+    grid = np.arange(14.0, 30.0, 1 / 16) + 0.5
+    for term in balance_expand(pert.R, 1.5, "energy", pert.site_dependent).terms:
+        pointwise = np.array([coefficient_at(term.coefficient, pert, g) for g in grid])
+        assert np.ptp(pointwise) > 0  # site-dependent indeed
+        np.testing.assert_allclose(coefficient_along(term.coefficient, pert, grid), pointwise, rtol=1e-15, atol=0)
