@@ -81,7 +81,8 @@ def test_ratios_and_reports(tiny_report):
     assert rat["dns"]["time_s"] > 0 and rat["baseline_b"]["time_s"] > 0
     assert rat["dns_vs_b"] == pytest.approx(rat["baseline_b"]["time_s"] / rat["dns"]["time_s"])
     m = rat["models"]
-    assert m["map_line"] == "map/exact/paper" and m["run_dns_vs_map"] > 1
+    # a ratio of the times measured, not a speed claim (no timing assertions: the compiled DNS can beat the map)
+    assert m["map_line"] == "map/exact/paper" and m["run_dns_vs_map"] == pytest.approx(m["run_dns_time_s"] / m["map_time_s"])
     text = to_text([tiny_report])
     assert "ratio (b)/DNS" in text and "window LSODA" in text
     csv = to_csv([tiny_report]).splitlines()
