@@ -28,8 +28,6 @@ def to_text(reports: list[dict]) -> str:
             e = rat[key]
             lines.append(f"    {label:26s} {fmt(e['time_s'], '.4g'):>10s} s  {e['line']}")
         lines.append(f"    ratio (b)/DNS = {fmt(rat['dns_vs_b'], '.3g')}   ratio (a)/DNS = {fmt(rat['dns_vs_a'], '.3g')}")
-        if "engines" in rat:
-            lines += engine_lines(rat["engines"], r.get("cold", {}), t)
         if "models" in rat:
             m = rat["models"]
             lines.append(f"    map ({m['map_line']}): {fmt(m['map_time_s'], '.3g')} s, max rel err {fmt(m['map_error'])};"
@@ -39,6 +37,8 @@ def to_text(reports: list[dict]) -> str:
             lines.append(f"    slowest model {m['slowest_model_time_s']:.3g} s (DNS of `pulsemap run` / it = "
                          f"{fmt(m['run_dns_vs_slowest_model'], '.3g')}); most accurate model "
                          f"{m['most_accurate']['line']} (max rel err {fmt(m['most_accurate']['error'])})")
+        if "engines" in rat:
+            lines += engine_lines(rat["engines"], r.get("cold", {}), t)
         lines.append(f"  (benchmark took {r['bench_time_s']:.1f} s)")
     return "\n".join(lines)
 
