@@ -7,7 +7,9 @@ Three kinds of module, each generated only when a scene needs it:
                         the stationary function of Eq. 41 with its derivatives (derive/codegen_map.py);
 * ``balance_<hash>.py`` an energy- or momentum-balance map step and law (derive/codegen_balance.py);
 * ``force_<hash>.py``   the on-site force eps_i R_i(x_i, v_i) of the DNS (Eq. 1), vectorised over
-                        beads, with dF/dx and dF/dv for implicit integrators (derive/codegen_force.py).
+                        beads, with dF/dx and dF/dv for implicit integrators (derive/codegen_force.py);
+* ``jitforce_<hash>.py`` the same force for one bead as numba C callables, for the compiled DNS when R
+                        is not a polynomial (cache only; derive/codegen_jitforce.py).
 
 Every file starts with a header naming its source (expression, n, profile, variant) and two
 hashes: ``source-hash`` (what the file is looked up by; it names everything the content depends
@@ -26,10 +28,12 @@ from . import cache
 from .amplitude_map import check_variant
 from .codegen_balance import generate_balance
 from .codegen_force import generate_force
+from .codegen_jitforce import generate_jit_force
 from .codegen_map import generate_map
 from .codeprint import SIG_DIGITS, CodegenError
 from .profile import check_profile_kind
-from .sources import BalanceSource, ForceSource, MapSource, module_name, source_from_dict, verify_generated
+from .sources import (BalanceSource, ForceSource, JitForceSource, MapSource, module_name, source_from_dict,
+                      verify_generated)
 
 __all__ = [
     "PACKAGE_DIR", "SIG_DIGITS", "BalanceSource", "CodegenError", "ForceSource", "MapSource",
@@ -65,10 +69,12 @@ def _generate(source) -> str:
         return generate_map(source)
     if isinstance(source, BalanceSource):
         return generate_balance(source)
+    if isinstance(source, JitForceSource):
+        return generate_jit_force(source)
     return generate_force(source)
 
 
-def write(source: MapSource | ForceSource | BalanceSource, directory: Path | None = None) -> Path:
+def write(source: MapSource | ForceSource | JitForceSource | BalanceSource, directory: Path | None = None) -> Path:
     """Generate the module for ``source`` into ``directory`` (default: the cache)."""
     text = _generate(source)
     folder = Path(directory) if directory is not None else cache.cache_dir() / "generated"

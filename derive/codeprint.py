@@ -15,6 +15,7 @@ import keyword
 
 import sympy
 from sympy.printing.numpy import NumPyPrinter
+from sympy.printing.pycode import PythonCodePrinter
 
 from .expansion import BeadSymbol, bead_symbol
 from .expression import SYMBOLS, UserSymbol, symbol
@@ -54,8 +55,16 @@ class _Printer(NumPyPrinter):
         return f"ramp_slope({self._print(expr.args[0])})"
 
 
-def code(expr: sympy.Expr, names: dict[sympy.Symbol, str]) -> str:
-    """numpy code for ``expr``, each free symbol printed as its identifier in ``names``.
+class _MathPrinter(PythonCodePrinter):
+    """Scalar code with the math module (numba compiles it), for derive/codegen_jitforce.py."""
+
+    def _print_not_supported(self, expr):
+        raise CodegenError(f"{expr} has no scalar (math module) form for the compiled DNS")
+
+
+def code(expr: sympy.Expr, names: dict[sympy.Symbol, str], scalar: bool = False) -> str:
+    """numpy code for ``expr`` (``scalar``: math-module code for one bead), each free symbol printed
+    as its identifier in ``names``.
 
     Every free symbol must have an identifier, and distinct symbols distinct identifiers: two
     symbols printed alike would silently become one variable of the module.
@@ -74,7 +83,8 @@ def code(expr: sympy.Expr, names: dict[sympy.Symbol, str]) -> str:
         if _is_user_identifier(ident) != _is_parameter(s):
             raise CodegenError(f"identifier {ident!r} of {s} crosses the user/internal namespaces")
     expr = expr.xreplace({s: sympy.Symbol(ident, real=True) for s, ident in used.items()})
-    return _Printer({"fully_qualified_modules": True}).doprint(expr)
+    printer = _MathPrinter if scalar else _Printer
+    return printer({"fully_qualified_modules": True}).doprint(expr)
 
 
 def const(value: float) -> str:

@@ -15,6 +15,8 @@ from typing import ClassVar, Union
 GENERATOR_VERSION = 3  # 2: parameters are arguments p_<name>, b<offset>_<name>; ARGS in map and balance modules
 #: Bump when the force module's layout changes (2: MONOMIALS and monomial_coefficients, for the compiled DNS).
 FORCE_LAYOUT = 2
+#: Bump when the numba force module's layout changes (derive/codegen_jitforce.py).
+JIT_FORCE_LAYOUT = 1
 #: Bump when the numerical method of the profile integrals changes (stale cache entries, generated code).
 INTEGRALS_METHOD = 1
 #: Bump when the numerical method of the balance constants changes (stale cache entries, generated code).
@@ -114,6 +116,15 @@ class ForceSource:
 
 
 @dataclass(frozen=True)
+class JitForceSource(ForceSource):
+    """Everything a generated numba force module (the compiled DNS's non-polynomial R) depends on."""
+
+    def as_dict(self) -> dict:
+        return {"kind": "jitforce", "R": self.R, "params": list(self.params), "generator": GENERATOR_VERSION,
+                "layout": JIT_FORCE_LAYOUT}
+
+
+@dataclass(frozen=True)
 class BalanceSource(_ExpandedSource):
     """Everything a generated energy- or momentum-balance module depends on (derive/balance.py)."""
 
@@ -128,7 +139,7 @@ class BalanceSource(_ExpandedSource):
         return cls(model=model, **cls._normalized(R, params, n, profile, site_dependent, dps))
 
 
-Source = Union[MapSource, ForceSource, BalanceSource]
+Source = Union[MapSource, ForceSource, JitForceSource, BalanceSource]
 
 
 def source_from_dict(d: dict) -> Source:
@@ -136,6 +147,8 @@ def source_from_dict(d: dict) -> Source:
         return MapSource.from_dict(d)
     if d["kind"] == "balance":
         return BalanceSource.from_dict(d)
+    if d["kind"] == "jitforce":
+        return JitForceSource(d["R"], tuple(d["params"]))
     return ForceSource(d["R"], tuple(d["params"]))
 
 
@@ -145,7 +158,7 @@ def source_hash(source: Source) -> str:
 
 
 def module_name(source: Source) -> str:
-    kind = {MapSource: "map", ForceSource: "force", BalanceSource: "balance"}[type(source)]
+    kind = {MapSource: "map", ForceSource: "force", JitForceSource: "jitforce", BalanceSource: "balance"}[type(source)]
     return f"{kind}_{source_hash(source)[:16]}"
 
 

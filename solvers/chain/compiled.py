@@ -15,12 +15,14 @@ as soon as the last one moves. ``rule=None`` is the full chain: nothing is dropp
 window grows ahead as soon as the last bead moves at all (beads exactly at rest feel no force,
 so this is the full chain's dynamics). The error norm is the RMS over the integrated beads.
 F enters as a monomial table (the generated force module's MONOMIALS and monomial_coefficients,
-derive/monomials.py), so a new polynomial R costs no compilation.
+derive/monomials.py), so a new polynomial R costs no compilation; a smooth non-polynomial R as a
+generated numba force (JitForce: derive/codegen_jitforce.py, in the cache), compiled once per R.
 """
 
 from __future__ import annotations
 
 import time as _time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,6 +72,50 @@ class MonomialTable:
         rows = np.flatnonzero((self.exponents[:, 0] == 0) & (self.exponents[:, 1] == 0))
         return bool(rows.size and np.any(self.coefficients[rows] != 0.0))
 
+    @property
+    def kernel_args(self) -> tuple:
+        """The kernels' (exps, coef) (solvers/chain/compiled_force.py)."""
+        return self.exponents, self.coefficients
+
+    @property
+    def conservative(self) -> bool:
+        """R = 0: the energy is conserved (its drift is reported)."""
+        return self.exponents.shape[0] == 0
+
+    describe = "monomial table"
+
+
+@dataclass(frozen=True)
+class JitForce:
+    """eps_i R_i as a generated numba force (derive/codegen_jitforce.py, a non-polynomial R), Eq. 1:
+    ``functions`` its C callables (force, dF/dx, dF/dv), ``arguments`` (L, 1 + P) whose row
+    min(i-1, L-1) is [eps_i, the parameters at bead i] (``jit_force`` builds both)."""
+
+    functions: tuple
+    arguments: Array
+
+    @property
+    def kernel_args(self) -> tuple:
+        return self.functions, self.arguments
+
+    conservative = False
+    describe = "R as a generated numba function (not a polynomial)"
+
+
+def _needed(rows: Array) -> int:
+    """How many leading rows of ``rows`` (beads first) to keep: past the last that differs from the
+    final row every bead is alike (uniform R: O(1) memory)."""
+    differs = np.flatnonzero(np.any(rows != rows[-1:], axis=tuple(range(1, rows.ndim))))
+    return 1 if differs.size == 0 else int(differs[-1]) + 2
+
+
+def jit_force(module, index: Array, eps: Array, params: tuple) -> JitForce:
+    """The generated numba force module's functions with their per-bead arguments ([eps_i, params]
+    in module.PARAMS order; a parameter is a float or an array over beads)."""
+    rows = np.column_stack([np.broadcast_to(np.asarray(a, float), index.shape) for a in (eps, *params)])
+    return JitForce((module.force, module.force_dx, module.force_dv),
+                    np.ascontiguousarray(rows[: _needed(rows)], dtype=np.float64))
+
 
 def table_from_module(module, index: Array, eps: Array, params: tuple) -> MonomialTable | None:
     """The generated force module's eps_i R_i as a table (None: R is not polynomial, or the module
@@ -82,26 +128,32 @@ def table_from_module(module, index: Array, eps: Array, params: tuple) -> Monomi
     with np.errstate(all="ignore"):
         coef = np.array([np.broadcast_to(np.asarray(c, float), index.shape)
                          for c in module.monomial_coefficients(index, eps, *params)])
-    differs = np.flatnonzero(np.any(coef != coef[:, -1:], axis=0))
-    columns = 1 if differs.size == 0 else int(differs[-1]) + 2
-    return MonomialTable.of(exponents, coef[:, :columns].copy())
+    return MonomialTable.of(exponents, coef[:, : _needed(coef.T)].copy())
 
 
-def unavailable(force, method: str, chosen: str, snapshots: bool = False) -> str:
-    """Why the compiled engine cannot run this case ("" when it can): the scipy engine then runs.
-    A stiff force (method 'auto' chose an implicit ``chosen``) runs the Rosenbrock kernel (``stiff_reason``)."""
+def unavailable(method: str, snapshots: bool = False) -> str:
+    """Why the compiled engine cannot run this case ("" when it can; ``force_data`` says whether it can
+    take the force): the scipy engine then runs. A stiff force (method 'auto' chose an implicit
+    method) runs the Rosenbrock kernel (``stiff_reason``)."""
     if snapshots:
         return "strain snapshots are recorded by the scipy engine only"
     if method not in ("auto", METHOD):
         return f"method {method} has no compiled kernel (compiled: RK45, Dormand-Prince 5(4))"
-    if force is None:
-        return ""
-    table = getattr(force, "monomials", None)
-    if table is None:
-        return "the on-site force has no monomial table (non-polynomial R or a Python callable)"
-    if table.constant_term:
-        return "R(0, 0) != 0: the monomial table has a constant term"
     return ""
+
+
+def force_data(force) -> tuple[MonomialTable | JitForce | None, str]:
+    """The on-site force as the kernels take it (a monomial table, else the generated numba force the
+    force's ``jit`` builds) and "", or None and why the scipy engine must run instead."""
+    if force is None:
+        return MonomialTable.zero(), ""
+    table = force.monomials
+    if table is not None:
+        return (None, "R(0, 0) != 0: the monomial table has a constant term") if table.constant_term else (table, "")
+    if force.jit is None:
+        return None, "the on-site force has no monomial table and no generated numba form (a Python callable)"
+    data = force.jit()
+    return (None, data) if isinstance(data, str) else (data, "")
 
 
 def stiff_reason(force, velocity: float, exponent: float) -> str:
@@ -144,7 +196,7 @@ class _Run:
     atol: float
     t_max: float
     max_steps: int
-    table: MonomialTable
+    table: "MonomialTable | JitForce"
     cap: int
     cf: Array
     ci: Array
@@ -159,8 +211,8 @@ class _Run:
     method: str = METHOD  # the kernel: RK45 (compiled_kernel.py) or Rodas3 (compiled_stiff.py)
 
 
-def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, int], table: MonomialTable | None,
-            *, rule, rtol: float, atol: float, peak_fraction: float, death_fraction: float, t_max: float,
+def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
+            table: "MonomialTable | JitForce | None", *, rule, rtol: float, atol: float, peak_fraction: float, death_fraction: float, t_max: float,
             stall_factor: float, overtake_factor: float, max_steps: int, method: str = METHOD) -> _Run:
     """The kernel's arrays at t = 0: all beads at rest, bead 1 with velocity v0 (Eq. 1); ``method``:
     the kernel (RK45 or compiled_stiff.METHOD)."""
@@ -201,6 +253,7 @@ def drive(run: _Run, code: int | None = None, report=None) -> int:
     the kernel pauses every PAUSE_STEPS accepted steps so the reporter can print its line; a pause
     changes no number (the kernel's state is complete between calls)."""
     from pulsemap.solvers.chain import compiled_track as K
+
     if run.method == METHOD:
         from pulsemap.solvers.chain.compiled_kernel import run as kernel
     else:
@@ -221,8 +274,10 @@ def drive(run: _Run, code: int | None = None, report=None) -> int:
             y, f = np.zeros(2 * run.cap), np.zeros(2 * run.cap)
             y[: 2 * w], f[: 2 * w] = run.y[: 2 * w], run.f[: 2 * w]
             run.y, run.f = y, f
-        code = int(kernel(run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e,
-                          run.total_e, run.table.exponents, run.table.coefficients))
+        with warnings.catch_warnings():  # numba calls C function pointers (JitForce) 'experimental'
+            warnings.filterwarnings("ignore", "First-class function type feature is experimental")
+            code = int(kernel(run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e,
+                              run.total_e, *run.table.kernel_args))
 
 
 def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSResult:
@@ -240,17 +295,17 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
         contacts=contacts_out, peaks=peaks_out, peak_times=times_out, alive=alive, stop_reason=reason,
         method=run.method, rtol=run.rtol, atol=run.atol, beads=int(run.beads), nfev=int(st[K.NFEV]),
         njev=int(st[K.NJEV]),
-        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.exponents.shape[0] == 0 else None,
+        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.conservative else None,
         exponent=float(run.exponent), velocity=float(run.velocity), t_end=float(fs[K.T]),
         mode="full" if run.rule is None else "window/compiled", window_beads=int(st[K.WIDEST]),
         window_shifts=int(st[K.SHIFTS]), window_rule=run.rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),
         energy_initial=float(fs[K.E0]), pulse_energy=run.pulse_e, total_energy=run.total_e,
-        engine="compiled", engine_reason=engine_reason or "compiled RK45 (Dormand-Prince 5(4)), monomial table",
+        engine="compiled", engine_reason=f"{engine_reason or 'compiled RK45 (Dormand-Prince 5(4))'}, {run.table.describe}",
     )
 
 
 def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
-                      table: MonomialTable | None, *, engine_reason: str = "", progress: bool = False,
+                      table: "MonomialTable | JitForce | None", *, engine_reason: str = "", progress: bool = False,
                       **settings) -> DNSResult:
     """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it; ``settings``:
     rule, rtol, atol, peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps, method).

@@ -1,12 +1,14 @@
 """numba kernel: moving-window Dormand-Prince 5(4) integration of paper Eq. 1 with peak tracking.
 
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i'),
-    F_i(x, v) = sum_m c_m[i] x^(a_m) v^(b_m)                               (paper Eq. 1)
+    F_i(x, v) = sum_m c_m[i] x^(a_m) v^(b_m), or a generated numba function     (paper Eq. 1)
 
 The on-site force enters as data (a monomial table: exponents (a_m, b_m) and per-bead
 coefficients c_m[i], eps and the perturbed range folded in), so one compiled kernel serves every
-polynomial R. The whole run (steps, PI step control, window shifts, leading-edge peaks on the
-dense output, stop rules) happens in ``run``; solvers/chain/compiled.py wraps it and builds DNSResult.
+polynomial R; a non-polynomial R enters as C callables with per-bead arguments, so one more
+specialisation serves every other R (solvers/chain/compiled_force.py). The whole run (steps,
+PI step control, window shifts, leading-edge peaks on the dense output, stop rules) happens in
+``run``; solvers/chain/compiled.py wraps it and builds DNSResult.
 
 State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window beads lo..hi-1
 (0-based), stored from index 0 of a buffer of ``capacity`` beads. Bead hi (if hi < N) is a wall

@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from pulsemap.solvers.chain.compiled_force import add_onsite
+
 # --- Dormand-Prince 5(4) (Hairer & Wanner's DOPRI5), dense output of order 4 (CONTD5)
 C2, C3, C4, C5 = 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0
 A21 = 1.0 / 5.0
@@ -39,14 +41,12 @@ def _pow(d: float, n: float) -> float:
 
 @njit(cache=True)
 def rhs(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef):
-    """Eq. 1 on the window's w beads (interleaved), on-site force from the monomial table."""
+    """Eq. 1 on the window's w beads (interleaved), the on-site force (exps, coef) as compiled_force.py reads it."""
     prev = 0.0
     if has_left:
         d = left_x + left_v * (t - left_t) - y[0]
         if d > 0.0:
             prev = _pow(d, n)
-    m_count = exps.shape[0]
-    width = coef.shape[1]
     for j in range(w):
         x = y[2 * j]
         v = y[2 * j + 1]
@@ -57,19 +57,7 @@ def rhs(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef)
         else:
             d = 0.0
         fj = _pow(d, n) if d > 0.0 else 0.0
-        acc = prev - fj
-        col = lo + j
-        if col >= width:
-            col = width - 1
-        for m in range(m_count):
-            c = coef[m, col]
-            if c != 0.0:
-                p = c
-                for _ in range(exps[m, 0]):
-                    p *= x
-                for _ in range(exps[m, 1]):
-                    p *= v
-                acc += p
+        acc = add_onsite(prev - fj, x, v, lo + j, exps, coef)
         out[2 * j] = v
         out[2 * j + 1] = acc
         prev = fj

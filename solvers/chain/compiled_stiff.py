@@ -1,7 +1,7 @@
 """numba kernel for stiff on-site forces: moving-window Rodas3 (Rosenbrock) integration of paper Eq. 1.
 
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i'),
-    F_i(x, v) = sum_m c_m[i] x^(a_m) v^(b_m)                               (paper Eq. 1)
+    F_i(x, v) = sum_m c_m[i] x^(a_m) v^(b_m), or a generated numba function     (paper Eq. 1)
 
 Rodas3 (Sandu et al. 1997, Atmos. Environ. 31: 3459; Hairer & Wanner's Rosenbrock form, 4 stages,
 3 new right-hand sides, order 3, embedded order 2, stiffly accurate and L-stable):
@@ -10,8 +10,8 @@ Rodas3 (Sandu et al. 1997, Atmos. Environ. 31: 3459; Hairer & Wanner's Rosenbroc
     y1 = y + sum_i m_i K_i,  error estimate K_4.
 
 J is the exact Jacobian of Eq. 1 at the step's start: tridiagonal in the beads with 2x2 blocks
-(contact stiffness n delta^(n-1) couples neighbours; dF/dx, dF/dv from the monomial table sit on
-the diagonal), so eliminating K_x leaves a tridiagonal system in K_v: one factorisation and four
+(contact stiffness n delta^(n-1) couples neighbours; dF/dx, dF/dv of the force, compiled_force.py,
+sit on the diagonal), so eliminating K_x leaves a tridiagonal system in K_v: one factorisation and four
 O(window) solves per step. df/dt is the coasting left bead's push. Dense output: the cubic
 Hermite interpolant of (y, f) at the step's ends (order 3, compiled_track.hermite_dense; f at the
 new point is the next step's first stage). Window, peaks, stop rules: compiled_track.py, as the
@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from pulsemap.solvers.chain.compiled_force import onsite_slopes
 from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import _pow, hermite_dense, rhs
 from pulsemap.solvers.chain.compiled_track import (
@@ -55,22 +56,8 @@ def jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, band):
         s[j + 1] = n * _pow(d, n - 1.0) if d > 0.0 else 0.0
     d = y[2 * w - 2] if wall else 0.0  # the wall ahead
     s[w] = n * _pow(d, n - 1.0) if d > 0.0 else 0.0
-    width = coef.shape[1]
     for j in range(w):
-        x = y[2 * j]
-        v = y[2 * j + 1]
-        col = min(lo + j, width - 1)
-        gx, gv = 0.0, 0.0
-        for m in range(exps.shape[0]):
-            c = coef[m, col]
-            a, b = exps[m, 0], exps[m, 1]
-            if c != 0.0:
-                if a > 0:
-                    gx += c * a * x ** (a - 1) * v**b
-                if b > 0:
-                    gv += c * b * x**a * v ** (b - 1)
-        band[1, j] = gx
-        band[2, j] = gv
+        band[1, j], band[2, j] = onsite_slopes(y[2 * j], y[2 * j + 1], lo + j, exps, coef)
     return ft
 
 

@@ -183,8 +183,9 @@ def simulate(
     k - snapshot_span[0] .. k + snapshot_span[1] are kept.
 
     ``engine="compiled"`` (default) runs chain/compiled.py (numba Dormand-Prince 5(4), method
-    'auto' or 'RK45', the force as a monomial table; Rodas3 with the exact Jacobian when 'auto'
-    finds the force stiff) where it applies, else the scipy engine;
+    'auto' or 'RK45', the force as a monomial table or, for a non-polynomial smooth R, a generated
+    numba function; Rodas3 with the exact Jacobian when 'auto' finds the force stiff) where it
+    applies, else the scipy engine;
     ``engine="scipy"`` always the scipy engine. The result's ``engine_reason`` says which and why.
     """
     if force is not None and not isinstance(force, OnSiteForce):
@@ -221,11 +222,14 @@ def simulate(
         from pulsemap.solvers.chain import compiled  # numba: imported only when used
 
         why_scipy = ("a launched solitary wave starts on the scipy engine only" if launch is not None
-                     else compiled.unavailable(force, method, chosen, bool(snapshots)))
+                     else compiled.unavailable(method, bool(snapshots)))
+        data = None
+        if not why_scipy:
+            data, why_scipy = compiled.force_data(force)
         if not why_scipy:
             stiff = chosen in IMPLICIT_METHODS
             return compiled.simulate_compiled(
-                beads, exponent, velocity, (first, last), None if force is None else force.monomials,
+                beads, exponent, velocity, (first, last), data,
                 rule=None if window is None else _window.resolve_rule(window, window_accuracy), rtol=rtol,
                 atol=atol, peak_fraction=peak_fraction, death_fraction=death_fraction, t_max=t_limit,
                 stall_factor=stall_factor, overtake_factor=overtake_factor,

@@ -40,6 +40,9 @@ class OnSiteForce:
     ``restrict(lo, hi)``, optional, returns the same force acting on beads lo..hi-1 only
     (0-based slice; arrays of length hi-lo) for the moving-window DNS; without it the window
     embeds its beads in full-length arrays, which works for any force but costs O(N) per call.
+    ``monomials``: the same force as a table for the compiled engine (polynomial R); else ``jit``,
+    called only when the compiled engine runs, returns it as a generated numba force or a string
+    saying why there is none (non-smooth R: the scipy engine runs).
     """
 
     force: Callable[[Array, Array], Array]
@@ -48,6 +51,7 @@ class OnSiteForce:
     stiffness_hint: float = 0.0
     restrict: Callable[[int, int], "OnSiteForce"] | None = None
     monomials: object | None = None  # chain.compiled.MonomialTable: the same force as data (compiled engine)
+    jit: Callable[[], object] | None = None  # builds chain.compiled.JitForce (numba R) or says why not
 
     @property
     def has_jacobian(self) -> bool:

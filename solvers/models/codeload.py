@@ -14,7 +14,7 @@ from types import ModuleType
 
 from pulsemap.derive.cache import cache_dir
 from pulsemap.derive.sources import (BALANCE_MODELS, PROFILE_KINDS, VARIANTS, BalanceSource, ForceSource, GeneratedCodeError,
-                            MapSource, module_name, source_from_dict, verify_generated)
+                            JitForceSource, MapSource, module_name, source_from_dict, verify_generated)
 
 PACKAGE_DIR = Path(__file__).resolve().parents[2] / "generated"
 
@@ -48,7 +48,12 @@ def _verified_text(path: Path) -> str:
 def _exec(path: Path) -> ModuleType:
     spec = importlib.util.spec_from_file_location(f"pulsemap_generated_{path.stem}", path)
     module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)  # our own generated, hash-checked file
+    sys.modules[spec.name] = module  # by name, so numba's cache of a jitforce module's functions finds it
+    try:
+        spec.loader.exec_module(module)  # our own generated, hash-checked file
+    except BaseException:
+        del sys.modules[spec.name]
+        raise
     return module
 
 
@@ -117,6 +122,20 @@ def map_module(R_text: str, params, n: float, profile: str = "exact", variant: s
 def force_module(R_text: str, params) -> ModuleType:
     """The generated on-site force module for R, generating it if missing."""
     return _ensure(ForceSource.of(R_text, params))
+
+
+_JIT: dict[str, ModuleType] = {}
+
+
+def jit_force_module(R_text: str, params) -> ModuleType:
+    """The generated numba force module for R (the compiled DNS's non-polynomial force, in the cache),
+    generating it if missing; imported once per process (numba compiles its functions the first time
+    and loads them from its cache afterwards). CodegenError (a RuntimeError) when R has no such form."""
+    source = JitForceSource.of(R_text, params)
+    name = module_name(source)
+    if name not in _JIT:
+        _JIT[name] = _ensure(source)
+    return _JIT[name]
 
 
 def balance_module(R_text: str, params, n: float, profile: str = "exact", model: str = "energy",

@@ -15,7 +15,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from pulsemap.solvers.chain.compiled import table_from_module
+from pulsemap.solvers.chain.compiled import jit_force, table_from_module
 from pulsemap.solvers.chain.dns import OnSiteForce, chain_length_for, simulate
 from pulsemap.solvers.studies.sweep import SweepError, generated_ref, load_generated
 
@@ -141,7 +141,7 @@ def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | No
         raise SweepError("the on-site force is undefined at rest (non-finite value): check R and its parameters")
     hint = float(max(kv.max(initial=0.0), math.sqrt(kx.max(initial=0.0))))
 
-    def build(lo: int, hi: int, monomials=None) -> OnSiteForce:
+    def build(lo: int, hi: int, monomials=None, jit=None) -> OnSiteForce:
         i, e = idx[lo:hi], eps[lo:hi]
         args = tuple(a[lo:hi] if np.ndim(a) else a for a in full)
         return OnSiteForce(
@@ -151,9 +151,28 @@ def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | No
             stiffness_hint=hint,
             restrict=build,
             monomials=monomials,
+            jit=jit,
         )
 
-    return build(0, beads, table_from_module(module, idx, eps, full))  # the table: the compiled engine's F
+    table = table_from_module(module, idx, eps, full)  # the table: the compiled engine's F
+    return build(0, beads, table, None if table is not None else (lambda: numba_force(module, idx, eps, full)))
+
+
+def numba_force(module, idx: np.ndarray, eps: np.ndarray, full: tuple):
+    """The force module's R as a generated numba force for the compiled engine (chain/compiled.JitForce),
+    or a string saying why the scipy engine integrates it instead."""
+    from pulsemap.solvers.models.codeload import jit_force_module
+
+    if hasattr(module, "DELTA"):
+        return "non-smooth R (sign, Heaviside or abs, integrated as a stiff ramp): the scipy engine runs it"
+    zeros = np.zeros(idx.shape)
+    with np.errstate(all="ignore"):
+        if np.any(np.asarray(module.force(zeros, zeros, idx, eps, *full)) != 0.0):
+            return "R(0, 0) != 0 on some bead: the chain does not start at rest"
+    try:
+        return jit_force(jit_force_module(module.SOURCE["R"], module.SOURCE["params"]), idx, eps, full)
+    except (ValueError, RuntimeError, ImportError) as exc:  # ImportError: a numba cache that cannot be loaded
+        return f"R has no compiled form ({type(exc).__name__}: {exc})"
 
 
 def on_contacts(contacts: Sequence[int], at: Sequence[int], values: Sequence[float | None],

@@ -1,0 +1,45 @@
+"""The generated numba force module of the compiled DNS: eps_i R_i(x_i, v_i) of Eq. 1 for one bead,
+with dF/dx and dF/dv, for an R that is not a polynomial (sin(u), exp(-v^2) u, v/(1 + v^2), ...).
+
+    x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + eps_i R_i(x_i, x_i')          (paper Eq. 1)
+
+Three C-callable functions (numba ``cfunc``, compiled once and cached on disk next to the module),
+each ``f(x, v, i, p) -> float`` with x, v the bead's displacement and velocity, i its index (1-based)
+and p a pointer to [eps_i, then the parameters in PARAMS order at that bead]. The compiled kernels
+call them through a function pointer (solvers/chain/compiled_force.py), so one compiled kernel
+serves every R. The module lives in the cache only (derive never imports numba: this is text).
+Non-smooth R (sign, Heaviside, abs) is refused: the scipy engine integrates its ramp.
+"""
+
+from __future__ import annotations
+
+import json
+
+import sympy
+
+from .codeprint import CodegenError, code, module, param_identifier
+from .expression import NON_SMOOTH, parse_expression, symbol
+from .sources import JitForceSource
+
+SIGNATURE = "types.float64(types.float64, types.float64, types.float64, types.CPointer(types.float64))"
+
+
+def generate_jit_force(source: JitForceSource) -> str:
+    """The text of the numba force module for ``source`` (module docstring); CodegenError when R
+    is non-smooth or has a function without a math-module form."""
+    R = parse_expression(source.R, source.params)
+    kinks = sorted(str(a.func) for a in R.atoms(*NON_SMOOTH))
+    if kinks:
+        raise CodegenError(f"R has a kink or a jump at 0 ({', '.join(kinks)}): no compiled force for it")
+    u, v = symbol("u"), symbol("v")
+    ren = {u: "x", v: "v", symbol("i"): "i", **{symbol(p): param_identifier(p) for p in source.params}}
+    unpack = ["    eps = p[0]"] + [f"    {param_identifier(name)} = p[{k + 1}]" for k, name in enumerate(source.params)]
+    lines = ["import math", "", "from numba import cfunc, types", "",
+             f"SOURCE = {json.dumps(source.as_dict(), sort_keys=True)}", f"PARAMS = {tuple(source.params)!r}",
+             f"SIGNATURE = {SIGNATURE}", ""]
+    for fname, expr, doc in (("force", R, "eps_i R_i(x, v)"), ("force_dx", sympy.diff(R, u), "d(eps_i R_i)/dx"),
+                             ("force_dv", sympy.diff(R, v), "d(eps_i R_i)/dv")):
+        lines += ["", "@cfunc(SIGNATURE, cache=True)", f"def {fname}(x, v, i, p):",
+                  f'    """{doc} at bead i (1-based); p: [eps_i, then PARAMS at bead i]."""', *unpack,
+                  f"    return eps * ({code(expr, ren, scalar=True)})", ""]
+    return module(lines, f"On-site force of the compiled DNS (Eq. 1, numba) for R(u, v) = {source.R}", source)

@@ -1,0 +1,105 @@
+"""Non-polynomial R on the compiled engine: a generated numba force (derive/codegen_jitforce.py) that
+the kernels call through a function pointer (solvers/chain/compiled_force.py), paper Eq. 1.
+
+Stated tolerance: at rtol 1e-10 the compiled engine's leading-edge peaks agree with the scipy engine
+(Hairer's DOP853, rtol 1e-11; Radau for a stiff R) to PEAK_TOL relative on every live contact, with
+the same live contacts and stop rule. Non-smooth R stays on the scipy engine, which says why.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import re
+
+import numpy as np
+import pytest
+
+from pulsemap.derive.cache import cache_dir
+from pulsemap.derive.codegen import PACKAGE_DIR, regenerate_text
+from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.equations import make_rhs
+from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.models.codeload import force_module, jit_force_module
+from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.run import make_force
+
+PEAK_TOL = 1e-7
+FAST = dict(rtol=1e-10, atol=1e-12, window="auto")
+REFERENCE = dict(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window="auto")
+
+
+def rule_of(reason: str) -> str:
+    return re.sub(r"[-+]?\d[\d.]*(e[-+]?\d+)?", "#", reason)
+
+
+def scene_with(R: str, **params):
+    scene = load_scene("fig8-eps0.1").with_overrides(R=R, params=params)
+    beads, span = dns_span(scene)
+    return scene, beads, span, make_force(scene, beads)
+
+
+@pytest.mark.parametrize("R", ["-mu*sin(u)", "-mu*v/(1+v^2)"])
+def test_non_polynomial_R_agrees_with_the_scipy_engine(R):
+    scene, beads, span, force = scene_with(R, mu=1.0)
+    assert force.monomials is None and force.jit is not None
+    fast = simulate(beads, scene.exponent, scene.velocity, span, force, **FAST)
+    ref = simulate(beads, scene.exponent, scene.velocity, span, force, **REFERENCE)
+    assert fast.engine == "compiled" and fast.method == "RK45" and ref.engine == "scipy"
+    assert "generated numba function" in fast.engine_reason
+    assert np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 20
+    assert rule_of(fast.stop_reason) == rule_of(ref.stop_reason)
+    assert np.max(np.abs(fast.peaks[fast.alive] / ref.peaks[ref.alive] - 1.0)) < PEAK_TOL
+
+
+def test_stiff_non_polynomial_R_runs_rosenbrock_with_the_numba_jacobian():
+    """-mu v/(1 + v^2) with eps mu = 100: Rodas3 takes dF/dv from the generated dF/dv function."""
+    scene, beads, _, force = scene_with("-mu*v/(1+v^2)", mu=1000.0)
+    span = (1, scene.first_perturbed + 20)
+    fast = simulate(beads, scene.exponent, scene.velocity, span, force, rtol=1e-9, atol=1e-11, window="auto")
+    ref = simulate(beads, scene.exponent, scene.velocity, span, force, engine="scipy", method="Radau", rtol=1e-11,
+                   atol=1e-13, window="auto")
+    assert fast.engine == "compiled" and fast.method == "Rodas3" and "numba" in fast.engine_reason
+    assert np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 10
+    assert np.max(np.abs(fast.peaks[fast.alive] / ref.peaks[ref.alive] - 1.0)) < PEAK_TOL
+
+
+@pytest.mark.parametrize("R", ["-mu*sign(v)", "-mu*abs(v)*v"])
+def test_non_smooth_R_stays_on_the_scipy_engine_with_the_reason(R):
+    scene, beads, _, force = scene_with(R, mu=1.0)
+    res = simulate(beads, scene.exponent, scene.velocity, (15, 25), force, window="auto", max_steps=200_000)
+    assert res.engine == "scipy" and res.engine_reason.startswith("non-smooth R")
+
+
+@pytest.mark.filterwarnings("ignore:First-class function type feature is experimental")
+def test_the_compiled_right_hand_side_is_eq1_with_the_numpy_force():
+    """The kernels' right-hand side with the numba force of an R that depends on i and on a per-bead
+    random parameter equals the scipy engine's (numpy force module) on a random state."""
+    from pulsemap.solvers.chain.compiled_ops import rhs
+
+    scene = load_scene("fig13-seed1").with_overrides(R="-k*v/(1+v^2) - 0.3*sin(u)*exp(-i/50)")
+    beads = 60
+    force = make_force(scene, beads)
+    data = force.jit()
+    assert data.arguments.shape[0] == beads  # a random draw per bead: one row each
+    rng = np.random.default_rng(5)
+    y = rng.normal(size=2 * beads) * 0.3
+    got = np.empty_like(y)
+    rhs(0.0, y, got, beads, 0, 1.5, False, 0.0, 0.0, 0.0, False, *data.kernel_args)
+    np.testing.assert_allclose(got, make_rhs(beads, 1.5, force)(0.0, y), rtol=1e-13, atol=1e-15)
+
+
+def test_numba_force_module_is_hash_headed_in_the_cache_and_matches_the_numpy_module():
+    R, params = "-mu*v/(1+v^2) - sin(u)*exp(-i/50)", ("mu",)
+    jit, plain = jit_force_module(R, params), force_module(R, params)
+    path = cache_dir() / "generated" / f"{jit.__name__.removeprefix('pulsemap_generated_')}.py"
+    assert path.is_file() and not (PACKAGE_DIR / path.name).exists()
+    text, again = regenerate_text(path)
+    assert text == again
+    rng = np.random.default_rng(2)
+    for name in ("force", "force_dx", "force_dv"):
+        call = getattr(jit, name).ctypes
+        for x, v, i in zip(rng.normal(size=5), rng.normal(size=5), (1.0, 7.0, 16.0, 40.0, 99.0)):
+            args = np.array([0.1, 0.7])  # eps, mu
+            got = call(x, v, i, args.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+            want = getattr(plain, name)(np.array([x]), np.array([v]), np.array([i]), np.array([0.1]), 0.7)[0]
+            assert got == pytest.approx(want, rel=1e-13, abs=1e-15)
