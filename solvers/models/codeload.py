@@ -48,9 +48,12 @@ def _verified_text(path: Path) -> str:
 def _exec(path: Path) -> ModuleType:
     spec = importlib.util.spec_from_file_location(f"pulsemap_generated_{path.stem}", path)
     module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # by name, so numba's cache of a jitforce module's functions finds it
-    try:
+    if not path.stem.startswith("jitforce_"):
         spec.loader.exec_module(module)  # our own generated, hash-checked file
+        return module
+    sys.modules[spec.name] = module  # numba's cache of a jitforce module's functions finds it by name
+    try:
+        spec.loader.exec_module(module)
     except BaseException:
         del sys.modules[spec.name]
         raise
