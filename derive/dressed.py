@@ -18,8 +18,10 @@ term equals the first; the Pade pole) and the x where the next measured term of
 delta/(k1 x) = 1 + rho x + ... equals rho x (|x| = (rho/g)^2 for a g |x|^(3/2) term, |rho/r1| for r1 x^2).
 
 This module builds the law from coefficients it is given, each with how it was obtained
-("derived" or "calibrated" and its accuracy): rho and Delta come from DNS fits
-(solvers/studies/dressed_calibration.py); derive/ runs no DNS.
+("derived (method, accuracy)" or "calibrated" and its accuracy): rho, Delta and k2_jl are derived by
+expanding Eq. 1 to second order about the exact wave (solvers/models/dressed_expansion.py: a numeric
+time integration, so it lives in solvers/), with DNS fits (solvers/studies/dressed_calibration.py) as
+the fallback; derive/ runs neither.
 """
 
 from __future__ import annotations

@@ -17,12 +17,15 @@ def dressed(
     A0: float | None = None,
     i0: float = 0.0,
     params: Mapping[str, Any] | None = None,
+    coefficients: str = "derived",
     **parameters: Any,
 ):
     """The dressed law d ln A/di = -sum k1 x/(1 - (k2/k1) x) - sum k2_jl x_j x_l of a uniform polynomial R.
 
-    k1 is derived (energy balance); k2/k1, the onset lag and the cross terms are calibrated on DNS
-    decrements of launched solitons (cached; the paper's monomials ship precomputed). ``str()`` of the
+    k1 is derived (energy balance); k2/k1, the onset lag and the cross terms are derived by expanding Eq. 1 to
+    second order about the exact wave (``coefficients="derived"``, default) or calibrated on DNS decrements of
+    launched solitons (``"calibrated"``; also the fallback); both cached, the paper's monomials ship
+    precomputed. ``str()`` of the
     result is the report of ``pulsemap derive --model dressed``, ``.to_dict()`` its JSON, ``.law`` the
     law (``.law.terms``, ``.law.cross``, ``.law.rate_value(A)``, ``.law.validity()``).
 
@@ -43,9 +46,11 @@ def dressed(
     eps, n = number(eps, "eps"), number(n, "n")
     A0 = None if A0 is None else number(A0, "A0")
     i0 = number(i0, "i0")
+    if coefficients not in ("derived", "calibrated"):
+        raise ValueError(f"coefficients must be 'derived' or 'calibrated', got {coefficients!r}")
     values = merged_params(params, parameters)
     try:
         pert = check_all_used(make_perturbation(R, eps, values))
-        return derive_dressed(pert, n=n, A0_value=A0, i0=i0)
+        return derive_dressed(pert, n=n, A0_value=A0, i0=i0, source=coefficients)
     except (PerturbationError, ExpressionError, ProfileError, DressedError) as exc:
         raise ValueError(api_hint(str(exc))) from None

@@ -102,11 +102,13 @@ def cmd_derive(args: argparse.Namespace) -> int:
             raise UsageError(f"--param {name} given twice")
         params[name] = value
     pert = check_all_used(make_perturbation(args.expr, args.eps, params))
-    if args.model == "dressed":  # its coefficients come from DNS fits (solvers/studies/dressed.py)
+    if args.coefficients is not None and args.model != "dressed":
+        raise UsageError("--coefficients applies to the dressed law only: add --model dressed or drop it")
+    if args.model == "dressed":  # coefficients derived by the expansion about the wave (solvers/studies/dressed.py)
         from pulsemap.solvers.studies import dressed
 
         dd = dressed.derive_dressed(pert, n=args.n, A0_value=args.A0, i0=args.i0, variant=args.variant,
-                                    fold=args.fold, profile=args.profile)
+                                    fold=args.fold, profile=args.profile, source=args.coefficients or "derived")
         print(dressed.to_latex(dd) if args.latex else dressed.to_text(dd))
         if args.json:
             write_json(args.json, dressed.to_json(dd))
@@ -264,7 +266,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--variant", default=None, help="map variant: paper (default), corrected, 1d")
     p.add_argument("--model", default="map", choices=("map", "energy", "momentum", "dressed"),
                    help="map (default: the paper's map, long-wave law, Eq. 41), energy or momentum balance, "
-                        "dressed (the energy law's second order: k1 derived, k2, cross terms and onset lag calibrated)")
+                        "dressed (the energy law's second order: k1, k2, cross terms and onset lag derived by the "
+                        "expansion about the exact wave)")
+    p.add_argument("--coefficients", default=None, choices=("derived", "calibrated"),
+                   help="dressed law: k2/k1, onset lags and cross terms derived (default: the expansion about the "
+                        "exact wave) or calibrated (DNS fits)")
     p.add_argument("--fold", metavar="NAME", help="locate the saddle-node of Eq. 41 in parameter NAME")
     p.add_argument("--A0", type=number, default=None, help="initial amplitude for the law's singular index")
     p.add_argument("--i0", type=number, default=0.0, help="contact index of A0 (default 0)")

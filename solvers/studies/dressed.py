@@ -1,8 +1,11 @@
 """``derive --model dressed`` and its API: the dressed law of a perturbation (derive/dressed.py).
 
-k1 per monomial is derived (the energy balance's profile integral, mpmath); k2/k1, the onset lag
-and the next term are calibrated by DNS decrements of launched solitons at small x
-(dressed_calibration.py, cached), and so are the cross terms k2_jl of every pair. The law in closed form needs a uniform polynomial R; for a site-dependent R ``run`` follows the
+k1 per monomial is derived (the energy balance's profile integral, mpmath); k2/k1, the onset lag and
+the cross terms k2_jl of every pair are derived by expanding Eq. 1 to second order about the exact
+solitary wave (solvers/models/dressed_derived.py, cached; the paper's monomials ship precomputed),
+with DNS calibrations (dressed_calibration.py) as the fallback where the expansion fails
+(``source="calibrated"`` asks for them). The next term of the decrement (the validity bound) is
+calibrated only. The law in closed form needs a uniform polynomial R; for a site-dependent R ``run`` follows the
 coefficients c_j(i) (bead i + 1/2 at contact index i) numerically; a non-polynomial R has no
 monomials (use the energy balance by quadrature).
 """
@@ -22,10 +25,57 @@ from pulsemap.derive.expansion import bead_symbol
 from pulsemap.derive.expression import symbol
 from pulsemap.derive.perturbation import Perturbation
 from pulsemap.derive.profile import check_exponent
+from pulsemap.solvers.models.dressed_derived import derive_cross, derive_monomial
 from pulsemap.solvers.models.dressed_eval import DressedCoefficients
-from pulsemap.solvers.studies.dressed_calibration import CalibrationError, calibrate, calibrate_cross
+from pulsemap.solvers.models.dressed_expansion import ExpansionError
+from pulsemap.solvers.studies.dressed_calibration import CalibrationError, calibrate, calibrate_cross, first_order_rate
 
-CROSS_NOTE = "a cross term k2_jl x_j x_l could not be calibrated: the law neglects it"
+CROSS_NOTE = "a cross term k2_jl x_j x_l could be neither derived nor calibrated: the law neglects it"
+SOURCES = ("derived", "calibrated")
+
+
+def monomial_coefficients(a: int, b: int, n: float, source: str = "derived") -> dict:
+    """k2/k1, the onset lag and the next term of u^a v^b with their provenance: derived (the expansion) unless
+    ``source`` is "calibrated" or the expansion fails; the next term always from the calibration (None when it
+    cannot be calibrated but the rest was derived)."""
+    out, why = {}, None
+    if source == "derived":
+        try:
+            d = derive_monomial(a, b, n)
+            out = {"rho": d.k2_over_k1, "rho_error": d.k2_over_k1_error, "rho_method": d.label("rho") + f"; {d.method}",
+                   "lag": d.onset_lag, "lag_error": d.onset_lag_error, "lag_method": d.label("lag")}
+        except ExpansionError as exc:
+            why = str(exc)
+    try:
+        fit = calibrate(a, b, n)
+    except CalibrationError:
+        if not out:
+            raise
+        return {**out, "next_kind": "x^2", "next": 0.0}
+    if not out:
+        out = {"rho": fit.k2_over_k1, "rho_error": fit.k2_over_k1_error,
+               "rho_method": fit.method + (f" (not derived: {why})" if why else ""),
+               "lag": fit.onset_lag, "lag_error": fit.onset_lag_error,
+               "lag_method": f"calibrated: same runs, lag of the DNS behind the law, straight line in x0 to x0 = 0 "
+                             f"(slope {fit.onset_lag_slope:.3g})"}
+    return {**out, "k1": fit.k1, "next_kind": "|x|^(3/2)" if fit.g is not None else "x^2",
+            "next": fit.g if fit.g is not None else fit.r1}
+
+
+def cross_coefficient(p: DressedTerm, q: DressedTerm, n: float, source: str = "derived") -> CrossTerm:
+    """k2_jl of a pair: derived unless ``source`` is "calibrated" or the expansion fails; else calibrated."""
+    if source == "derived":
+        try:
+            d = derive_cross(p.exponents, q.exponents, n)
+            return CrossTerm(p.monomial, q.monomial, d.k2, d.error,
+                             f"derived (mixed second order of the expansion; accuracy +-{d.error:.1g}); {d.method}")
+        except ExpansionError:
+            pass
+    try:
+        cf = calibrate_cross(p.exponents, q.exponents, n)
+        return CrossTerm(p.monomial, q.monomial, cf.k2, cf.error, cf.method)
+    except CalibrationError as exc:
+        return CrossTerm(p.monomial, q.monomial, None, None, f"not computed: {exc}")
 
 
 @dataclass(frozen=True)
@@ -96,11 +146,13 @@ def site_coefficient_functions(pert: Perturbation, law: DressedLaw, i0: float, i
     return tuple(out)
 
 
-def dressed_law(pert: Perturbation, n: float = 1.5, at_bead: float | None = None) -> DressedLaw:
-    """Expand eps R into monomials, calibrate each one (cached) and form the law. A site-dependent R needs
+def dressed_law(pert: Perturbation, n: float = 1.5, at_bead: float | None = None, source: str = "derived") -> DressedLaw:
+    """Expand eps R into monomials, derive (or calibrate) each one (cached) and form the law. A site-dependent R needs
     ``at_bead``: its coefficients are then taken at that bead (``run`` follows c_j(i) along the chain with
     ``site_coefficient_functions``)."""
     n = check_exponent(n)
+    if source not in SOURCES:
+        raise DressedError(f"unknown coefficient source {source!r}: choose one of {', '.join(SOURCES)}")
     if not pert.is_uniform and at_bead is None:
         raise DressedError(
             f"the dressed law in closed form needs a uniform R; R = {pert.text} varies along the chain "
@@ -121,39 +173,35 @@ def dressed_law(pert: Perturbation, n: float = 1.5, at_bead: float | None = None
         else:
             value = coefficient_at(t.coefficient, pert, float(at_bead))
         try:
-            fit = calibrate(a, b, n)
-        except CalibrationError as exc:
+            co = monomial_coefficients(a, b, n, source)
+        except (CalibrationError, ExpansionError) as exc:
             raise DressedError(f"monomial {t.monomial}: {exc}") from None
         s = (sympy.Rational(str(n)) - 1) / 2
         e = a + (1 + s) * b - 1 - 2 * s
         terms.append(DressedTerm(
             monomial=str(t.monomial), exponents=(a, b), c=eps * value, e=sympy.nsimplify(e),
-            k1=fit.k1, k1_method="derived: energy balance, -w_ab/((n+1) E_1), mpmath integrals",
-            rho=fit.k2_over_k1, rho_error=fit.k2_over_k1_error, rho_method=fit.method,
-            lag=fit.onset_lag, lag_error=fit.onset_lag_error,
-            lag_method=f"calibrated: same runs, lag of the DNS behind the law, straight line in x0 to x0 = 0 "
-                       f"(slope {fit.onset_lag_slope:.3g})",
-            next_kind="|x|^(3/2)" if fit.g is not None else "x^2",
-            next_coefficient=fit.g if fit.g is not None else fit.r1,
+            k1=co.get("k1", first_order_rate(a, b, n)),
+            k1_method="derived: energy balance, -w_ab/((n+1) E_1), mpmath integrals",
+            rho=co["rho"], rho_error=co["rho_error"], rho_method=co["rho_method"],
+            lag=co["lag"], lag_error=co["lag_error"], lag_method=co["lag_method"],
+            next_kind=co["next_kind"], next_coefficient=co["next"],
         ))
     if not terms:  # R = 0 or no term does work: the law is A constant
         return DressedLaw(n=n, terms=(), cross=(), notes=(f"R = {pert.text} does no work on the wave: A stays constant",))
-    cross = []
-    for p, q in combinations(terms, 2):
-        try:
-            cf = calibrate_cross(p.exponents, q.exponents, n)
-            cross.append(CrossTerm(p.monomial, q.monomial, cf.k2, cf.error, cf.method))
-        except CalibrationError as exc:
-            cross.append(CrossTerm(p.monomial, q.monomial, None, None, f"not computed: {exc}"))
+    cross = [cross_coefficient(p, q, n, source) for p, q in combinations(terms, 2)]
     notes = (CROSS_NOTE,) if any(ct.k2 is None for ct in cross) else ()
-    notes += ("k2/k1, the onset lag, the next term and the cross terms are calibrated (fitted to DNS decrements of "
-              "launched solitons), not derived: the O(x^2) solvability condition of the multiple-scales expansion "
-              "is not implemented; k1 is derived",)
+    calibrated = [t.monomial for t in terms if t.rho_method.startswith("calibrated")]
+    calibrated += [f"{ct.first} x {ct.second}" for ct in cross if ct.method.startswith("calibrated")]
+    if calibrated:
+        notes += (f"calibrated (fitted to DNS decrements of launched solitons), not derived: {', '.join(calibrated)}",)
+    notes += ("k1 is the energy balance; k2/k1, the onset lag and the cross terms are derived by expanding Eq. 1 to "
+              "second order about the exact wave (unless marked calibrated); the next term (validity bound) is "
+              "calibrated",)
     return DressedLaw(n=n, terms=tuple(terms), cross=tuple(cross), notes=notes)
 
 
 def derive_dressed(pert: Perturbation, n: float = 1.5, A0_value: float | None = None, i0: float = 0.0,
-                   **ignored) -> DressedDerivation:
+                   source: str = "derived", **ignored) -> DressedDerivation:
     """``derive --model dressed``: the dressed law of ``pert`` (module docstring)."""
     for option in ("variant", "fold"):
         if ignored.get(option) is not None:
@@ -163,7 +211,7 @@ def derive_dressed(pert: Perturbation, n: float = 1.5, A0_value: float | None = 
     if A0_value is not None and not A0_value > 0:
         raise DressedError(f"the initial amplitude A0 must be > 0, got {A0_value}")
     t0 = time.perf_counter()
-    law = dressed_law(pert, n)
+    law = dressed_law(pert, n, source=source)
     return DressedDerivation(pert, float(n), law, A0_value, i0, {"total": time.perf_counter() - t0})
 
 

@@ -16,12 +16,15 @@ order is measured here, never assumed:
    used, except for pure velocity terms v^b (both signs): with the other sign the displaced wake is
    unstable (R = +c u: exponential, R = +c u^2 v: blow-up in finite time). k2/k1 = r0 = lim y/x.
    Its error: the larger of the fit's standard error and the change of r0 when the largest |x0| is
-   left out.
+   left out, plus the fit model's truncation (the change of r0 when an x^3 term is added: 8e-4 for
+   u^2 v, 0.2 for u^3, where the two-term fit leaves rung-by-rung residuals).
 4. Onset lag: the law d ln A/di = -k1 x (1 + y(x)) integrated from the DNS peak at contact
    first - 1 (where a run seeds its models) runs ahead of the DNS by a lag: past the transient
    ln A_DNS(i) = ln A_law(i - Delta), i.e. Delta = (ln A_DNS - ln A_law) / (k1 x (1 + y)) at the law's
    own x (constant along the chain to 1e-4, measured); Delta_0 is the intercept of a straight line
-   in x0 (x at the seed) over the ladder. Its error adds the spread along the chain.
+   in x0 (x at the seed) over the ladder. Its error adds the spread along the chain, the change
+   of Delta_0 with the x^3-extended y(x) and with a parabola in x0 instead of the line (foundations:
+   Delta curves steeply towards x0 = 0, u^3: 1.753 at |x0| = 0.001, 1.716 at 0.002).
 
 Each monomial costs 4-7 launches (~5-30 s) and is cached on disk (namespace "dressed"); the monomials of
 the paper's scenes (u, u^3, v, u^2 v at n = 3/2) ship precomputed in solvers/data/dressed_calibration.json
@@ -43,10 +46,11 @@ from pulsemap.derive import cache
 from pulsemap.derive.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
+from pulsemap.solvers.models.dressed_expansion import exponent_e, first_order_rate  # noqa: F401 (re-exported)
 
 NAMESPACE = "dressed"
 SHIPPED = Path(__file__).resolve().parents[1] / "data" / "dressed_calibration.json"
-METHOD_VERSION = 2
+METHOD_VERSION = 3
 SETTLE = 20  # contacts after the first perturbed bead before decrements are used
 SPAN = 40  # contacts measured after SETTLE
 RTOL = 1e-11
@@ -83,21 +87,6 @@ class MonomialFit:
         return asdict(self)
 
 
-def exponent_e(a: int, b: int, n: float) -> float:
-    """x = c A^e: e = a + (1 + s) b - 1 - 2 s, s = (n - 1)/2 (n = 3/2: a + 5b/4 - 3/2)."""
-    s = (n - 1) / 2
-    return a + (1 + s) * b - 1 - 2 * s
-
-
-def first_order_rate(a: int, b: int, n: float) -> float:
-    """k1 = -w_ab / ((n + 1) E_1): d ln A/di = -k1 x (energy balance, derive/balance.py)."""
-    from pulsemap.derive.balance import balance_constants  # mpmath integrals, cached
-
-    name = f"w_{a}{b}" if max(a, b) < 10 else f"w_{a}_{b}"
-    c = balance_constants(["K1", "V1", name], n=n)
-    return -c[name].value / ((n + 1) * (c["K1"].value + c["V1"].value))
-
-
 def _ladder(a: int, b: int, k1: float) -> tuple[float, ...]:
     sign = 1.0 if k1 > 0 else -1.0  # decaying (restoring): k1 x > 0
     if b >= 1 and a == 0:  # the growing sign too: the wake at rest feels no force
@@ -121,13 +110,13 @@ def _run(a: int, b: int, n: float, c: float):
     return first, np.array(res.contacts), np.array(res.peaks, dtype=float)
 
 
-def _design(x: np.ndarray, foundation: bool) -> np.ndarray:
+def _design(x: np.ndarray, foundation: bool, extended: bool = False) -> np.ndarray:
     cols = [x, np.abs(x) ** 1.5, x**2] if foundation else [x, x**2]
-    return np.stack(cols, axis=1)
+    return np.stack(cols + [x**3] if extended else cols, axis=1)
 
 
-def _fit(x: np.ndarray, y: np.ndarray, foundation: bool) -> tuple[np.ndarray, float, float]:
-    M = _design(x, foundation)
+def _fit(x: np.ndarray, y: np.ndarray, foundation: bool, extended: bool = False) -> tuple[np.ndarray, float, float]:
+    M = _design(x, foundation, extended)
     coef, *_ = np.linalg.lstsq(M, y, rcond=None)
     res = y - M @ coef
     dof = max(1, len(y) - M.shape[1])
@@ -162,6 +151,44 @@ def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)), pairs=(((1, 0), (0
     SHIPPED.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n", encoding="utf-8")
     shipped.cache_clear()
     return SHIPPED
+
+
+def _onset_lag(runs, coef: np.ndarray, foundation: bool, k1: float, e: float, S0: float,
+               extended: bool = False) -> tuple[float, float, float]:
+    """Delta_0, dDelta/dx0 and the error of the onset lag (module docstring, step 4) with the fitted y(x)."""
+
+    def y_of(xv: float) -> float:
+        return float((_design(np.array([xv]), foundation, extended) @ coef)[0])
+
+    lags, x0s, drift = [], [], []
+    for x0, first, contacts, peaks in runs:
+        A = peaks / S0
+        i0 = first - 1
+        A_seed = A[0]  # contact first - 1: where a run seeds its models
+
+        def rhs(i, lnA, c=x0):
+            xv = c * math.exp(lnA[0] * e)
+            return [-k1 * xv * (1.0 + y_of(xv))]
+
+        sol = solve_ivp(rhs, (i0, float(contacts[-1])), [math.log(A_seed)], rtol=1e-12, atol=1e-14,
+                        t_eval=contacts.astype(float))
+        D = np.log(A) - sol.y[0]
+        tail = contacts >= first + SETTLE
+        x_law = x0 * np.exp(sol.y[0] * e)
+        rate = k1 * x_law * (1.0 + np.array([y_of(v) for v in x_law]))  # -d ln A/di of the law
+        shift = D[tail] / rate[tail]  # a lag Delta: ln A_DNS(i) = ln A_law(i - Delta)
+        lags.append(float(np.mean(shift)))
+        drift.append(float(np.ptp(shift)))
+        x0s.append(x0 * A_seed**e)
+    x0s, lags = np.array(x0s), np.array(lags)
+    M = np.stack([np.ones_like(x0s), x0s], axis=1)
+    (lag0, slope), *_ = np.linalg.lstsq(M, lags, rcond=None)
+    small = np.abs(x0s) < np.abs(x0s).max()
+    (lag0_s, _), *_ = np.linalg.lstsq(M[small], lags[small], rcond=None)
+    lag0_q = np.polyfit(x0s, lags, 2)[-1]  # the straight line's truncation: a parabola's intercept
+    lag_err = (abs(float(lag0_s) - float(lag0)) + float(np.sqrt(np.mean((lags - M @ [lag0, slope]) ** 2)))
+               + max(drift) + abs(float(lag0_q) - float(lag0)))
+    return float(lag0), float(slope), float(lag_err)
 
 
 def calibrate(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> MonomialFit:
@@ -202,44 +229,17 @@ def calibrate(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> Monomia
     coef, se, rms = _fit(x, y, foundation)
     keep = tag < tag.max()
     coef_small, _, _ = _fit(x[keep], y[keep], foundation)
+    coef_ext, _, _ = _fit(x, y, foundation, extended=True)  # the fit model's truncation: one more power
     r0 = float(coef[0])
-    r0_err = max(se, abs(float(coef_small[0]) - r0))
+    r0_err = max(se, abs(float(coef_small[0]) - r0)) + abs(float(coef_ext[0]) - r0)
     g = float(coef[1]) if foundation else None
     r1 = float(coef[-1])
-
-    def y_of(xv: float) -> float:
-        return float((_design(np.array([xv]), foundation) @ coef)[0])
-
-    lags, x0s, drift = [], [], []
-    for x0, first, contacts, peaks in runs:
-        A = peaks / S0
-        i0 = first - 1
-        A_seed = A[0]  # contact first - 1: where a run seeds its models
-
-        def rhs(i, lnA, c=x0):
-            xv = c * math.exp(lnA[0] * e)
-            return [-k1 * xv * (1.0 + y_of(xv))]
-
-        sol = solve_ivp(rhs, (i0, float(contacts[-1])), [math.log(A_seed)], rtol=1e-12, atol=1e-14,
-                        t_eval=contacts.astype(float))
-        D = np.log(A) - sol.y[0]
-        tail = contacts >= first + SETTLE
-        x_law = x0 * np.exp(sol.y[0] * e)
-        rate = k1 * x_law * (1.0 + np.array([y_of(v) for v in x_law]))  # -d ln A/di of the law
-        shift = D[tail] / rate[tail]  # a lag Delta: ln A_DNS(i) = ln A_law(i - Delta)
-        lags.append(float(np.mean(shift)))
-        drift.append(float(np.ptp(shift)))
-        x0s.append(x0 * A_seed**e)
-    x0s, lags = np.array(x0s), np.array(lags)
-    M = np.stack([np.ones_like(x0s), x0s], axis=1)
-    (lag0, slope), *_ = np.linalg.lstsq(M, lags, rcond=None)
-    small = np.abs(x0s) < np.abs(x0s).max()
-    (lag0_s, _), *_ = np.linalg.lstsq(M[small], lags[small], rcond=None)
-    lag_err = (abs(float(lag0_s) - float(lag0)) + float(np.sqrt(np.mean((lags - M @ [lag0, slope]) ** 2)))
-               + max(drift))
+    lag0, slope, lag_err = _onset_lag(runs, coef, foundation, k1, e, S0)
+    lag_ext, _, _ = _onset_lag(runs, coef_ext, foundation, k1, e, S0, extended=True)
+    lag_err += abs(lag_ext - lag0)
     fit = MonomialFit(
         a=a, b=b, n=n, k1=float(k1), e=float(e), k2_over_k1=r0, k2_over_k1_error=float(r0_err), g=g, r1=r1,
-        onset_lag=float(lag0), onset_lag_error=float(lag_err), onset_lag_slope=float(slope),
+        onset_lag=lag0, onset_lag_error=lag_err, onset_lag_slope=slope,
         x_range=(float(np.abs(x).min()), float(np.abs(x).max())), points=int(x.size), fit_rms=rms,
         method=(f"calibrated: DNS of exact solitons (A0 = 1, rtol {RTOL:g}), {len(runs)} values of c, decrements "
                 f"over contacts first+{SETTLE}..first+{SETTLE + SPAN}, least squares y = "

@@ -40,6 +40,16 @@ def prepare_dressed(state: "RunState"):
     return law
 
 
+def provenance(law, kind: str) -> list[str]:
+    """Which coefficients of the law (``monomial:k2_over_k1``, ``monomial:onset_lag``, ``cross:j x l``) are
+    ``kind`` ("derived" or "calibrated"); k1 is always derived (energy balance)."""
+    out = []
+    for t in law.terms:
+        out += [f"{t.monomial}:{name}" for name, method in (("k2_over_k1", t.rho_method), ("onset_lag", t.lag_method))
+                if method.startswith(kind)]
+    return out + [f"cross:{ct.first} x {ct.second}" for ct in law.cross if ct.method.startswith(kind)]
+
+
 def run_dressed(state: "RunState", law, seed_A: float) -> None:
     """Evaluate the dressed law from the seed (contact first_perturbed - 1) over the scene's contacts."""
     from pulsemap.solvers.studies.dressed import coefficients, site_coefficient_functions
@@ -58,7 +68,7 @@ def run_dressed(state: "RunState", law, seed_A: float) -> None:
                    "ended_at": run.ended_at, "law_kind": run.law_kind, "beyond_validity_at": beyond,
                    "coefficients": {t.monomial: {"k1": t.k1, "k2_over_k1": t.rho, "onset_lag": t.lag}
                                     for t in law.terms},
-                   "calibrated": ["k2_over_k1", "onset_lag"]}
+                   "derived": provenance(law, "derived"), "calibrated": provenance(law, "calibrated")}
     if run.status != "ok":
         state.warnings.append(f"{METHOD}: {run.message}")
     if beyond is not None and beyond <= state.contacts[-1]:

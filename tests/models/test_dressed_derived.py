@@ -1,0 +1,110 @@
+"""Dressed coefficients derived by the expansion about the exact wave, checked against independent methods:
+the energy balance (k1), the nonlinear DNS of a launched soliton (the O(c^2) peaks), and the DNS
+calibration (k2/k1, onset lag, cross terms)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pulsemap.derive.profile import exact_profile
+from pulsemap.solvers.chain.equations import OnSiteForce
+from pulsemap.solvers.chain.launch import launch, min_centre
+from pulsemap.solvers.models import dressed_derived as dd
+from pulsemap.solvers.models.dressed_expansion import ExpansionError, chain_coefficients, expansion_orbits
+from pulsemap.solvers.studies import dressed_calibration as dc
+
+
+def test_geometric_limit_is_exact_on_a_geometric_sequence_and_flags_the_rest():
+    seq = 2.0 + 0.3 * 0.4 ** np.arange(6)
+    value, err = dd.geometric_limit(seq)
+    assert value == pytest.approx(2.0, abs=1e-13) and err == pytest.approx(0.3 * 0.4**5, rel=1e-9)  # the tail beyond the last term
+    value, err = dd.geometric_limit(np.array([1.0, 2.0, 3.0]))  # not converging: no extrapolation, error = steps
+    assert value == 3.0 and err == 2.0
+
+
+def test_first_order_of_the_expansion_is_the_energy_balance():
+    """k1 from the time-domain first order (contacts relax geometrically) against -w_01/((n+1) E_1) (mpmath)."""
+    r = chain_coefficients(0, 1, 1.5, cut=1e-5, settle=10, span=4)
+    k1, err = dd.geometric_limit(r["k1"])
+    assert abs(k1 - dc.first_order_rate(0, 1, 1.5)) < max(3 * err, 1e-8)
+    assert abs(k1 - dc.first_order_rate(0, 1, 1.5)) < 1e-5
+
+
+def _launched_peaks(a: int, b: int, c: float, first: int, last: int) -> np.ndarray:
+    centre = min_centre(1.5) + 1
+    beads = last + min_centre(1.5) + 4
+    mask = np.zeros(beads)
+    mask[first - 1:] = 1.0
+    force = OnSiteForce(force=lambda x, v: mask * (c * x**a * v**b))
+    res = launch(beads, 1.5, 1.0, centre, (first - 1, last), force, rtol=1e-12, atol=1e-15)
+    return np.array(res.peaks, dtype=float)
+
+
+@pytest.mark.parametrize("a, b, cs, first_ratio, second_ratio", [
+    (0, 1, (0.02, 0.01), (3.5, 4.5), (5.0, 11.0)),  # damping: analytic, the remainder is O(c^3)
+    (1, 0, (-0.004, -0.002), (3.5, 4.5), (5.0, 7.0)),  # foundation: O(|c|^(5/2)), the |x|^(3/2) term
+])
+def test_expansion_peaks_match_the_nonlinear_chain(a, b, cs, first_ratio, second_ratio):
+    """ln P_k of the nonlinear DNS (R = c u^a v^b, exact soliton launched) minus the expansion's
+    ln S0 + c alpha_k (+ c^2 beta_k): halving c divides the first-order remainder by 4 and the second-order
+    one by 8 (damping) or 2^(5/2) = 5.7 (a foundation's non-analytic next term); the second-order remainder
+    is far below c^2 beta."""
+    ks, alpha, beta, first = expansion_orbits(((a, b),), ((0, 0),), 1.5, cut=1e-6, settle=4, span=4, rtol=1e-10)
+    S0 = exact_profile(1.5).S0
+    one, two = [], []
+    for c in cs:
+        lnP = np.log(_launched_peaks(a, b, c, first, int(ks[-1])))
+        one.append(np.abs(lnP - (math.log(S0) + c * alpha[0])).max())
+        two.append(np.abs(lnP - (math.log(S0) + c * alpha[0] + c**2 * beta[0])).max())
+        assert two[-1] < 0.2 * c**2 * np.abs(beta[0]).max()
+    assert first_ratio[0] < one[0] / one[1] < first_ratio[1]
+    assert second_ratio[0] < two[0] / two[1] < second_ratio[1]
+
+
+def test_fast_derived_damping_agrees_with_the_shipped_calibration():
+    """k2/k1 of v from two cuts (1e-6, 1e-7; linear in the cut for v) and a short chain, against the DNS
+    calibration shipped with pulsemap, within their stated errors and the short chain's."""
+    runs = [chain_coefficients(0, 1, 1.5, cut=cut, settle=12, span=4) for cut in (1e-6, 1e-7)]
+    r1, r2 = runs[0]["rho"][-1], runs[1]["rho"][-1]
+    rho = r2 - (r1 - r2) / 9  # linear in the cut (ratio 10 between cuts)
+    chain_err = 3 * abs(runs[1]["rho"][-1] - runs[1]["rho"][-2])
+    fit = dc.calibrate(0, 1, 1.5)
+    assert abs(rho - fit.k2_over_k1) < fit.k2_over_k1_error + abs(r1 - r2) / 20 + chain_err
+    lag, lag_err = dd.geometric_limit(runs[1]["lag"])
+    assert abs(lag - fit.onset_lag) < fit.onset_lag_error + lag_err + 1e-6
+
+
+def test_shipped_derived_coefficients_agree_with_the_shipped_calibration():
+    """Both tables shipped with pulsemap, produced by independent methods (expansion vs DNS fits)."""
+    for a, b in ((0, 1), (2, 1), (1, 0), (3, 0)):
+        d, f = dd.derive_monomial(a, b, 1.5), dc.calibrate(a, b, 1.5)
+        assert d.k1 == pytest.approx(f.k1, rel=1e-7)
+        assert abs(d.k2_over_k1 - f.k2_over_k1) < d.k2_over_k1_error + f.k2_over_k1_error, (a, b)
+        assert abs(d.onset_lag - f.onset_lag) < d.onset_lag_error + f.onset_lag_error, (a, b)
+
+
+def test_bad_monomials_are_refused():
+    with pytest.raises(ExpansionError, match="integer >= 0"):
+        dd.derive_monomial(-1, 1)
+    with pytest.raises(ExpansionError, match="constant monomial"):
+        dd.derive_monomial(0, 0)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("a,b", [(0, 1), (2, 1), (1, 0), (3, 0)])
+def test_derived_coefficients_agree_with_a_fresh_dns_calibration(a, b):
+    """No cache on either side: k2/k1 and the onset lag within the sum of the stated errors."""
+    d, f = dd.derive_monomial(a, b, 1.5, use_cache=False), dc.calibrate(a, b, 1.5, use_cache=False)
+    assert abs(d.k2_over_k1 - f.k2_over_k1) < d.k2_over_k1_error + f.k2_over_k1_error
+    assert abs(d.onset_lag - f.onset_lag) < d.onset_lag_error + f.onset_lag_error
+    assert d.k1 == pytest.approx(dc.first_order_rate(a, b, 1.5), rel=1e-7)
+
+
+@pytest.mark.slow
+def test_derived_cross_term_agrees_with_a_fresh_dns_calibration():
+    d = dd.derive_cross((1, 0), (0, 1), 1.5, use_cache=False)
+    f = dc.calibrate_cross((1, 0), (0, 1), 1.5, use_cache=False)
+    assert abs(d.k2 - f.k2) < d.error + f.error
