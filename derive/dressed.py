@@ -59,6 +59,7 @@ class DressedTerm:
     lag_method: str
     next_kind: str  # "|x|^(3/2)" or "x^2": the next measured term of delta/(k1 x)
     next_coefficient: float
+    c_of_i: sympy.Expr | None = None  # site-dependent R: c_j(i) in the contact index i (c: its value at i0)
 
     @property
     def k2(self) -> float:
@@ -77,9 +78,13 @@ class DressedTerm:
                 out.append((abs(self.rho / self.next_coefficient), "next term r1 x^2 equals rho x"))
         return min(out) if out else (math.inf, "no second-order term")
 
+    def c_symbolic(self) -> sympy.Expr:
+        """c_j as an expression: c_j(i) for a site-dependent R, else the number."""
+        return self.c_of_i if self.c_of_i is not None else sympy.Float(self.c, 17)
+
     def amplitude_bound(self) -> float | None:
-        """A where |x(A)| reaches x_bound (None when e = 0 or c = 0: x does not depend on A)."""
-        if self.e == 0 or self.c == 0:
+        """A where |x(A)| reaches x_bound (None when e = 0 or c = 0: x does not depend on A; or c depends on i)."""
+        if self.e == 0 or self.c == 0 or self.c_of_i is not None:
             return None
         xb, _ = self.x_bound()
         if not math.isfinite(xb):
@@ -113,7 +118,7 @@ class DressedLaw:
         total = sympy.Integer(0)
         xs = {}
         for t in self.terms:
-            x = sympy.Float(t.c, 17) * amplitude**t.e
+            x = t.c_symbolic() * amplitude**t.e
             xs[t.monomial] = x
             total += -sympy.Float(t.k1, 17) * x / (1 - sympy.Float(t.rho, 17) * x)
         for ct in self.cross:
@@ -143,8 +148,8 @@ class DressedLaw:
         return sum(t.lag * t.k1 * t.x(A0) / (1.0 - t.rho * t.x(A0)) for t in self.terms)
 
     def implicit(self) -> sympy.Expr | None:
-        """i(A) from A(i0) = A_s for one monomial (module docstring); None for several."""
-        if len(self.terms) != 1:
+        """i(A) from A(i0) = A_s for one monomial (module docstring); None for several or a site-dependent c(i)."""
+        if len(self.terms) != 1 or self.terms[0].c_of_i is not None:
             return None
         (t,) = self.terms
         c, k1, rho, e = (sympy.Float(v, 17) for v in (t.c, t.k1, t.rho, float(t.e)))
@@ -169,10 +174,12 @@ class DressedLaw:
         out = []
         for t in self.terms:
             xb, why = t.x_bound()
+            holds = (("A above A_bound" if float(t.e) < 0 else "A below A_bound") if t.e != 0 else
+                     "every A (x does not depend on A)")
+            if t.c_of_i is not None and t.e != 0:
+                holds = "|c_j(i)| A^e_j below x_bound (the bound on A moves along the chain)"
             out.append({"monomial": t.monomial, "x_bound": xb if math.isfinite(xb) else None, "set_by": why,
-                        "A_bound": t.amplitude_bound(),
-                        "holds_for": ("A above A_bound" if float(t.e) < 0 else "A below A_bound") if t.e != 0 else
-                        "every A (x does not depend on A)"})
+                        "A_bound": t.amplitude_bound(), "holds_for": holds})
         return out
 
     def data(self, A0: float | None = None, i0: float = 0.0) -> dict:
@@ -185,6 +192,7 @@ class DressedLaw:
             "monomials": {
                 t.monomial: {
                     "exponents": list(t.exponents), "c": t.c, "e": str(t.e),
+                    "c_of_i": None if t.c_of_i is None else str(t.c_of_i),
                     "k1": t.k1, "k1_method": t.k1_method,
                     "k2": t.k2, "k2_over_k1": t.rho, "k2_over_k1_error": t.rho_error, "k2_method": t.rho_method,
                     "onset_lag": t.lag, "onset_lag_error": t.lag_error, "onset_lag_method": t.lag_method,
@@ -207,7 +215,8 @@ class DressedLaw:
                "  d ln A/di = -sum_j k1_j x_j lambda_j(x_j) - sum_{j<l} k2_jl x_j x_l",
                f"  {self.ode()}", ""]
         for t in self.terms:
-            out.append(f"  {t.monomial}: c = {t.c:.10g}, e = {t.e}")
+            site = "" if t.c_of_i is None else f" at i0; c(i) = {t.c_of_i}"
+            out.append(f"  {t.monomial}: c = {t.c:.10g}{site}, e = {t.e}")
             out.append(f"    k1 = {t.k1:.10g}  [{t.k1_method}]")
             out.append(f"    k2/k1 = {t.rho:.6g} +- {t.rho_error:.2g}  [{t.rho_method}]")
             out.append(f"    onset lag = {t.lag:.5g} +- {t.lag_error:.2g} contacts  [{t.lag_method}]")
@@ -219,6 +228,8 @@ class DressedLaw:
         out.append("")
         if not self.terms:
             out.append("Amplitude law: A constant (no term of R does work on the wave)")
+        elif any(t.c_of_i is not None for t in self.terms):
+            out.append("Amplitude law: by numerical integration of the ODE (c_j depends on i: run follows c_j(i))")
         elif imp is not None:
             out.append("Closed form (one monomial; A_s = the seed amplitude shifted by the onset lag):")
             out.append(f"  i(A) = {imp}")
@@ -231,7 +242,8 @@ class DressedLaw:
         for v in self.validity():
             xb = "none" if v["x_bound"] is None else f"|x| < {v['x_bound']:.4g}"
             ab = "" if v["A_bound"] is None else f", i.e. {v['holds_for']} = {v['A_bound']:.4g}"
-            out.append(f"  {v['monomial']}: {xb} ({v['set_by']}){ab}")
+            where = f" ({v['holds_for']})" if "moves" in v["holds_for"] else ""
+            out.append(f"  {v['monomial']}: {xb} ({v['set_by']}){ab}{where}")
         out += [f"Note: {n}" for n in self.notes]
         return out
 

@@ -60,8 +60,8 @@ class DerivedMonomial:
     def label(self, what: str) -> str:
         """The provenance label: "derived (method, accuracy)"."""
         if what == "rho":
-            return (f"derived (O(c^2) expansion about the exact wave, cut -> 0; accuracy +-{self.k2_over_k1_error:.1g})")
-        return f"derived (O(c) half-chain problem about the exact wave; accuracy +-{self.onset_lag_error:.1g})"
+            return (f"derived (O(c^2) expansion about the exact wave, cut -> 0; accuracy +-{self.k2_over_k1_error:.2g})")
+        return f"derived (O(c) half-chain problem about the exact wave; accuracy +-{self.onset_lag_error:.2g})"
 
 
 def geometric_limit(values: np.ndarray) -> tuple[float, float]:
@@ -74,6 +74,23 @@ def geometric_limit(values: np.ndarray) -> tuple[float, float]:
         tail = d2 * q / (1 - q)
         return float(v[-1] + tail), float(abs(tail))
     return float(v[-1]), float(abs(d2) + abs(d1))
+
+
+def _cuts(n: float) -> tuple[float, ...]:
+    """The cut ladder: F'' is bounded for n >= 2, one run (no cut) is the limit."""
+    return CUTS if n < 2 else (0.0,)
+
+
+def _cut_limits(values: np.ndarray) -> list[tuple[float, float]]:
+    """Per step (columns) the cut -> 0 limit of values (rows: the cuts of _cuts) and its error."""
+    if values.shape[0] == 1:
+        return [(float(v), 0.0) for v in values[0]]
+    return [geometric_limit(values[:, k]) for k in range(values.shape[1])]
+
+
+def _cut_text(n: float) -> str:
+    return ("F'' bounded (n >= 2): no cut" if n >= 2 else
+            f"F'' cut -> 0 from cuts {', '.join(f'{c:g}' for c in CUTS)}")
 
 
 def cache_key(a: int, b: int, n: float) -> str:
@@ -99,9 +116,9 @@ def derive_monomial(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> D
             hit = dict(hit)
             hit["per_cut"] = tuple(hit["per_cut"])
             return DerivedMonomial(**hit)
-    runs = [chain_coefficients(a, b, n, cut=cut, settle=SETTLE, span=SPAN, rtol=RTOL) for cut in CUTS]
+    runs = [chain_coefficients(a, b, n, cut=cut, settle=SETTLE, span=SPAN, rtol=RTOL) for cut in _cuts(n)]
     rho = np.array([r["rho"] for r in runs])  # (cut, step)
-    limits = [geometric_limit(rho[:, k]) for k in range(rho.shape[1])]
+    limits = _cut_limits(rho)
     along = np.array([v for v, _ in limits])
     value, chain_err = geometric_limit(along)
     cut_err = limits[-1][1]
@@ -115,8 +132,7 @@ def derive_monomial(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> D
         cut_extrapolation=float(along[-1] - rho[-1, -1]),
         onset_lag=lag, onset_lag_error=float(lag_err + spread), per_cut=tuple(float(v) for v in rho[:, -1]),
         method=(f"derived: Eq. 1 expanded to O(c^2) about the exact wave (DOP853, rtol {RTOL:g}), decrements of "
-                f"steps first+{SETTLE}..first+{SETTLE + SPAN} extrapolated along the chain and to F'' cut -> 0 "
-                f"from cuts {', '.join(f'{c:g}' for c in CUTS)}"),
+                f"steps first+{SETTLE}..first+{SETTLE + SPAN} extrapolated along the chain; {_cut_text(n)}"),
     )
     cache.store(NAMESPACE, key, out.as_dict())
     return out
@@ -162,13 +178,12 @@ def derive_cross(first: tuple[int, int], second: tuple[int, int], n: float = 1.5
             for name in ("first", "second", "per_cut"):
                 hit[name] = tuple(hit[name])
             return DerivedCross(**hit)
-    runs = [chain_cross(first, second, n, cut=cut, settle=SETTLE, span=SPAN, rtol=RTOL) for cut in CUTS]
+    runs = [chain_cross(first, second, n, cut=cut, settle=SETTLE, span=SPAN, rtol=RTOL) for cut in _cuts(n)]
     k2 = np.array([r["k2"] for r in runs])
-    limits = [geometric_limit(k2[:, k]) for k in range(k2.shape[1])]
+    limits = _cut_limits(k2)
     value, chain_err = geometric_limit(np.array([v for v, _ in limits]))
     out = DerivedCross(first, second, n, value, float(limits[-1][1] + chain_err), tuple(float(v) for v in k2[:, -1]),
-                       f"derived: mixed O(c_j c_l) term of the expansion about the exact wave, cuts "
-                       f"{', '.join(f'{c:g}' for c in CUTS)} -> 0")
+                       f"derived: mixed O(c_j c_l) term of the expansion about the exact wave; {_cut_text(n)}")
     cache.store(NAMESPACE, key, out.as_dict())
     return out
 

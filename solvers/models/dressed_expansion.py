@@ -31,7 +31,7 @@ stated accuracy). The onset lag at c -> 0 (the half-chain problem: the perturbat
 
 The one-sided contact: F''(d0) = n (n - 1) d0^(n-2) is unbounded where d0 -> 0 (the tails, where the
 expansion in c is not uniform: c eta exceeds d0 and the contact opens). It is tapered below a cut,
-F'' -> n (n - 1) d0^n / (d0 + cut S0)^2, and the coefficients are computed on a ladder of cuts and
+F'' -> n (n - 1) d0^n / (d0 + cut S0)^2 (n < 2; for n >= 2 F'' is bounded and kept whole), and the coefficients are computed on a ladder of cuts and
 extrapolated geometrically to cut -> 0 (dressed_derived.py; v converges like the cut itself, a
 foundation, whose displaced wake opens its contacts, more slowly: its next term is not analytic,
 |x|^(3/2)).
@@ -131,7 +131,7 @@ def expansion_orbits(monomials, pairs, n: float, *, cut: float, settle: int, spa
     beads = last + min_c + 2
     mask = np.zeros(beads)
     mask[first - 1:] = 1.0
-    floor = cut * S0
+    floor = cut * S0 if nn < 2 else 0.0  # F'' is bounded for n >= 2: no taper (cut ignored)
     base = WaveBase(nn, beads, centre)
     M, P = len(monomials), len(pairs)
 
@@ -147,7 +147,10 @@ def expansion_orbits(monomials, pairs, n: float, *, cut: float, settle: int, spa
         Y = Y.reshape(2 * (M + P), beads)
         d0, x0, v0 = base(t)
         F1 = nn * d0 ** (nn - 1)
-        F2 = nn * (nn - 1) * d0**nn / (d0 + floor) ** 2  # F''(d0) tapered below the cut
+        if floor:  # F''(d0) tapered below the cut
+            F2 = nn * (nn - 1) * d0**nn / (d0 + floor) ** 2
+        else:
+            F2 = nn * (nn - 1) * d0 ** (nn - 2)
         out = np.empty_like(Y)
         out[0::2] = Y[1::2]
         eta = [Y[2 * j, :-1] - Y[2 * j, 1:] for j in range(M)]

@@ -20,7 +20,10 @@ import numpy as np
 import sympy
 
 from pulsemap.derive.balance import BalanceError, balance_expand, json_header
+from pulsemap.derive.dressed import I as DRESSED_I
 from pulsemap.derive.dressed import CrossTerm, DressedError, DressedLaw, DressedTerm
+from pulsemap.derive.site_law import I as SITE_I
+from pulsemap.derive.site_law import coefficient_of_i
 from pulsemap.derive.expansion import bead_symbol
 from pulsemap.derive.expression import symbol
 from pulsemap.derive.perturbation import Perturbation
@@ -68,7 +71,7 @@ def cross_coefficient(p: DressedTerm, q: DressedTerm, n: float, source: str = "d
         try:
             d = derive_cross(p.exponents, q.exponents, n)
             return CrossTerm(p.monomial, q.monomial, d.k2, d.error,
-                             f"derived (mixed second order of the expansion; accuracy +-{d.error:.1g}); {d.method}")
+                             f"derived (mixed second order of the expansion; accuracy +-{d.error:.2g}); {d.method}")
         except ExpansionError:
             pass
     try:
@@ -146,18 +149,18 @@ def site_coefficient_functions(pert: Perturbation, law: DressedLaw, i0: float, i
     return tuple(out)
 
 
-def dressed_law(pert: Perturbation, n: float = 1.5, at_bead: float | None = None, source: str = "derived") -> DressedLaw:
-    """Expand eps R into monomials, derive (or calibrate) each one (cached) and form the law. A site-dependent R needs
-    ``at_bead``: its coefficients are then taken at that bead (``run`` follows c_j(i) along the chain with
-    ``site_coefficient_functions``)."""
+def dressed_law(pert: Perturbation, n: float = 1.5, at_bead: float | None = None, source: str = "derived",
+                i0: float = 0.0) -> DressedLaw:
+    """Expand eps R into monomials, derive (or calibrate) each one (cached) and form the law. A site-dependent R:
+    with ``at_bead`` its coefficients are taken at that bead (``run`` follows c_j(i) along the chain with
+    ``site_coefficient_functions``); without, each term carries c_j(i) (the energy law's convention, bead
+    i + 1/2; derive/site_law.py) and its value at i0. k1, k2/k1 and the lag do not depend on c."""
     n = check_exponent(n)
     if source not in SOURCES:
         raise DressedError(f"unknown coefficient source {source!r}: choose one of {', '.join(SOURCES)}")
-    if not pert.is_uniform and at_bead is None:
-        raise DressedError(
-            f"the dressed law in closed form needs a uniform R; R = {pert.text} varies along the chain "
-            f"({', '.join(pert.site_dependent) or 'i'}): run the method dressed-law (it follows c_j(i)) "
-            "or derive the energy law, which takes c_j(i)")
+    site = not pert.is_uniform and at_bead is None  # derive: c_j(i) in the law, its value at i0 for the onset
+    if site:
+        at_bead = float(i0) + 0.5  # contact index i0 meets bead i0 + 1/2 (the energy law's convention)
     try:
         ex = balance_expand(pert.R, n, "energy", pert.site_dependent)
     except BalanceError as exc:
@@ -178,7 +181,11 @@ def dressed_law(pert: Perturbation, n: float = 1.5, at_bead: float | None = None
             raise DressedError(f"monomial {t.monomial}: {exc}") from None
         s = (sympy.Rational(str(n)) - 1) / 2
         e = a + (1 + s) * b - 1 - 2 * s
+        c_of_i = None
+        if site:
+            c_of_i = sympy.nsimplify(eps) * coefficient_of_i(t.coefficient, pert, "energy").xreplace({SITE_I: DRESSED_I})
         terms.append(DressedTerm(
+            c_of_i=c_of_i,
             monomial=str(t.monomial), exponents=(a, b), c=eps * value, e=sympy.nsimplify(e),
             k1=co.get("k1", first_order_rate(a, b, n)),
             k1_method="derived: energy balance, -w_ab/((n+1) E_1), mpmath integrals",
@@ -211,7 +218,7 @@ def derive_dressed(pert: Perturbation, n: float = 1.5, A0_value: float | None = 
     if A0_value is not None and not A0_value > 0:
         raise DressedError(f"the initial amplitude A0 must be > 0, got {A0_value}")
     t0 = time.perf_counter()
-    law = dressed_law(pert, n, source=source)
+    law = dressed_law(pert, n, source=source, i0=i0)
     return DressedDerivation(pert, float(n), law, A0_value, i0, {"total": time.perf_counter() - t0})
 
 

@@ -33,12 +33,15 @@ def test_first_order_of_the_expansion_is_the_energy_balance():
     assert abs(k1 - dc.first_order_rate(0, 1, 1.5)) < 1e-5
 
 
-def _launched_peaks(a: int, b: int, c: float, first: int, last: int) -> np.ndarray:
+def _launched_peaks(a: int, b: int, c: float, first: int, last: int, more=()) -> np.ndarray:
+    """Peaks of contacts first-1..last of an exact soliton (A0 = 1) with R = c u^a v^b (+ c' u^a' v^b' for
+    (a', b', c') in ``more``) on beads >= first."""
     centre = min_centre(1.5) + 1
     beads = last + min_centre(1.5) + 4
     mask = np.zeros(beads)
     mask[first - 1:] = 1.0
-    force = OnSiteForce(force=lambda x, v: mask * (c * x**a * v**b))
+    terms = ((a, b, c),) + tuple(more)
+    force = OnSiteForce(force=lambda x, v: mask * sum(cc * x**aa * v**bb for aa, bb, cc in terms))
     res = launch(beads, 1.5, 1.0, centre, (first - 1, last), force, rtol=1e-12, atol=1e-15)
     return np.array(res.peaks, dtype=float)
 
@@ -62,6 +65,22 @@ def test_expansion_peaks_match_the_nonlinear_chain(a, b, cs, first_ratio, second
         assert two[-1] < 0.2 * c**2 * np.abs(beta[0]).max()
     assert first_ratio[0] < one[0] / one[1] < first_ratio[1]
     assert second_ratio[0] < two[0] / two[1] < second_ratio[1]
+
+
+def test_mixed_second_order_matches_the_nonlinear_chain():
+    """R = c_1 u + c_2 v: the expansion with both first orders, both squares and the mixed term (the cross
+    coefficient's source) against the DNS; halving both c divides the remainder by ~2^(5/2) (the foundation)."""
+    mons, pairs = ((1, 0), (0, 1)), ((0, 0), (0, 1), (1, 1))
+    ks, alpha, beta, first = expansion_orbits(mons, pairs, 1.5, cut=1e-6, settle=4, span=4, rtol=1e-10)
+    S0 = exact_profile(1.5).S0
+    rem, mixed = [], []
+    for c1, c2 in ((-0.004, -0.004), (-0.002, -0.002)):
+        lnP = np.log(_launched_peaks(1, 0, c1, first, int(ks[-1]), more=((0, 1, c2),)))
+        model = math.log(S0) + c1 * alpha[0] + c2 * alpha[1] + c1**2 * beta[0] + c2**2 * beta[2]
+        rem.append(np.abs(lnP - model - c1 * c2 * beta[1]).max())
+        mixed.append(np.abs(c1 * c2 * beta[1]).max())
+        assert rem[-1] < 0.2 * mixed[-1]  # the mixed term is needed and explains the rest
+    assert 4.5 < rem[0] / rem[1] < 7.5
 
 
 def test_fast_derived_damping_agrees_with_the_shipped_calibration():
@@ -108,3 +127,13 @@ def test_derived_cross_term_agrees_with_a_fresh_dns_calibration():
     d = dd.derive_cross((1, 0), (0, 1), 1.5, use_cache=False)
     f = dc.calibrate_cross((1, 0), (0, 1), 1.5, use_cache=False)
     assert abs(d.k2 - f.k2) < d.error + f.error
+
+
+@pytest.mark.parametrize("a, b", [(0, 1), (1, 0)])
+def test_derived_agrees_with_a_fresh_dns_calibration_at_n2(a, b):
+    """n = 2: F'' is constant (no cut to extrapolate) and both sides take seconds; no cache on either side."""
+    d, f = dd.derive_monomial(a, b, 2.0, use_cache=False), dc.calibrate(a, b, 2.0, use_cache=False)
+    assert d.k1 == pytest.approx(dc.first_order_rate(a, b, 2.0), rel=1e-8)
+    assert abs(d.cut_extrapolation) < 1e-9 and d.k2_over_k1_error < 1e-4
+    assert abs(d.k2_over_k1 - f.k2_over_k1) < d.k2_over_k1_error + f.k2_over_k1_error
+    assert abs(d.onset_lag - f.onset_lag) < d.onset_lag_error + f.onset_lag_error

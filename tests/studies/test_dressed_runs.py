@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+import sympy
 
 from pulsemap.derive.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce
@@ -117,8 +118,17 @@ def test_derive_model_dressed_cli(tmp_path, capsys):
         assert m["k2_method"].startswith("derived (") and m["onset_lag_method"].startswith("derived (")
     assert len(data["dressed"]["cross"]) == 3 and all(c["k2"] is not None for c in data["dressed"]["cross"])
     assert all(c["method"].startswith("derived (") for c in data["dressed"]["cross"])
-    assert main(["derive", "-k*u", "--param", "k=1 + i/50", "--model", "dressed"]) == 2
-    assert "uniform" in capsys.readouterr().err
+    # a site-dependent R: the law carries c(i) (bead i + 1/2), no closed form, k2/k1 as for the uniform R
+    site = tmp_path / "s.json"
+    assert main(["derive", "-k*u", "--param", "k=1 + i/50", "--model", "dressed", "--eps", "0.01", "--i0", "15",
+                 "--json", str(site)]) == 0
+    text = capsys.readouterr().out
+    assert "c(i) = " in text and "numerical integration" in text
+    u = json.loads(site.read_text())["dressed"]["monomials"]["u"]
+    i = sympy.Symbol("i", real=True)
+    assert float(sympy.sympify(u["c_of_i"], locals={"i": i}).subs(i, 15)) == pytest.approx(-0.01 * (1 + 15.5 / 50))
+    assert u["c"] == pytest.approx(-0.01 * (1 + 15.5 / 50)) and u["k2_method"].startswith("derived (")
+    assert json.loads(site.read_text())["dressed"]["closed_form_i_of_A"] is None
     assert main(["derive", "-sin(u)", "--model", "dressed"]) == 2
     assert "polynomial" in capsys.readouterr().err
     assert main(["derive", "-v", "--model", "dressed", "--profile", "pade"]) == 2
