@@ -171,12 +171,15 @@ def derive_cross(first: tuple[int, int], second: tuple[int, int], n: float = 1.5
     """k2_jl of c_j u^a v^b + c_l u^a' v^b' from the mixed second order of the expansion; cached."""
     first, second, n = _check_monomial(*first), _check_monomial(*second), float(n)
     key = cross_key(first, second, n)
-    if use_cache:
-        hit = cache.load(NAMESPACE, key) or shipped().get(key)
+    if use_cache:  # k2_jl is symmetric: either order's entry serves
+        swapped = cross_key(second, first, n)
+        hit = (cache.load(NAMESPACE, key) or shipped().get(key) or cache.load(NAMESPACE, swapped)
+               or shipped().get(swapped))
         if hit is not None:
             hit = dict(hit)
             for name in ("first", "second", "per_cut"):
                 hit[name] = tuple(hit[name])
+            hit["first"], hit["second"] = first, second
             return DerivedCross(**hit)
     runs = [chain_cross(first, second, n, cut=cut, settle=SETTLE, span=SPAN, rtol=RTOL) for cut in _cuts(n)]
     k2 = np.array([r["k2"] for r in runs])

@@ -85,15 +85,14 @@ def test_mixed_second_order_matches_the_nonlinear_chain():
 
 def test_fast_derived_damping_agrees_with_the_shipped_calibration():
     """k2/k1 of v from two cuts (1e-6, 1e-7; linear in the cut for v) and a short chain, against the DNS
-    calibration shipped with pulsemap, within their stated errors and the short chain's."""
+    calibration shipped with pulsemap, within their stated errors and the short chain's (the lag needs a longer
+    chain: the shipped and n = 2 tests check it)."""
     runs = [chain_coefficients(0, 1, 1.5, cut=cut, settle=12, span=4) for cut in (1e-6, 1e-7)]
     r1, r2 = runs[0]["rho"][-1], runs[1]["rho"][-1]
     rho = r2 - (r1 - r2) / 9  # linear in the cut (ratio 10 between cuts)
     chain_err = 3 * abs(runs[1]["rho"][-1] - runs[1]["rho"][-2])
     fit = dc.calibrate(0, 1, 1.5)
     assert abs(rho - fit.k2_over_k1) < fit.k2_over_k1_error + abs(r1 - r2) / 20 + chain_err
-    lag, lag_err = dd.geometric_limit(runs[1]["lag"])
-    assert abs(lag - fit.onset_lag) < fit.onset_lag_error + lag_err + 1e-6
 
 
 def test_shipped_derived_coefficients_agree_with_the_shipped_calibration():
