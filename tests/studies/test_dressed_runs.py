@@ -132,6 +132,8 @@ def test_derive_model_dressed_cli(tmp_path, capsys):
     assert main(["derive", "-sin(u)", "--model", "dressed"]) == 2
     assert "polynomial" in capsys.readouterr().err
     assert main(["derive", "-v", "--model", "dressed", "--profile", "pade"]) == 2
+    assert main(["derive", "-v", "--coefficients", "calibrated"]) == 2
+    assert "--coefficients applies to the dressed law only" in capsys.readouterr().err
 
 
 def test_api_dressed():
@@ -146,6 +148,12 @@ def test_api_dressed():
         pulsemap.dressed("-sin(u)")
     with pytest.raises(TypeError, match="R must be"):
         pulsemap.dressed(3)
+    assert t.rho_method.startswith("derived (") and t.lag_method.startswith("derived (")
+    cal = pulsemap.dressed("-mu*v", mu=1, eps=0.1, coefficients="calibrated").law.terms[0]
+    assert cal.rho_method.startswith("calibrated") and cal.k1 == t.k1
+    assert abs(cal.rho - t.rho) < cal.rho_error + t.rho_error  # two methods, one coefficient
+    with pytest.raises(ValueError, match="coefficients must be"):
+        pulsemap.dressed("-mu*v", mu=1, coefficients="fitted")
 
 
 def test_site_coefficients_along_a_grid_equal_the_pointwise_ones():
