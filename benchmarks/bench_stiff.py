@@ -7,7 +7,7 @@ stiff-foundation.toml (R = -k*u, eps*k = 1000) and nonstiff.toml (eps*mu = 0.1).
 warm-up, all in one run. Printed:
 
 1. per stiff scene (method 'auto' finds it stiff), contacts 1 .. first_perturbed + 20, moving window:
-   the compiled engine (Rodas3, compiled_stiff.py) against the scipy engine's choice (LSODA with the
+   the compiled engine (Rodas4, compiled_stiff.py) against the scipy engine's choice (LSODA with the
    banded analytic Jacobian) and scipy's Radau at the same rtol; each one's max relative peak error
    against Radau at rtol 1e-11 and the time ratios scipy / compiled;
 2. the cold cost of the stiff kernel: a fresh process with an empty numba cache (JIT) and a second
@@ -45,7 +45,7 @@ from pulsemap.solvers.chain.compiled import MonomialTable
 table = MonomialTable.of([[0, 1]], [[0.0] * 15 + [-100.0]])
 force = OnSiteForce(lambda x, v: 0 * v, stiffness_hint=100.0, monomials=table)
 res = simulate(40, 1.5, 1.0, (1, 20), force, window="auto", rtol=1e-6, atol=1e-8)
-assert res.method == "Rodas3", res.engine_reason
+assert res.method == "Rodas4", res.engine_reason
 print(time.process_time() - t0)
 """
 
@@ -64,7 +64,7 @@ def peak_error(res, ref) -> float:
 
 
 def engines(repeats: int) -> None:
-    print("1. compiled Rodas3 vs the scipy stiff engine (contacts 1 .. first_perturbed + 20, moving window)")
+    print("1. compiled Rodas4 vs the scipy stiff engine (contacts 1 .. first_perturbed + 20, moving window)")
     for name in STIFF:
         scene = load_scene(resolve(name))
         beads, _ = dns_span(scene)

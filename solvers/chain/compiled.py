@@ -3,7 +3,7 @@
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')       (paper Eq. 1)
 
 Dormand-Prince 5(4) with PI step control and dense output (solvers/chain/compiled_kernel.py), or for a
-stiff force (method 'auto' chose an implicit method) Rodas3 with the exact banded Jacobian
+stiff force (method 'auto' chose an implicit method) Rodas4 with the exact banded Jacobian
 (solvers/chain/compiled_stiff.py); the same leading-edge peaks (root of delta' on the dense output) and the same stop rules and messages as
 the scipy engines (solvers/peaks.PeakTracker), and the same DNSResult.
 
@@ -32,7 +32,7 @@ from pulsemap.solvers.chain.peaks import PeakTracker, first_threshold, primary_p
 
 Array = np.ndarray
 METHOD = "RK45"  # Dormand-Prince 5(4), scipy's name for it
-STIFF_METHOD = "Rodas3"  # compiled_stiff.METHOD (that module imports numba: named here for dns.py)
+STIFF_METHOD = "Rodas4"  # compiled_stiff.METHOD (that module imports numba: named here for dns.py)
 ENERGY_EVERY = 4  # blow-up guard and energy drift every this many steps (as solvers/window.py)
 DELAY_FACTOR = 2.0  # peaks.primary_pulse_lost's default
 ROOM = 96  # initial buffer beyond ``behind`` (grown on demand)
@@ -208,7 +208,7 @@ class _Run:
     total_e: Array
     y: Array
     f: Array
-    method: str = METHOD  # the kernel: RK45 (compiled_kernel.py) or Rodas3 (compiled_stiff.py)
+    method: str = METHOD  # the kernel: RK45 (compiled_kernel.py) or Rodas4 (compiled_stiff.py)
 
 
 def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],

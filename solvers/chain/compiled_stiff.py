@@ -1,19 +1,19 @@
-"""numba kernel for stiff on-site forces: moving-window Rodas3 (Rosenbrock) integration of paper Eq. 1.
+"""numba kernel for stiff on-site forces: moving-window Rodas4 (Rosenbrock) integration of paper Eq. 1.
 
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i'),
     F_i(x, v) = sum_m c_m[i] x^(a_m) v^(b_m), or a generated numba function     (paper Eq. 1)
 
-Rodas3 (Sandu et al. 1997, Atmos. Environ. 31: 3459; Hairer & Wanner's Rosenbrock form, 4 stages,
-3 new right-hand sides, order 3, embedded order 2, stiffly accurate and L-stable):
+Rodas4 (Hairer & Wanner, Solving ODEs II, 1996: their RODAS coefficients; 6 stages, 5 new
+right-hand sides, order 4, embedded order 3, stiffly accurate and L-stable), in Rosenbrock form:
 
     (1/(h gamma) - J) K_i = f(t + alpha_i h, y + sum_j a_ij K_j) + sum_j c_ij K_j / h + gamma_i h df/dt,
-    y1 = y + sum_i m_i K_i,  error estimate K_4.
+    y1 = y + sum_i m_i K_i,  error estimate K_6.
 
 J is the exact Jacobian of Eq. 1 at the step's start: tridiagonal in the beads with 2x2 blocks
 (contact stiffness n delta^(n-1) couples neighbours; dF/dx, dF/dv of the force, compiled_force.py,
-sit on the diagonal), so eliminating K_x leaves a tridiagonal system in K_v: one factorisation and four
+sit on the diagonal), so eliminating K_x leaves a tridiagonal system in K_v: one factorisation and six
 O(window) solves per step. df/dt is the coasting left bead's push. Dense output: the cubic
-Hermite interpolant of (y, f) at the step's ends (order 3, compiled_track.hermite_dense; f at the
+Hermite interpolant of (y, f) at the step's ends (order 3, compiled_ops.hermite_dense; f at the
 new point is the next step's first stage). Window, peaks, stop rules: compiled_track.py, as the
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
@@ -30,11 +30,27 @@ from pulsemap.solvers.chain.compiled_track import (
     ATOL, BEADS, CAPACITY, EXP, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, NJEV, REJECTED, RTOL, T,
     PAUSED, accept, next_step, pause_now, peak_in_step, shift_window, track_step)
 
-METHOD = "Rodas3"  # compiled.STIFF_METHOD
-ORDER = 3  # of the step (the embedded one: 2); the dense output is a cubic Hermite (order 3)
-GAMMA = 0.5
-C21, C31, C32, C41, C42, C43 = 4.0, 1.0, -1.0, 1.0, -1.0, -8.0 / 3.0
-GAMMA1, GAMMA2 = 0.5, 1.5  # gamma_i = sum_j gamma_ij (stages 3, 4: 0)
+METHOD = "Rodas4"  # compiled.STIFF_METHOD
+ORDER = 4  # of the step (the embedded one: 3); the dense output is a cubic Hermite (order 3)
+# --- the tableau (module docstring); a and c strictly lower triangular, row i = stage i + 1
+GAMMA = 0.25
+ALPHA = np.array([0.0, 0.386, 0.21, 0.63, 1.0, 1.0])
+GAMMAS = np.array([0.25, -0.1043, 0.1035, -0.0362, 0.0, 0.0])  # gamma_i = sum_j gamma_ij
+_A5 = [1.221224509226641, 6.019134481288629, 12.53708332932087, -0.6878860361058950]
+A = np.array([[0.0] * 6,
+              [1.544, 0.0, 0.0, 0.0, 0.0, 0.0],
+              [0.9466785280815826, 0.2557011698983284, 0.0, 0.0, 0.0, 0.0],
+              [3.314825187068521, 2.896124015972201, 0.9986419139977817, 0.0, 0.0, 0.0],
+              _A5 + [0.0, 0.0],
+              _A5 + [1.0, 0.0]])
+C = np.array([[0.0] * 6,
+              [-5.6688, 0.0, 0.0, 0.0, 0.0, 0.0],
+              [-2.430093356833875, -0.2063599157091915, 0.0, 0.0, 0.0, 0.0],
+              [-0.1073529058151375, -9.594562251023355, -20.47028614809616, 0.0, 0.0, 0.0],
+              [7.496443313967647, -10.24680431464352, -33.99990352819905, 11.70890893206160, 0.0, 0.0],
+              [8.083246795921522, -7.981132988064893, -31.52159432874371, 16.31930543123136, -6.058818238834054, 0.0]])
+M = np.array(_A5 + [1.0, 1.0])  # y1 = y + sum_i m_i K_i (= stage 6's state + K_6: stiffly accurate)
+STAGES = 6
 SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 6.0
 
 
@@ -100,44 +116,46 @@ def solve(r, k, hg, w, band):
 
 
 @njit(cache=True)
-def rodas3_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, work, band):
-    """One Rodas3 step from (t, y) with f = f(t, y): yn and the error estimate err (= K_4).
-    False when the linear system is singular. ``work``: (6, >= 2w) scratch."""
+def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, k, work, band):
+    """One Rodas4 step from (t, y) with f = f(t, y): yn and the error estimate err (= K_6).
+    False when the linear system is singular. ``k``: (STAGES, >= 2w), ``work``: (3, >= 2w) scratch."""
     w2 = 2 * w
-    k1, k2, k3, r, ys, fy = work[0], work[1], work[2], work[3], work[4], work[5]
+    r, ys, fy = work[0], work[1], work[2]
     hg = GAMMA * h
     ft = jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, band)
     if not factor(hg, w, band):
         return False
+    for s in range(STAGES):
+        if s == 0:
+            for i in range(w2):
+                fy[i] = f[i]
+        else:
+            for i in range(w2):
+                acc = y[i]
+                for j in range(s):
+                    acc += A[s, j] * k[j, i]
+                ys[i] = acc
+            rhs(t + ALPHA[s] * h, ys, fy, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        for i in range(w2):
+            acc = fy[i]
+            for j in range(s):
+                acc += C[s, j] / h * k[j, i]
+            r[i] = acc
+        r[1] += GAMMAS[s] * h * ft
+        solve(r, k[s], hg, w, band)
     for i in range(w2):
-        r[i] = f[i]
-    r[1] += GAMMA1 * h * ft
-    solve(r, k1, hg, w, band)
-    for i in range(w2):
-        r[i] = f[i] + C21 / h * k1[i]
-    r[1] += GAMMA2 * h * ft
-    solve(r, k2, hg, w, band)
-    for i in range(w2):
-        ys[i] = y[i] + 2.0 * k1[i]
-    rhs(t + h, ys, fy, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
-    for i in range(w2):
-        r[i] = fy[i] + (C31 * k1[i] + C32 * k2[i]) / h
-    solve(r, k3, hg, w, band)
-    for i in range(w2):
-        ys[i] = y[i] + 2.0 * k1[i] + k3[i]
-    rhs(t + h, ys, fy, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
-    for i in range(w2):
-        r[i] = fy[i] + (C41 * k1[i] + C42 * k2[i] + C43 * k3[i]) / h
-    solve(r, err, hg, w, band)
-    for i in range(w2):
-        yn[i] = ys[i] + err[i]
+        acc = y[i]
+        for s in range(STAGES):
+            acc += M[s] * k[s, i]
+        yn[i] = acc
+        err[i] = k[STAGES - 1, i]
     return True
 
 
 @njit(cache=True)
 def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
-    """compiled_kernel.run with Rodas3 steps (same arguments, state and stop codes; st[NJEV] counts
-    the Jacobians, one per attempted step). Step control: h_new = h min(6, max(0.2, 0.9 err^(-1/3))),
+    """compiled_kernel.run with Rodas4 steps (same arguments, state and stop codes; st[NJEV] counts
+    the Jacobians, one per attempted step). Step control: h_new = h min(6, max(0.2, 0.9 err^(-1/4))),
     no growth right after a rejection."""
     n = cf[EXP]
     rtol, atol = cf[RTOL], cf[ATOL]
@@ -145,6 +163,7 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
     cap = ci[CAPACITY]
     work = np.empty((10, 2 * cap))
     band = np.empty((5, cap + 1))
+    k = np.empty((STAGES, 2 * cap))
     rc = np.empty((4, 2 * cap))
     yn, fn, err_v, pk = work[6], work[7], work[8], work[9]
     start(fs[T], y, f, st, fs, cf, ci, exps, coef, work)
@@ -158,8 +177,8 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
         w2 = 2 * w
         lx, lv, lt = fs[LEFT_X], fs[LEFT_V], fs[LEFT_T]
         err = np.inf
-        if rodas3_step(t, h, y, f, yn, err_v, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, work, band):
-            st[NFEV] += 2
+        if rosenbrock_step(t, h, y, f, yn, err_v, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, k, work, band):
+            st[NFEV] += STAGES - 1
             err = 0.0
             for i in range(w2):
                 e = err_v[i] / (atol + rtol * max(abs(y[i]), abs(yn[i])))

@@ -2,7 +2,7 @@
 
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')             (paper Eq. 1)
 
-The kernels (compiled_kernel.py: Dormand-Prince 5(4); compiled_stiff.py: Rodas3) differ only in how
+The kernels (compiled_kernel.py: Dormand-Prince 5(4); compiled_stiff.py: Rodas4) differ only in how
 a step is taken and in their dense output; what follows a step is here: the blow-up guard, the
 leading-edge peaks (root of delta' = v_k - v_{k+1} on the dense output, PeakTracker.record
 semantics), the stop rules (PeakTracker.check_progress order) and the moving window's shifts.

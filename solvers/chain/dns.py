@@ -184,7 +184,7 @@ def simulate(
 
     ``engine="compiled"`` (default) runs chain/compiled.py (numba Dormand-Prince 5(4), method
     'auto' or 'RK45', the force as a monomial table or, for a non-polynomial smooth R, a generated
-    numba function; Rodas3 with the exact Jacobian when 'auto' finds the force stiff) where it
+    numba function; Rodas4 with the exact Jacobian when 'auto' finds the force stiff) where it
     applies, else the scipy engine;
     ``engine="scipy"`` always the scipy engine. The result's ``engine_reason`` says which and why.
     """

@@ -136,10 +136,10 @@ def test_engine_selection_and_reasons():
 
 
 def test_stiff_scene_goes_to_the_compiled_rosenbrock_kernel():
-    """method 'auto' on a stiff force: Rodas3 on the compiled engine, the scipy engine's LSODA on request
+    """method 'auto' on a stiff force: Rodas4 on the compiled engine, the scipy engine's LSODA on request
     (tests/chain/test_compiled_stiff.py compares their peaks)."""
     res = scene_run("damp-1000", window="auto")
-    assert res.engine == "compiled" and res.method == "Rodas3" and "stiffness hint" in res.engine_reason
+    assert res.engine == "compiled" and res.method == "Rodas4" and "stiffness hint" in res.engine_reason
     assert scene_run("damp-1000", window="auto", engine="scipy").method == "LSODA"
 
 
