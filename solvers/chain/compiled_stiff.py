@@ -18,6 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
+# numba cache stamp: ada63de5e51a1cbf
 from __future__ import annotations
 
 import numpy as np
