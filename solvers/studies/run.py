@@ -126,6 +126,10 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
     eps = scene.perturbation.eps
     if eps > EPS_WARN and any(m in MODELS for m in methods):
         out["warnings"].append(f"eps = {eps:g} is not small: the reduced models assume eps << 1")
+    if (scene.perturbation.R == 0 or eps == 0) and "map" in methods and choice.variant == "paper":
+        out["warnings"].append("map: the paper's Eq. 23 drifts even without perturbation (A shrinks by "
+                               "(1 + f7/(2 f1))^(-1/P) per contact, docs/errata.rst item 5); --variant corrected "
+                               "or 1d keeps A constant")
     for c in snapshots:
         if isinstance(c, bool) or not isinstance(c, int) or not c0 <= c <= c1:
             raise RunError(f"snapshot contact {c!r} must be an integer in the scene's contacts {c0}..{c1}")
