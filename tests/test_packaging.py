@@ -1,0 +1,39 @@
+"""Every data file the package reads is installed by a normal (non-editable) install: it matches a
+[tool.setuptools.package-data] pattern of pyproject.toml (a shipped calibration missing from the
+wheel made `pip install .` recompute it on first use)."""
+
+from __future__ import annotations
+
+import fnmatch
+import sys
+from pathlib import Path
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+ROOT = Path(__file__).resolve().parents[1]
+SOURCES = ("derive", "generated", "solvers")
+
+
+def _patterns() -> dict[Path, list[str]]:
+    data = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    table = data["tool"]["setuptools"].get("package-data", {})
+    # "pulsemap.solvers.data" -> solvers/data (package-dir maps pulsemap to the repository root)
+    return {ROOT.joinpath(*pkg.split(".")[1:]): pats for pkg, pats in table.items()}
+
+
+def test_every_data_file_is_package_data():
+    patterns = _patterns()
+    missing = []
+    for top in SOURCES:
+        for path in (ROOT / top).rglob("*"):
+            if not path.is_file() or path.suffix in (".py", ".pyc", ".nbi", ".nbc") or "__pycache__" in path.parts:
+                continue
+            covered = any(path.is_relative_to(pkg) and any(fnmatch.fnmatch(path.relative_to(pkg).as_posix(), p)
+                                                           for p in pats)
+                          for pkg, pats in patterns.items())
+            if not covered:
+                missing.append(path.relative_to(ROOT).as_posix())
+    assert not missing, f"not installed by `pip install .` (add to [tool.setuptools.package-data]): {missing}"
