@@ -8,7 +8,7 @@ draws). Each chain runs exactly as ``simulate(engine="compiled")`` would (same k
 arithmetic: identical peaks), the chains spread over the cores.
 """
 
-# numba cache stamp: ada63de5e51a1cbf
+# numba cache stamp: 71506a80bcc02122
 from __future__ import annotations
 
 import time as _time

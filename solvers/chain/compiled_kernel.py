@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: ada63de5e51a1cbf
+# numba cache stamp: 71506a80bcc02122
 from __future__ import annotations
 
 import numpy as np
@@ -26,7 +26,7 @@ from pulsemap.solvers.chain.compiled_ops import (
     C4, C5, E1, E3, E4, E5, E6, E7, FAC_MAX, FAC_MIN, SAFE, dopri_dense, rhs)
 from pulsemap.solvers.chain.compiled_track import (
     ATOL, BEADS, CAPACITY, EXP, FACOLD, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, REJECTED, RTOL, STARTED,
-    PAUSED, T, T_MAXC, accept, next_step, pause_now, peak_in_step, shift_window, track_step)
+    T, T_MAXC, finish_step, next_step, peak_in_step, track_step)
 
 
 @njit(cache=True)
@@ -147,10 +147,7 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
         if peak_in_step(y, yn, st, ci):
             dopri_dense(rc, y, yn, h, f, k3, k4, k5, k6, k7, w2)
         code = track_step(t_old, t, h, y, yn, rc, work[6], w, st, fs, cf, ci, peaks, times, pulse_e, total_e)
-        accept(t, h_new, y, f, yn, k7, w2, fs)  # FSAL: f <- k7
+        code = finish_step(t, h_new, y, f, yn, k7, w, st, fs, cf, ci, exps, coef, code)  # FSAL: f <- k7
         h = h_new
         if code != 0:
             return code
-        w = shift_window(t, y, f, w, st, fs, cf, ci, exps, coef)
-        if pause_now(st, ci):
-            return PAUSED

@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: ada63de5e51a1cbf
+# numba cache stamp: 71506a80bcc02122
 from __future__ import annotations
 
 import numpy as np

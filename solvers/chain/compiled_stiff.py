@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: ada63de5e51a1cbf
+# numba cache stamp: 71506a80bcc02122
 from __future__ import annotations
 
 import numpy as np
@@ -29,7 +29,7 @@ from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import _pow, hermite_dense, rhs
 from pulsemap.solvers.chain.compiled_track import (
     ATOL, BEADS, CAPACITY, EXP, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, NJEV, REJECTED, RTOL, T,
-    PAUSED, accept, next_step, pause_now, peak_in_step, shift_window, track_step)
+    finish_step, next_step, peak_in_step, track_step)
 
 METHOD = "Rodas4"  # compiled.STIFF_METHOD
 ORDER = 4  # of the step (the embedded one: 3); the dense output is a cubic Hermite (order 3)
@@ -204,10 +204,7 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
         if peak_in_step(y, yn, st, ci):
             hermite_dense(rc, y, yn, f, fn, h, w2)
         code = track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e)
-        accept(t, h_new, y, f, yn, fn, w2, fs)  # fn = f(t, yn): the next step's first stage
+        code = finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, code)  # fn = f(t, yn)
         h = h_new
         if code != 0:
             return code
-        w = shift_window(t, y, f, w, st, fs, cf, ci, exps, coef)
-        if pause_now(st, ci):
-            return PAUSED

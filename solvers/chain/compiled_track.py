@@ -15,7 +15,7 @@ DOPRI5 fills rc0..rc3 from its stages (order 4); rc3 = 0 is the cubic Hermite in
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: ada63de5e51a1cbf
+# numba cache stamp: 71506a80bcc02122
 from __future__ import annotations
 
 import numpy as np
@@ -238,3 +238,14 @@ def shift_window(t, y, f, w, st, fs, cf, ci, exps, coef):
         rhs(t, y, f, w, st[LO], cf[EXP], False, 0.0, 0.0, 0.0, st[HI] < ci[BEADS], exps, coef)
         st[NFEV] += 1
     return add_ahead(y, f, w, st, cf, ci)
+
+
+@njit(cache=True, inline="always")
+def finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, code):
+    """After track_step: accept the step (y <- yn, f <- fn), then, unless ``code`` stops the run, shift
+    the window and pause for a progress line when it is due. Returns the code (PAUSED, or 0: go on)."""
+    accept(t, h_new, y, f, yn, fn, 2 * w, fs)
+    if code != 0:
+        return code
+    shift_window(t, y, f, w, st, fs, cf, ci, exps, coef)
+    return PAUSED if pause_now(st, ci) else 0
