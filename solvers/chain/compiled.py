@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, STIFFNESS_RATIO, DNSResult
+from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, STIFFNESS_RATIO, DNSResult, energy
 from pulsemap.solvers.chain.peaks import PeakTracker, first_threshold, primary_pulse_lost, contact_rate, velocity_scale
 
 Array = np.ndarray
@@ -213,16 +213,21 @@ class _Run:
 
 def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
             table: "MonomialTable | JitForce | None", *, rule, rtol: float, atol: float, peak_fraction: float, death_fraction: float, t_max: float,
-            stall_factor: float, overtake_factor: float, max_steps: int, method: str = METHOD) -> _Run:
-    """The kernel's arrays at t = 0: all beads at rest, bead 1 with velocity v0 (Eq. 1); ``method``:
-    the kernel (RK45 or compiled_stiff.METHOD)."""
+            stall_factor: float, overtake_factor: float, max_steps: int, method: str = METHOD,
+            launch=None) -> _Run:
+    """The kernel's arrays at t = 0: all beads at rest, bead 1 with velocity v0 (Eq. 1), or with
+    ``launch`` (a chain/launch.Launch, checked by dns.simulate; ``velocity`` is then its velocity
+    scale) the exact solitary wave with contact launch.centre at its peak, the window holding every
+    bead it moves and contacts up to the centre counted as peaked; ``method``: the kernel (RK45 or
+    compiled_stiff.METHOD)."""
     from pulsemap.solvers.chain import compiled_track as K  # numba: only when the engine runs
 
     first, last = int(contacts[0]), int(contacts[1])
     table = MonomialTable.zero() if table is None else table
     full = rule is None
     behind = beads + 1 if full else int(rule.behind)
-    cap = min(beads, (0 if full else behind) + ROOM)  # grown on demand: memory O(window), not O(N)
+    hi = min(beads, 3) if launch is None else min(beads, launch.front(exponent) + 1)
+    cap = min(beads, max(0 if full else behind, hi) + ROOM)  # grown on demand: memory O(window), not O(N)
     cf = np.zeros(K.N_CF)
     cf[K.EXP], cf[K.RTOL], cf[K.ATOL], cf[K.T_MAXC] = exponent, rtol, atol, t_max
     cf[K.SCALE_X], cf[K.SCALE_V] = velocity_scale(velocity, exponent), velocity
@@ -234,14 +239,18 @@ def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, i
     ci[K.MAX_STEPS], ci[K.COAST], ci[K.ENERGY_EVERY] = max_steps, int(full or rule.boundary == "coast"), ENERGY_EVERY
     ci[K.CAPACITY] = cap
     st = np.zeros(K.N_ST, dtype=np.int64)
-    st[K.HI], st[K.NEXT] = min(beads, 3), 1
+    st[K.HI], st[K.NEXT] = hi, 1 if launch is None else int(launch.centre) + 1
     st[K.WIDEST] = st[K.HI]
     fs = np.zeros(K.N_FS)
-    fs[K.E0] = 0.5 * velocity * velocity
     fs[K.THRESH] = first_threshold(velocity, exponent, peak_fraction)
     fs[K.STALL] = stall_factor / contact_rate(velocity, exponent)
     y, f = np.zeros(2 * cap), np.zeros(2 * cap)
-    y[1] = velocity
+    if launch is None:
+        y[1] = velocity
+        fs[K.E0] = 0.5 * velocity * velocity
+    else:
+        y[: 2 * hi] = launch.state(exponent, hi)
+        fs[K.E0] = energy(y[0 : 2 * hi : 2], y[1 : 2 * hi : 2], exponent)
     return _Run(beads, exponent, velocity, first, last, rule, float(rtol), float(atol), t_max, max_steps, table,
                 cap, cf, ci, st, fs, np.full(last, np.nan), np.full(last, np.nan),
                 np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f, method)
@@ -308,7 +317,8 @@ def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tu
                       table: "MonomialTable | JitForce | None", *, engine_reason: str = "", progress: bool = False,
                       **settings) -> DNSResult:
     """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it; ``settings``:
-    rule, rtol, atol, peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps, method).
+    rule, rtol, atol, peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps, method,
+    launch).
     ``progress``: a line on stderr at most every 5 s (dns_progress.DNSProgress), as the scipy engines."""
     from pulsemap.solvers.chain.dns_progress import DNSProgress
 

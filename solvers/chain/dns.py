@@ -221,8 +221,7 @@ def simulate(
     if engine == "compiled":
         from pulsemap.solvers.chain import compiled  # numba: imported only when used
 
-        why_scipy = ("a launched solitary wave starts on the scipy engine only" if launch is not None
-                     else compiled.unavailable(method, bool(snapshots)))
+        why_scipy = compiled.unavailable(method, bool(snapshots))
         data = None
         if not why_scipy:
             data, why_scipy = compiled.force_data(force)
@@ -235,7 +234,8 @@ def simulate(
                 stall_factor=stall_factor, overtake_factor=overtake_factor,
                 max_steps=default_max_steps(last) if max_steps is None else int(max_steps),
                 method=compiled.STIFF_METHOD if stiff else compiled.METHOD,
-                engine_reason=compiled.stiff_reason(force, velocity, exponent) if stiff else "", progress=progress)
+                engine_reason=compiled.stiff_reason(force, velocity, exponent) if stiff else "", progress=progress,
+                launch=launch)
     if window is not None:
         return replace(_window.simulate_windowed(
             beads, exponent, velocity, (first, last), force, rule=_window.resolve_rule(window, window_accuracy),

@@ -11,17 +11,41 @@ from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.chain.launch import Launch
 
 
+@pytest.mark.parametrize("engine", ["compiled", "scipy"])
 @pytest.mark.parametrize("window", [None, "auto"])
 @pytest.mark.parametrize("amplitude", [0.01, 1.0, 37.0])
-def test_launched_wave_keeps_its_peak_and_speed(window, amplitude):
-    """Unperturbed chain: every peak is A S(0) and contact k peaks at (k - c) A^(-s) (Eq. 32)."""
+def test_launched_wave_keeps_its_peak_and_speed(window, amplitude, engine):
+    """Unperturbed chain: every peak is A S(0) and contact k peaks at (k - c) A^(-s) (Eq. 32), on both engines."""
     n = 1.5
-    res = simulate(50, n, 1.0, (9, 40), launch=Launch(amplitude, 8), window=window)
+    res = simulate(50, n, 1.0, (9, 40), launch=Launch(amplitude, 8), window=window, engine=engine)
+    assert res.engine == engine
     assert np.all(res.alive) and res.stop_reason == "last contact peaked"
+    assert res.energy_drift < 1e-7  # the launched wave's energy (the window's share) is kept
     S0 = exact_profile(n).S0
     assert np.max(np.abs(res.peaks / (amplitude * S0) - 1.0)) < 1e-8
     expected = (res.contacts - 8) * amplitude ** (-(n - 1) / 2)
     assert np.max(np.abs(res.peak_times / expected - 1.0)) < 1e-8
+
+
+@pytest.mark.parametrize("R, stiff", [("-mu*v", False), ("-mu*u**3", False), ("-mu*v", True)])
+def test_a_launch_into_a_perturbed_chain_agrees_on_both_engines(R, stiff):
+    """A launched wave entering a perturbed segment (the relaxed map's segment runs): the compiled engine
+    (explicit, or Rodas4 when stiff) gives the scipy engine's peaks within the tolerances, same live range."""
+    from pulsemap.solvers.data.overrides import with_sets
+    from pulsemap.solvers.data.scene import load_scene
+    from pulsemap.solvers.studies.forcing import make_force
+
+    beads, centre, first = 60, 8, 14
+    scene = with_sets(load_scene("fig8-eps0.1"), [f"perturbation.R={R}", f"perturbation.params.mu={100.0 if stiff else 0.3}",
+                                                   "perturbation.eps=1.0", f"chain.first_perturbed={first}"])
+    force = make_force(scene, beads)
+    kw = dict(launch=Launch(0.7, centre), window="auto", rtol=1e-10, atol=1e-13)
+    fast = simulate(beads, 1.5, 1.0, (centre + 1, 45), force, **kw)
+    ref = simulate(beads, 1.5, 1.0, (centre + 1, 45), force, engine="scipy", **kw)
+    assert fast.engine == "compiled" and ref.engine == "scipy"
+    assert fast.method == ("Rodas4" if stiff else "RK45")
+    assert np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 2
+    assert np.max(np.abs(fast.peaks[fast.alive] / ref.peaks[ref.alive] - 1.0)) < 1e-6
 
 
 def test_launch_state_is_the_travelling_wave():
