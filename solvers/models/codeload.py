@@ -45,8 +45,13 @@ def _verified_text(path: Path) -> str:
     return text
 
 
+def _module_key(name: str) -> str:
+    """The import name a generated module ``name`` is executed under."""
+    return f"pulsemap_generated_{name}"
+
+
 def _exec(path: Path) -> ModuleType:
-    spec = importlib.util.spec_from_file_location(f"pulsemap_generated_{path.stem}", path)
+    spec = importlib.util.spec_from_file_location(_module_key(path.stem), path)
     module = importlib.util.module_from_spec(spec)
     if not path.stem.startswith("jitforce_"):
         spec.loader.exec_module(module)  # our own generated, hash-checked file
@@ -127,18 +132,14 @@ def force_module(R_text: str, params) -> ModuleType:
     return _ensure(ForceSource.of(R_text, params))
 
 
-_JIT: dict[str, ModuleType] = {}
-
-
 def jit_force_module(R_text: str, params) -> ModuleType:
     """The generated numba force module for R (the compiled DNS's non-polynomial force, in the cache),
-    generating it if missing; imported once per process (numba compiles its functions the first time
-    and loads them from its cache afterwards). CodegenError (a RuntimeError) when R has no such form."""
+    generating it if missing; imported once per process (``_exec`` registers it in sys.modules, where
+    a later call finds it; numba compiles its functions the first time and loads them from its cache
+    afterwards). CodegenError (a RuntimeError) when R has no such form."""
     source = JitForceSource.of(R_text, params)
-    name = module_name(source)
-    if name not in _JIT:
-        _JIT[name] = _ensure(source)
-    return _JIT[name]
+    loaded = sys.modules.get(_module_key(module_name(source)))
+    return loaded if loaded is not None else _ensure(source)
 
 
 def balance_module(R_text: str, params, n: float, profile: str = "exact", model: str = "energy",

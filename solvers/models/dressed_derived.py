@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from pulsemap.derive import cache
-from pulsemap.solvers.models.dressed_expansion import (ExpansionError, chain_coefficients, chain_cross, exponent_e,
+from pulsemap.solvers.models.dressed_expansion import (chain_coefficients, chain_cross, check_monomial, exponent_e,
                                                        first_order_rate)
 
 NAMESPACE = "dressed-derived"
@@ -108,7 +108,7 @@ def shipped() -> dict:
 
 def derive_monomial(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> DerivedMonomial:
     """k2/k1 and the onset lag of c u^a v^b at exponent n from the expansion (module docstring); cached."""
-    (a, b), n = _check_monomial(a, b), float(n)
+    (a, b), n = check_monomial(a, b), float(n)
     key = cache_key(a, b, n)
     if use_cache:
         hit = cache.load(NAMESPACE, key) or shipped().get(key)
@@ -158,18 +158,9 @@ def cross_key(first, second, n: float) -> str:
     return f"cross|{cache_key(*first, n)}|{cache_key(*second, n)}"
 
 
-def _check_monomial(a, b) -> tuple[int, int]:
-    for name, val in (("a", a), ("b", b)):
-        if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or val < 0:
-            raise ExpansionError(f"monomial exponent {name} must be an integer >= 0, got {val!r}")
-    if a + b == 0:
-        raise ExpansionError("the constant monomial (a = b = 0) moves the chain at rest: it has no law")
-    return int(a), int(b)
-
-
 def derive_cross(first: tuple[int, int], second: tuple[int, int], n: float = 1.5, use_cache: bool = True) -> DerivedCross:
     """k2_jl of c_j u^a v^b + c_l u^a' v^b' from the mixed second order of the expansion; cached."""
-    first, second, n = _check_monomial(*first), _check_monomial(*second), float(n)
+    first, second, n = check_monomial(*first), check_monomial(*second), float(n)
     key = cross_key(first, second, n)
     if use_cache:  # k2_jl is symmetric: either order's entry serves
         swapped = cross_key(second, first, n)

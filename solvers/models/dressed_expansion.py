@@ -51,6 +51,16 @@ class ExpansionError(ValueError):
     """A monomial whose dressed coefficients cannot be derived (the message says why)."""
 
 
+def check_monomial(a, b, error: type[ValueError] = ExpansionError) -> tuple[int, int]:
+    """(a, b) as ints for the monomial u^a v^b, or ``error`` saying what is wrong with them."""
+    for name, val in (("a", a), ("b", b)):
+        if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or val < 0:
+            raise error(f"monomial exponent {name} must be an integer >= 0, got {val!r}")
+    if a + b == 0:
+        raise error("the constant monomial (a = b = 0) moves the chain at rest: it has no law")
+    return int(a), int(b)
+
+
 def exponent_e(a: int, b: int, n: float) -> float:
     """x = c A^e: e = a + (1 + s) b - 1 - 2 s, s = (n - 1)/2 (n = 3/2: a + 5b/4 - 3/2)."""
     s = (n - 1) / 2
@@ -60,8 +70,9 @@ def exponent_e(a: int, b: int, n: float) -> float:
 def first_order_rate(a: int, b: int, n: float) -> float:
     """k1 = -w_ab / ((n + 1) E_1): d ln A/di = -k1 x (energy balance, derive/balance.py)."""
     from pulsemap.derive.balance import balance_constants  # mpmath integrals, cached
+    from pulsemap.derive.balance_constants import integral_name
 
-    name = f"w_{a}{b}" if max(a, b) < 10 else f"w_{a}_{b}"
+    name = integral_name("energy", a, b)
     c = balance_constants(["K1", "V1", name], n=n)
     return -c[name].value / ((n + 1) * (c["K1"].value + c["V1"].value))
 

@@ -46,7 +46,7 @@ from pulsemap.derive import cache
 from pulsemap.derive.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
-from pulsemap.solvers.models.dressed_expansion import exponent_e, first_order_rate  # noqa: F401 (re-exported)
+from pulsemap.solvers.models.dressed_expansion import check_monomial, exponent_e, first_order_rate  # noqa: F401 (re-exported)
 
 NAMESPACE = "dressed"
 SHIPPED = Path(__file__).resolve().parents[1] / "data" / "dressed_calibration.json"
@@ -193,12 +193,7 @@ def _onset_lag(runs, coef: np.ndarray, foundation: bool, k1: float, e: float, S0
 
 def calibrate(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> MonomialFit:
     """Measure k2/k1, g and the onset lag of c u^a v^b (module docstring); cached on disk."""
-    for name, val in (("a", a), ("b", b)):
-        if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or val < 0:
-            raise CalibrationError(f"monomial exponent {name} must be an integer >= 0, got {val!r}")
-    if a + b == 0:
-        raise CalibrationError("the constant monomial (a = b = 0) moves the chain at rest: it has no law")
-    a, b, n = int(a), int(b), float(n)
+    (a, b), n = check_monomial(a, b, CalibrationError), float(n)
     key = cache_key(a, b, n)
     if use_cache:
         hit = cache.load(NAMESPACE, key) or shipped().get(key)
