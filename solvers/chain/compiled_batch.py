@@ -8,7 +8,7 @@ draws). Each chain runs exactly as ``simulate(engine="compiled")`` would (same k
 arithmetic: identical peaks), the chains spread over the cores.
 """
 
-# numba cache stamp: 71506a80bcc02122
+# numba cache stamp: 32f3033d4c44b907
 from __future__ import annotations
 
 import time as _time
@@ -53,7 +53,7 @@ def simulate_many(
     tables: Sequence[MonomialTable | None],
     *,
     window: "str | object | None" = "auto",
-    window_accuracy: float = 1e-8,
+    window_accuracy: float | None = None,
     rtol: float = 1e-10,
     atol: float = 1e-12,
     peak_fraction: float = 1e-2,
@@ -64,9 +64,10 @@ def simulate_many(
     max_steps: int | None = None,
 ) -> list[DNSResult]:
     """One DNSResult per chain b (velocity ``velocities[b]``, on-site force ``tables[b]``, None: R = 0),
-    as ``simulate(..., engine="compiled")`` gives it; ``wall_time_s`` is the batch's time / chains."""
+    as ``simulate(..., engine="compiled")`` gives it (the same window rule for the same rtol and
+    ``window_accuracy``); ``wall_time_s`` is the batch's time / chains."""
     from pulsemap.solvers.chain.dns import validate
-    from pulsemap.solvers.chain.window import resolve_rule
+    from pulsemap.solvers.chain.window import resolve_rule, window_accuracy_for
 
     if len(velocities) != len(tables) or not len(tables):
         raise ValueError(f"simulate_many needs one velocity per table, got {len(velocities)} and {len(tables)}")
@@ -79,7 +80,7 @@ def simulate_many(
     full = [MonomialTable(shared, np.zeros((shared.shape[0], 1))) if t is None else t for t in tables]
     if any(t.constant_term for t in full):
         raise ValueError("simulate_many: R(0, 0) != 0 (a constant term) in some chain's table")
-    rule = None if window is None else resolve_rule(window, window_accuracy)
+    rule = None if window is None else resolve_rule(window, window_accuracy_for(rtol, window_accuracy))
     budget = default_max_steps(last) if max_steps is None else int(max_steps)
     runs = [prepare(int(beads), float(exponent), float(v), (first, last), t, rule=rule, rtol=rtol, atol=atol,
                     peak_fraction=peak_fraction, death_fraction=death_fraction,

@@ -15,7 +15,7 @@ DOPRI5 fills rc0..rc3 from its stages (order 4); rc3 = 0 is the cubic Hermite in
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: 71506a80bcc02122
+# numba cache stamp: 32f3033d4c44b907
 from __future__ import annotations
 
 import numpy as np

@@ -71,7 +71,7 @@ class DNSResult:
     Front diagnostics (solvers/chain/front.py), per requested contact at its peak time, NaN where
     it did not peak: ``pulse_energy`` (kinetic + contact energy of the beads within 8 of the
     contact), ``total_energy`` (of the whole chain; a moving window adds the energy its dropped
-    beads carried when dropped); ``energy_initial`` = v0^2/2; ``snapshots``: strains around the
+    beads carried when dropped, exact only without R: with R a windowed run leaves it None); ``energy_initial`` = v0^2/2; ``snapshots``: strains around the
     chosen contacts (front.Snapshot). An engine that does not record them leaves the defaults.
     ``speed`` (a property): contacts per unit time from the peak times.
     ``engine``: "compiled" (chain/compiled.py) or "scipy"; ``engine_reason``: why that engine ran.

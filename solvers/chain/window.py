@@ -42,14 +42,22 @@ Array = np.ndarray
 BOUNDARIES = ("coast", "free")
 
 # Measured max relative peak error the window costs against the full chain, by the number of
-# beads kept behind the front (boundary "coast"; 200 beads, contacts 1..190, n = 1.5, v0 = 1,
-# DOP853 rtol 1e-13 in both runs so the integrator's own error is ~5e-11). Worst case over
-# unperturbed and damped F = -eps*mu*v from bead 16 with eps*mu = 0.01, 0.05, 0.1, 0.3; the
-# worst is always a decaying pulse's last contacts before it dies (eps*mu = 0.1, 0.3): there
-# the pulse is wide and slow. Unperturbed and eps*mu = 0.01 (and n = 3) are at the integrator
-# floor from behind = 3. "free" is 3-30x worse than "coast". ahead = 2..10 and the 1e-30
-# extension threshold made no measurable difference.
-CALIBRATION: dict[int, float] = {6: 1.5e-3, 8: 1.8e-4, 12: 4.3e-6, 16: 1.9e-9, 24: 5e-11}
+# beads kept behind the front (boundary "coast", compiled engine, rtol 1e-12 in both runs so the
+# integrator's own error is ~1e-11): worst case over all 31 built-in and suite scenes but
+# chain10000 (2026-11-25). The worst are decaying pulses' last contacts before they die
+# (fig8-eps0.1 and nonstiff: a long compressed tail behind the front) and a self-excited wake
+# that decides where the pulse dies (vdp-mu1-v2.3: 13 behind moved the death contact; 12 gave
+# 1.8e-4). Most scenes are at the integrator floor from 5 behind (vdp-mu3-v2.3 from 4).
+# "free" is 3-30x worse than "coast". The ahead threshold changes the peaks by at most ~5x
+# itself (n1.1: 1e-6 -> 6e-6, 1e-8 -> 2.5e-8, 1e-10 -> as 1e-30), hence accuracy / 100.
+CALIBRATION: dict[int, float] = {12: 2.6e-6, 13: 2.4e-4, 14: 4.4e-7, 15: 3.3e-8, 16: 2.9e-8, 18: 7.4e-10,
+                                 20: 2.6e-10, 22: 9.5e-11, 24: 8.9e-11}
+#: (accuracy floor, behind) of rule_for_accuracy: the fewest beads behind whose measured worst
+#: (CALIBRATION) is at least 3x below the accuracy (10x from 1e-8 on) and past the cliff at 13;
+#: below 1e-9 the integrator's floor.
+BEHIND_FOR: tuple[tuple[float, int], ...] = ((1e-7, 16), (1e-8, 18), (1e-9, 22), (0.0, 24))
+THRESHOLD_FRACTION = 1e-2  # ahead threshold = accuracy x this (CALIBRATION: ~5x threshold at most)
+DEFAULT_WINDOW_ACCURACY = 1e-8  # simulate's window accuracy unless rtol asks for less (window_accuracy_for)
 
 
 @dataclass(frozen=True)
@@ -90,15 +98,24 @@ def validate_rule(rule: WindowRule) -> WindowRule:
 def rule_for_accuracy(accuracy: float) -> WindowRule:
     """Window rule whose truncation error stays below ``accuracy`` (relative peak error).
 
-    Calibrated rule (see CALIBRATION): with d = ceil(log10(1/accuracy)),
-    behind = 4 + 4 * ceil(d / 2): 12 beads for 1e-4 (measured worst 4.3e-6), 16 for 1e-6
-    (1.9e-9), 20 for 1e-8 (between 1.9e-9 at 16 and the integrator floor at 24), 24 for 1e-10.
-    ahead = 10 and the 1e-30 extension threshold cost nothing measurable.
+    Calibrated rule (CALIBRATION, BEHIND_FOR): 16 beads behind down to 1e-7 (measured worst
+    2.9e-8), 18 down to 1e-8 (7.4e-10), 22 down to 1e-9 (9.5e-11), 24 below (the integrator's
+    floor, ~1e-10); ahead, a bead is added when the last one moves by accuracy / 100 of the
+    scales v0^(2/(n+1)) and v0.
     """
     if not (np.isfinite(accuracy) and 0.0 < accuracy < 1.0):
         raise ValueError(f"window_accuracy must lie in (0, 1), got {accuracy!r}")
-    digits = max(1, int(np.ceil(-np.log10(accuracy))))
-    return WindowRule(behind=4 + 4 * ((digits + 1) // 2))
+    behind = next(b for floor, b in BEHIND_FOR if accuracy >= floor)
+    return WindowRule(behind=behind, threshold=max(THRESHOLD_FRACTION * float(accuracy), 1e-30))
+
+
+def window_accuracy_for(rtol: float, window_accuracy: "float | None") -> float:
+    """The window's accuracy: ``window_accuracy`` as given, else (None) the looser of rtol and
+    DEFAULT_WINDOW_ACCURACY (the window never costs more than the integrator's tolerance asks, nor
+    more than 1e-8), capped below 1e-3."""
+    if window_accuracy is not None:
+        return window_accuracy
+    return min(max(float(rtol), DEFAULT_WINDOW_ACCURACY), 1e-3)
 
 
 MIN_WIDTH = 17  # the narrowest width whose rule keeps behind >= 2 (10 ahead, chunk 4, 1 for the front)
@@ -114,7 +131,7 @@ def rule_for_width(width: int) -> WindowRule:
 
 
 def resolve_rule(window, accuracy: float) -> WindowRule:
-    """``window`` as given to simulate(): 'auto', an int width, or a WindowRule."""
+    """``window`` as given to simulate(): 'auto' (rule_for_accuracy(accuracy)), an int width, or a WindowRule."""
     if isinstance(window, WindowRule):
         return validate_rule(window)
     if isinstance(window, str):

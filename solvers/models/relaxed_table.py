@@ -73,7 +73,14 @@ class SegmentSpec:
         return (f"relaxed-segment|v{VERSION}|R={self.R}|params={prm}|eps={self.eps!r}|n={self.n!r}"
                 f"|A=2^({j}/{LATTICE})|centre={centre}|fp={fp}|contacts={entry}..{entry + CONTACTS}"
                 f"|death={DEATH}|rtol={self.rtol!r}|atol=rtol/100*scale|method={self.method}|engine={self.engine}"
-                f"|window={self.window_accuracy!r}")
+                f"|window={self.window_accuracy!r}:{self.window_rule()}")
+
+    def window_rule(self) -> str:
+        """The segment runs' window geometry (window.rule_for_accuracy: the cache key follows its calibration)."""
+        from pulsemap.solvers.chain.window import rule_for_accuracy
+
+        rule = rule_for_accuracy(self.window_accuracy)
+        return f"behind={rule.behind},threshold={rule.threshold!r}"
 
 
 def lattice_amplitude(j: int) -> float:

@@ -13,6 +13,7 @@ from pulsemap.solvers.chain.window import (
     plan,
     resolve_rule,
     rule_for_accuracy,
+    window_accuracy_for,
     shift_state,
 )
 
@@ -129,7 +130,16 @@ def test_window_pieces():
     assert needs_shift(15, 0, 25, 100, rule)
     assert plan(15, 0, 25, 100, rule) == (4, 25)
     assert plan(91, 70, 95, 100, rule) == (80, 100)
-    assert rule_for_accuracy(1e-8).behind == 20 and rule_for_accuracy(1e-4).behind == 12
+    behind = [rule_for_accuracy(a).behind for a in (1e-3, 1e-6, 1e-8, 1e-9, 1e-10, 1e-12)]
+    assert behind == sorted(behind) and behind[0] < behind[-1]  # tighter accuracy, never fewer beads
+    thresholds = [rule_for_accuracy(a).threshold for a in (1e-3, 1e-6, 1e-8)]
+    assert thresholds == sorted(thresholds, reverse=True) and all(t < a for t, a in zip(thresholds, (1e-3, 1e-6, 1e-8)))
+
+
+def test_default_window_accuracy_follows_rtol():
+    """None: the looser of rtol and 1e-8 (below 1e-3); a given accuracy wins."""
+    assert window_accuracy_for(1e-10, None) == 1e-8 and window_accuracy_for(1e-6, None) == 1e-6
+    assert window_accuracy_for(0.1, None) == 1e-3 and window_accuracy_for(1e-6, 1e-9) == 1e-9
 
 
 def test_smallest_width_named_in_the_message_is_accepted():
@@ -197,3 +207,21 @@ def test_scene_force_is_restricted_to_the_window():
     full = simulate(80, 1.5, 1.0, (10, 60), force, **TIGHT)
     win = simulate(80, 1.5, 1.0, (10, 60), force, **TIGHT, window="auto", window_accuracy=1e-8)
     assert np.array_equal(full.alive, win.alive) and rel(win.peaks[win.alive], full.peaks[full.alive]) < 1e-8
+
+
+@pytest.mark.parametrize("engine", ["compiled", "scipy"])
+def test_windowed_chain_energy_only_without_R(engine):
+    """With R the beads a window dropped go on losing energy out of sight: no total_energy then (the
+    full chain has it); without R the window's count is the chain's energy (conserved)."""
+    from pulsemap.solvers.data.scene import load_scene
+    from pulsemap.solvers.studies.forcing import make_force
+
+    scene = load_scene("fig8-eps0.1")
+    force = make_force(scene, 140)
+    kw = dict(rtol=1e-9, atol=1e-11, engine=engine)
+    damped = simulate(140, 1.5, 1.0, (15, 45), force, window="auto", **kw)
+    full = simulate(140, 1.5, 1.0, (15, 45), force, **kw)
+    assert damped.total_energy is None and np.all(np.isfinite(damped.pulse_energy))
+    assert np.all(np.diff(full.total_energy) < 0)  # damping: the chain loses energy
+    free = simulate(140, 1.5, 1.0, (15, 45), None, window="auto", **kw)
+    assert np.allclose(free.total_energy, free.energy_initial, rtol=1e-6)
