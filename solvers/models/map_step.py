@@ -16,7 +16,8 @@ from types import ModuleType
 from typing import Mapping
 
 import numpy as np
-from scipy.optimize import brentq
+
+from pulsemap.solvers.models.map_bracket import fallback
 
 Array = np.ndarray
 
@@ -138,40 +139,6 @@ def _newton(module, a_prev: float, guess: tuple[float, ...], eps: float, args: t
     return None
 
 
-def _bracket_root(func, lo: float, hi: float, points: int = 400) -> float | None:
-    """First sign change of func on a log grid in [lo, hi], refined by brentq."""
-    grid = np.geomspace(lo, hi, points)
-    prev = None
-    for a, b in zip(grid[:-1], grid[1:]):
-        fa = func(a) if prev is None else prev
-        fb = func(b)
-        prev = fb
-        if math.isfinite(fa) and math.isfinite(fb) and fa * fb <= 0:
-            return brentq(func, a, b, xtol=1e-15 * b, rtol=1e-15, maxiter=200)
-    return None
-
-
-def _fallback(module, a_prev: float, eps: float, args: tuple, two: bool) -> tuple[float, ...] | None:
-    """Bracketing: A_{i+1}(A_i) from F2, then F1 in A_i; None when no positive root exists."""
-
-    def next_of(a_i: float) -> float:
-        root = _bracket_root(lambda c: module.map_residual(a_prev, a_i, c, eps, *args)[1], a_i * 1e-6, a_i * 1e3, 200)
-        return math.nan if root is None else root
-
-    def f1(a_i: float) -> float:
-        if two:
-            c = next_of(a_i)
-            if not math.isfinite(c):
-                return math.nan
-            return module.map_residual(a_prev, a_i, c, eps, *args)[0]
-        return module.map_residual(a_prev, a_i, eps, *args)[0]
-
-    a_i = _bracket_root(f1, a_prev * 1e-9, a_prev * 1e2, 600)
-    if a_i is None:
-        return None
-    return (a_i, next_of(a_i)) if two else (a_i,)
-
-
 def step(module, a_prev: float, eps: float, args: tuple, guess: tuple[float, ...] | None = None):
     """One step of the map: (A_i, A_{i+1}) (or (A_i,)) and whether the fallback was used."""
     two = module.VARIANT != "1d"
@@ -180,7 +147,7 @@ def step(module, a_prev: float, eps: float, args: tuple, guess: tuple[float, ...
     sol = _newton(module, a_prev, guess, eps, args)
     if sol is not None:
         return sol, False
-    return _fallback(module, a_prev, eps, args, two), True
+    return fallback(module, a_prev, eps, args, two), True
 
 
 def check_seed(seed_A: float, error: type[ValueError], name: str = "the seed amplitude",

@@ -18,7 +18,8 @@ from pulsemap.derive.integrals import METHOD_VERSION
 from pulsemap.derive.sources import INTEGRALS_METHOD, GeneratedCodeError, verify_generated
 from pulsemap.solvers.models.codeload import GeneratedModuleError, _load_path, force_module, map_module
 from pulsemap.solvers.models.map_iteration import iterate_map
-from pulsemap.solvers.models.map_step import _fallback, _newton
+from pulsemap.solvers.models.map_bracket import fallback as _fallback
+from pulsemap.solvers.models.map_step import _newton
 from pulsemap.solvers.models.stationary_shock import analyse, continue_roots
 
 GENERATED = Path(codegen.PACKAGE_DIR)
