@@ -65,3 +65,12 @@ def test_the_command_and_a_run_load_no_sympy():
             "print('sympy' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_the_compiled_dns_and_a_run_load_no_scipy_solvers():
+    """scipy's integrators and root finders (~0.3 s per process) load only where a scipy engine, a law
+    or a root search runs: importing the DNS front end and `run` leaves them out."""
+    code = ("import sys, pulsemap.solvers.chain.dns, pulsemap.solvers.studies.run; "
+            "print(sorted(m for m in ('scipy.integrate', 'scipy.optimize', 'scipy.sparse') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

@@ -10,11 +10,13 @@ and the scipy solver factory. Both the full-chain front end (dns.py) and the mov
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
-import scipy.integrate as _integrate
-from scipy import sparse
+
+if TYPE_CHECKING:  # scipy loads only when a scipy engine runs (~0.3 s per process otherwise)
+    import scipy.integrate as _integrate
+    from scipy import sparse
 
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
 from pulsemap.solvers.chain.front import pulse_speed
@@ -258,6 +260,8 @@ def make_jacobians(
 ) -> tuple[Callable[[float, Array], sparse.csc_matrix], Callable[[float, Array], Array]]:
     """Analytic banded Jacobian of ``make_rhs`` (same arguments; dF/dx, dF/dv needed with a
     force): (sparse for BDF/Radau, packed for LSODA with lband=3, uband=1)."""
+    from scipy import sparse
+
     n = float(exponent)
 
     def diagonals(t: float, y: Array):
@@ -288,6 +292,8 @@ def make_jacobians(
 
 def band_pattern(beads: int) -> sparse.csc_matrix:
     """Structural sparsity of the Jacobian: neighbours only (offsets -3, -1, 0, +1)."""
+    from scipy import sparse
+
     m = 2 * beads
     ones = [np.ones(m - 3), np.ones(m - 1), np.ones(m), np.ones(m - 1)]
     return sparse.diags(ones, (-3, -1, 0, 1), shape=(m, m), format="csc")
@@ -313,6 +319,8 @@ def make_solver(
     ``left``, ``wall`` as in make_rhs; a moving window restarts the solver at ``t0`` with the
     previous step size as ``first_step``.
     """
+    import scipy.integrate as _integrate
+
     rhs = make_rhs(beads, exponent, force, left, wall)
     cls = getattr(_integrate, method)
     kw = dict(rtol=rtol, atol=atol)

@@ -4,7 +4,6 @@ of paper Eq. 1, with an exact re-step of the same scheme for the quintic dense o
 from __future__ import annotations
 
 import numpy as np
-import scipy.integrate as _integrate
 
 from pulsemap.solvers.chain.peaks import QuinticStep
 
@@ -25,6 +24,8 @@ def tableau(method: str) -> tuple[Array, Array, Array]:
 
         s = co.N_STAGES
         return co.A[:s, :s], co.B, co.C[:s]
+    import scipy.integrate as _integrate  # scipy loads only when a scipy engine runs
+
     cls = getattr(_integrate, method)
     return cls.A, cls.B, cls.C
 
@@ -74,6 +75,8 @@ def run_fortran(code, rhs, t0, y0, t_max, rtol, atol, first_step, on_step) -> tu
         state["h"] = t - t_old
         state["t"], state["y"] = t, y_new
         return -1 if on_step(t_old, y_old, t, y_new, dense_factory) else 0
+
+    import scipy.integrate as _integrate
 
     r = _integrate.ode(rhs).set_integrator(code, rtol=rtol, atol=atol, nsteps=2**31 - 1,
                                            first_step=min(first_step or 0.0, t_max - t0),

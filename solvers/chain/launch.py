@@ -25,8 +25,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from pulsemap.derive.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce, make_rhs
@@ -131,6 +129,8 @@ def launch(beads: int, n: float, A: float, centre: int, contacts: tuple[int, int
     y0 = soliton_state(beads, n, A, centre)
     rhs = make_rhs(beads, n, force)
     T = 1.5 * (last - centre + 2) / A**s  # generous: a decaying pulse slows down
+    from scipy.integrate import solve_ivp  # scipy loads only when a wave is launched
+
     sol = solve_ivp(rhs, (0.0, T), y0, method="DOP853", rtol=rtol, atol=atol, dense_output=True)
     T = float(sol.t[-1])  # where the integration stopped (a failed step ends it early: later peaks are None)
     peaks: list = []
@@ -169,6 +169,8 @@ def _peak(sol, k: int, t_from: float, T: float, floor: float) -> tuple[float | N
     def rate(t):
         y = sol.sol(t)
         return y[2 * (k - 1) + 1] - y[2 * k + 1]
+
+    from scipy.optimize import brentq
 
     tk = brentq(rate, a, b, xtol=1e-14, rtol=1e-15) if rate(b) != 0 else b
     y = sol.sol(tk)

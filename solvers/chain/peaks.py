@@ -13,7 +13,6 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy.optimize import brentq
 
 DenseOutput = Callable[[float], np.ndarray]
 
@@ -76,6 +75,8 @@ def locate_maximum(dense: DenseOutput, t_old: float, t_new: float, k: int) -> tu
         if fb == 0.0:
             t_peak = t_new
         else:
+            from scipy.optimize import brentq  # scipy loads only when a scipy engine runs
+
             t_peak = brentq(rate, t_old, t_new, xtol=1e-15, rtol=4 * np.finfo(float).eps)
     else:
         t_peak = t_old if strain(dense(t_old), k) >= strain(dense(t_new), k) else t_new
@@ -145,6 +146,8 @@ class QuinticStep:
 
         ra, rb = rate(0.0), rate(1.0)
         if ra > 0.0 and rb < 0.0:
+            from scipy.optimize import brentq
+
             s_peak = brentq(rate, 0.0, 1.0, xtol=1e-15, rtol=4 * np.finfo(float).eps)
         else:  # the ends' rates are those of the step up to round-off: the maximum is an end
             s_peak = 0.0 if ra <= 0.0 else 1.0

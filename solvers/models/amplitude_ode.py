@@ -10,7 +10,6 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 
 def integrate_amplitude_law(rate: Callable[[float, float], float], A0: float, Q: float, i0: float, contacts,
@@ -28,6 +27,8 @@ def integrate_amplitude_law(rate: Callable[[float, float], float], A0: float, Q:
 
     die.terminal = blow.terminal = True
     end = max(float(contacts.max(initial=i0)), i0 + 1e-9)
+    from scipy.integrate import solve_ivp  # scipy loads only when a law is evaluated
+
     sol = solve_ivp(lambda i, y: [rate(i, y[0])], (i0, end), [B0], method="LSODA", rtol=1e-11, atol=1e-14 * B0,
                     dense_output=True, events=(die, blow))
     if sol.status < 0:

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from pulsemap.solvers.models.balance_eval import BalanceRun
 
@@ -88,6 +87,8 @@ def evaluate_dressed_law(coef: DressedCoefficients, S0: float, A0: float, i0: fl
                          "as large as the first)", float(i0), "dressed (second order)", "exact")
         return run, float(i0)
     end = max(float(contacts.max(initial=i0)), i0 + 1e-9)
+    from scipy.integrate import solve_ivp  # scipy loads only when a law is evaluated
+
     sol = solve_ivp(rhs, (i0, end), [lnA0], method="LSODA", rtol=1e-11, atol=1e-13, dense_output=True,
                     events=(die, blow, pole, past_bound))
     if sol.status < 0:

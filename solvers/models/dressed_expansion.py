@@ -42,7 +42,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from pulsemap.derive.profile import NPU, exact_profile
 
@@ -180,6 +179,8 @@ def expansion_orbits(monomials, pairs, n: float, *, cut: float, settle: int, spa
 
     ks = np.arange(first - 1, last + 1)
     times = (ks - centre).astype(float)
+    from scipy.integrate import solve_ivp  # scipy loads only when the expansion runs
+
     sol = solve_ivp(rhs, (0.0, float(times[-1])), np.zeros(2 * (M + P) * beads), method="DOP853", rtol=rtol,
                     atol=rtol * 1e-3, t_eval=times)
     if sol.status != 0 or sol.y.shape[1] != ks.size:

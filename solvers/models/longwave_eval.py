@@ -13,7 +13,6 @@ from types import ModuleType
 from typing import Callable
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from pulsemap.solvers.models.map_iteration import contact_params
 
@@ -84,6 +83,8 @@ def integrate_law(rhs: Callable[[float], float], B0: float, i0: float, contacts:
 
     die.terminal = blow.terminal = True
     end = float(contacts.max()) if contacts.size else i0
+    from scipy.integrate import solve_ivp  # scipy loads only when a law is evaluated
+
     sol = solve_ivp(lambda i, y: [rhs(max(y[0], 0.0))], (i0, max(end, i0 + 1e-9)), [B0], method="LSODA",
                     rtol=1e-11, atol=1e-14 * B0, dense_output=True, events=(die, blow))
     ended_at, ended = None, ""

@@ -19,7 +19,6 @@ import math
 from types import ModuleType
 
 import numpy as np
-from scipy.optimize import brentq
 
 Array = np.ndarray
 INNER = (1e-6, 1e3, 200)  # A_{i+1} / A_i: grid ends and points
@@ -38,6 +37,8 @@ def first_bracket(values: Array) -> Array:
 
 def refine(func, a: float, b: float) -> float:
     """brentq on a bracket (the tolerances of the reference scan)."""
+    from scipy.optimize import brentq  # scipy loads only when a fallback runs
+
     return brentq(func, a, b, xtol=1e-15 * b, rtol=1e-15, maxiter=200)
 
 

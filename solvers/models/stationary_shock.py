@@ -15,7 +15,6 @@ from dataclasses import dataclass
 from types import ModuleType
 
 import numpy as np
-from scipy.optimize import brentq
 
 from pulsemap.solvers.models.map_iteration import contact_params, step
 
@@ -45,6 +44,8 @@ def roots(module: ModuleType, params: dict, lo: float = 1e-8, hi: float = 1e6, p
     grid = np.geomspace(lo, hi, points)
     # the generated code is numpy code: one call on the whole grid (a constant Phi comes back a scalar)
     vals = np.broadcast_to(np.asarray(phi(grid), dtype=float), grid.shape)
+    from scipy.optimize import brentq  # scipy loads only when Eq. 41 is solved
+
     out = []
     for j in np.nonzero(np.sign(vals[:-1]) * np.sign(vals[1:]) < 0)[0]:
         out.append(brentq(phi, grid[j], grid[j + 1], xtol=1e-15 * grid[j + 1], rtol=1e-15))
@@ -77,6 +78,8 @@ def map_fixed_point(module: ModuleType, guess: float, eps: float, params: dict) 
         lo, hi = guess * (1 - width), guess * (1 + width)
         glo, ghi = g(lo), g(hi)
         if math.isfinite(glo) and math.isfinite(ghi) and glo * ghi < 0:
+            from scipy.optimize import brentq
+
             return brentq(g, lo, hi, xtol=1e-14 * hi)
     return None
 
