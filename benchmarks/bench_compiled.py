@@ -12,7 +12,8 @@ is interpolated log-log between the runs that bracket it (studies.bench.cost_at)
 1. compiled (window, warm, best of K) vs a careful user's script (solvers/studies/reference_script.py,
    also run by `pulsemap bench`): vectorised numpy RHS on the full chain, solve_ivp(DOP853,
    t_eval=grid of 0.05, dense_output=True), peaks as the first grid maximum of delta_k refined by
-   brentq on delta_k' of the dense output, at equal 1e-6 max relative peak error (one run per tolerance);
+   brentq on delta_k' of the dense output, at equal 1e-6 max relative peak error (a warm-up, then one
+   timed run per tolerance, as `pulsemap bench` times it);
 2. compiled vs today's scipy window engine (window="auto", Hairer's DOP853), at the same rtol and
    at equal 1e-6 error;
 3. time(contacts 4000) / time(contacts 1000), compiled window, vdp;
@@ -93,13 +94,13 @@ def equal_accuracy(name: str, quick: bool, repeats: int) -> None:
                   f"time {sec * 1e3:9.2f} ms  [{res.engine}/{res.method}, {res.window_beads} beads]", flush=True)
     t_end = float(np.nanmax(ref.peak_times)) + 2.0
     for rtol in ((1e-7, 1e-8) if quick else (1e-6, 1e-7, 1e-8, 1e-9)):
-        t0 = time.perf_counter()
-        peaks = script_peaks(beads, scene.exponent, scene.velocity, span, force, rtol, t_end, dt=0.05).peaks
-        sec = time.perf_counter() - t0
+        res, sec = best_time(lambda: script_peaks(beads, scene.exponent, scene.velocity, span, force, rtol, t_end,
+                                                  dt=0.05), 1)
+        peaks = res.peaks
         err, missing = peak_error([None if not np.isfinite(p) else float(p) for p in peaks], live(ref, ref))
         lines["script"].append(Point("baseline", "script", f"rtol {rtol:g}", rtol, err, missing, sec))
         print(f"  {'script DOP853':16s} rtol {rtol:7.1e} err {err:9.2e} missing {missing:2d} "
-              f"time {sec * 1e3:9.2f} ms (one run)", flush=True)
+              f"time {sec * 1e3:9.2f} ms (after a warm-up)", flush=True)
     cost = {k: cost_at(v, TARGET) for k, v in lines.items()}
     for k, (c, how) in cost.items():
         print(f"  -> {k:16s} at {TARGET:g}: {'n/a' if c is None else f'{c * 1e3:.2f} ms'} ({how})")
