@@ -9,7 +9,8 @@ full chain, DOP853 at rtol 1e-12 (its distance to rtol 1e-11 printed). Error: ma
 error over the reference's live contacts (studies.bench.peak_error); the cost of a line at 1e-6
 is interpolated log-log between the runs that bracket it (studies.bench.cost_at). Printed:
 
-1. compiled (window, warm, best of K) vs a careful user's script (solvers/studies/reference_script.py,
+1. compiled (window, warm, best of K; its two kernels, RK45 = Dormand-Prince 5(4) and DOP853, each
+   a line) vs a careful user's script (solvers/studies/reference_script.py,
    also run by `pulsemap bench`): vectorised numpy RHS on the full chain, solve_ivp(DOP853,
    t_eval=grid of 0.05, dense_output=True), peaks as the first grid maximum of delta_k refined by
    brentq on delta_k' of the dense output, at equal 1e-6 max relative peak error (a warm-up, then one
@@ -80,10 +81,11 @@ def equal_accuracy(name: str, quick: bool, repeats: int) -> None:
     print(f"\n== {name}: N={beads}, contacts {span[0]}..{span[1]}, reference scipy DOP853 full rtol 1e-12 "
           f"({ref.alive.sum()} live, {ref.stop_reason}; {ref_s:.1f} s); vs rtol 1e-11: {conv:.1e}", flush=True)
     ladder = LADDER[::2] if quick else LADDER
-    lines: dict[str, list[Point]] = {"compiled window": [], "scipy window": [], "script": []}
+    lines: dict[str, list[Point]] = {"compiled window": [], "compiled DOP853": [], "scipy window": [], "script": []}
     same_rtol = {}
     for rtol in ladder:
         for label, kw in (("compiled window", dict(window="auto")),
+                          ("compiled DOP853", dict(window="auto", method="DOP853")),
                           ("scipy window", dict(window="auto", engine="scipy"))):
             res, sec = best_time(lambda: simulate(*args, rtol=rtol, atol=rtol * 1e-2, **kw),
                                  repeats if label.startswith("compiled") else max(1, repeats // 10))
@@ -104,11 +106,11 @@ def equal_accuracy(name: str, quick: bool, repeats: int) -> None:
     cost = {k: cost_at(v, TARGET) for k, v in lines.items()}
     for k, (c, how) in cost.items():
         print(f"  -> {k:16s} at {TARGET:g}: {'n/a' if c is None else f'{c * 1e3:.2f} ms'} ({how})")
-    comp = cost["compiled window"][0]
-    if comp:
+    for kernel in ("compiled window", "compiled DOP853"):
+        comp = cost[kernel][0]
         for k in ("script", "scipy window"):
-            if cost[k][0]:
-                print(f"  RATIO {k} / compiled at equal {TARGET:g} error: {cost[k][0] / comp:8.1f}x")
+            if comp and cost[k][0]:
+                print(f"  RATIO {k} / {kernel} at equal {TARGET:g} error: {cost[k][0] / comp:8.1f}x")
     for rtol in (1e-6, 1e-8):
         if rtol in same_rtol:
             r = same_rtol[rtol]

@@ -2,7 +2,8 @@
 
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')       (paper Eq. 1)
 
-Dormand-Prince 5(4) with PI step control and dense output (solvers/chain/compiled_kernel.py), or for a
+Dormand-Prince 5(4) with PI step control and dense output (solvers/chain/compiled_kernel.py; DOP853,
+solvers/chain/compiled_dop853.py, when asked for by name), or for a
 stiff force (method 'auto' chose an implicit method) Rodas4 with the exact banded Jacobian
 (solvers/chain/compiled_stiff.py); the same leading-edge peaks (root of delta' on the dense output) and the same stop rules and messages as
 the scipy engines (solvers/peaks.PeakTracker), and the same DNSResult.
@@ -31,8 +32,10 @@ from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, STIFFNESS_RATIO, DNS
 from pulsemap.solvers.chain.peaks import PeakTracker, first_threshold, primary_pulse_lost, contact_rate, velocity_scale
 
 Array = np.ndarray
-METHOD = "RK45"  # Dormand-Prince 5(4), scipy's name for it
+METHOD = "RK45"  # Dormand-Prince 5(4), scipy's name for it: the default explicit kernel
+HIGH_ORDER_METHOD = "DOP853"  # compiled_dop853.METHOD: taken only when asked for by name
 STIFF_METHOD = "Rodas4"  # compiled_stiff.METHOD (that module imports numba: named here for dns.py)
+EXPLICIT_METHODS = (METHOD, HIGH_ORDER_METHOD)
 ENERGY_EVERY = 4  # blow-up guard and energy drift every this many steps (as solvers/window.py)
 DELAY_FACTOR = 2.0  # peaks.primary_pulse_lost's default
 ROOM = 96  # initial buffer beyond ``behind`` (grown on demand)
@@ -137,9 +140,17 @@ def unavailable(method: str, snapshots: bool = False) -> str:
     method) runs the Rosenbrock kernel (``stiff_reason``)."""
     if snapshots:
         return "strain snapshots are recorded by the scipy engine only"
-    if method not in ("auto", METHOD):
-        return f"method {method} has no compiled kernel (compiled: RK45, Dormand-Prince 5(4))"
+    if method not in ("auto",) + EXPLICIT_METHODS:
+        return f"method {method} has no compiled kernel (compiled: RK45, Dormand-Prince 5(4); DOP853)"
     return ""
+
+
+def kernel_method(method: str, stiff: bool) -> str:
+    """The compiled kernel for simulate's ``method``: the one named (RK45, DOP853), else ('auto')
+    Rodas4 for a stiff force and Dormand-Prince 5(4) for any other."""
+    if method in EXPLICIT_METHODS:
+        return method
+    return STIFF_METHOD if stiff else METHOD
 
 
 def force_data(force) -> tuple[MonomialTable | JitForce | None, str]:
@@ -154,6 +165,13 @@ def force_data(force) -> tuple[MonomialTable | JitForce | None, str]:
         return None, "the on-site force has no monomial table and no generated numba form (a Python callable)"
     data = force.jit()
     return (None, data) if isinstance(data, str) else (data, "")
+
+
+def _explicit_reason(method: str) -> str:
+    """What an explicit kernel's result says ran."""
+    if method == HIGH_ORDER_METHOD:
+        return "compiled DOP853 (explicit Runge-Kutta 8(5,3)), method 'DOP853' requested"
+    return "compiled RK45 (Dormand-Prince 5(4))"
 
 
 def stiff_reason(force, velocity: float, exponent: float) -> str:
@@ -208,7 +226,7 @@ class _Run:
     total_e: Array
     y: Array
     f: Array
-    method: str = METHOD  # the kernel: RK45 (compiled_kernel.py) or Rodas4 (compiled_stiff.py)
+    method: str = METHOD  # the kernel: RK45 (compiled_kernel.py), DOP853 (compiled_dop853.py) or Rodas4
 
 
 def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
@@ -218,8 +236,8 @@ def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, i
     """The kernel's arrays at t = 0: all beads at rest, bead 1 with velocity v0 (Eq. 1), or with
     ``launch`` (a chain/launch.Launch, checked by dns.simulate; ``velocity`` is then its velocity
     scale) the exact solitary wave with contact launch.centre at its peak, the window holding every
-    bead it moves and contacts up to the centre counted as peaked; ``method``: the kernel (RK45 or
-    compiled_stiff.METHOD)."""
+    bead it moves and contacts up to the centre counted as peaked; ``method``: the kernel (RK45,
+    DOP853 or compiled_stiff.METHOD)."""
     from pulsemap.solvers.chain import compiled_track as K  # numba: only when the engine runs
 
     first, last = int(contacts[0]), int(contacts[1])
@@ -265,6 +283,8 @@ def drive(run: _Run, code: int | None = None, report=None) -> int:
 
     if run.method == METHOD:
         from pulsemap.solvers.chain.compiled_kernel import run as kernel
+    elif run.method == HIGH_ORDER_METHOD:
+        from pulsemap.solvers.chain.compiled_dop853 import run as kernel
     else:
         from pulsemap.solvers.chain.compiled_stiff import run as kernel
 
@@ -309,7 +329,7 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
         mode="full" if run.rule is None else "window/compiled", window_beads=int(st[K.WIDEST]),
         window_shifts=int(st[K.SHIFTS]), window_rule=run.rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),
         energy_initial=float(fs[K.E0]), pulse_energy=run.pulse_e, total_energy=run.total_e,
-        engine="compiled", engine_reason=f"{engine_reason or 'compiled RK45 (Dormand-Prince 5(4))'}, {run.table.describe}",
+        engine="compiled", engine_reason=f"{engine_reason or _explicit_reason(run.method)}, {run.table.describe}",
     )
 
 

@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 32f3033d4c44b907
+# numba cache stamp: 922fd686455f83d5
 from __future__ import annotations
 
 import numpy as np

@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 32f3033d4c44b907
+# numba cache stamp: 922fd686455f83d5
 from __future__ import annotations
 
 import numpy as np

@@ -2,20 +2,22 @@
 
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')             (paper Eq. 1)
 
-The kernels (compiled_kernel.py: Dormand-Prince 5(4); compiled_stiff.py: Rodas4) differ only in how
-a step is taken and in their dense output; what follows a step is here: the blow-up guard, the
-leading-edge peaks (root of delta' = v_k - v_{k+1} on the dense output, PeakTracker.record
-semantics), the stop rules (PeakTracker.check_progress order) and the moving window's shifts.
+The kernels (compiled_kernel.py: Dormand-Prince 5(4); compiled_dop853.py: DOP853; compiled_stiff.py:
+Rodas4) differ only in how a step is taken and in their dense output; what follows a step is here:
+the blow-up guard, the leading-edge peaks (root of delta' = v_k - v_{k+1} on the dense output,
+PeakTracker.record semantics), the stop rules (PeakTracker.check_progress order) and the moving
+window's shifts.
 
-Dense output (Hairer's CONTD5 form), per component i at t_old + theta h:
-    y(theta) = y0 + theta (rc0 + (1 - theta) (rc1 + theta (rc2 + (1 - theta) rc3)))
+Dense output (Hairer's CONTD5 / CONTD8 form), per component i at t_old + theta h:
+    y(theta) = y0 + theta (rc0 + (1 - theta) (rc1 + theta (rc2 + (1 - theta) (rc3 + theta (rc4 + ...)))))
 DOPRI5 fills rc0..rc3 from its stages (order 4); rc3 = 0 is the cubic Hermite interpolant of
-(y0, f0, y1, f1) (order 3), which the Rosenbrock kernel uses (compiled_ops.dopri_dense, hermite_dense).
+(y0, f0, y1, f1) (order 3), which the Rosenbrock kernel uses (compiled_ops.dopri_dense, hermite_dense);
+DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: 32f3033d4c44b907
+# numba cache stamp: 922fd686455f83d5
 from __future__ import annotations
 
 import numpy as np
@@ -43,8 +45,12 @@ N_CI = 9  # PAUSE_EVERY: return PAUSED after every this many accepted steps (0: 
 
 @njit(cache=True)
 def dense_value(theta, i, y0, rc):
-    """Component i of the dense output at t_old + theta h (module docstring)."""
-    return y0[i] + theta * (rc[0, i] + (1.0 - theta) * (rc[1, i] + theta * (rc[2, i] + (1.0 - theta) * rc[3, i])))
+    """Component i of the dense output at t_old + theta h (module docstring; as many rows as rc has)."""
+    th1 = 1.0 - theta
+    v = rc[rc.shape[0] - 1, i]
+    for r in range(rc.shape[0] - 2, -1, -1):
+        v = rc[r, i] + (th1 if r % 2 == 0 else theta) * v
+    return y0[i] + theta * v
 
 
 @njit(cache=True)

@@ -192,10 +192,11 @@ def simulate(
     (front.py); ``snapshots``: contacts at whose peak time the strains of contacts
     k - snapshot_span[0] .. k + snapshot_span[1] are kept.
 
-    ``engine="compiled"`` (default) runs chain/compiled.py (numba Dormand-Prince 5(4), method
-    'auto' or 'RK45', the force as a monomial table or, for a non-polynomial smooth R, a generated
-    numba function; Rodas4 with the exact Jacobian when 'auto' finds the force stiff) where it
-    applies, else the scipy engine;
+    ``engine="compiled"`` (default) runs chain/compiled.py (numba Dormand-Prince 5(4) for method
+    'auto' or 'RK45', numba DOP853 for 'DOP853' (order 8: cheaper on a smooth, damped pulse, dearer
+    where the wake keeps reopening contacts), the force as a monomial table or, for a
+    non-polynomial smooth R, a generated numba function; Rodas4 with the exact Jacobian when 'auto'
+    finds the force stiff) where it applies, else the scipy engine;
     ``engine="scipy"`` always the scipy engine. The result's ``engine_reason`` says which and why.
     """
     if force is not None and not isinstance(force, OnSiteForce):
@@ -244,7 +245,7 @@ def simulate(
                 atol=atol, peak_fraction=peak_fraction, death_fraction=death_fraction, t_max=t_limit,
                 stall_factor=stall_factor, overtake_factor=overtake_factor,
                 max_steps=default_max_steps(last) if max_steps is None else int(max_steps),
-                method=compiled.STIFF_METHOD if stiff else compiled.METHOD,
+                method=compiled.kernel_method(method, stiff),
                 engine_reason=compiled.stiff_reason(force, velocity, exponent) if stiff else "", progress=progress,
                 launch=launch))
     if window is not None:

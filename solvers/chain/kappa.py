@@ -42,7 +42,7 @@ def measure_kappa(exponent: float, *, rtol: float = 1e-10) -> dict:
     while True:
         lo, hi = contact - HALF_WINDOW, contact + HALF_WINDOW
         beads = chain_length_for(hi)
-        res = simulate(beads, exponent, 1.0, (lo, hi), method="DOP853", rtol=rtol, atol=1e-12)
+        res = simulate(beads, exponent, 1.0, (lo, hi), method="DOP853", rtol=rtol, atol=1e-12, engine="scipy")
         if not np.all(res.alive):
             raise RuntimeError(f"kappa(n={exponent}): unperturbed DNS ended early: {res.stop_reason}")
         spread = formation_spread(res.peaks, HALF_WINDOW)

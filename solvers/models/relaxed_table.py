@@ -47,8 +47,9 @@ class SegmentSpec:
     """Everything a segment run depends on but the launch amplitude.
 
     ``R`` the perturbation text, ``params`` its scalar values, ``eps``, ``n``; DNS ``rtol``,
-    ``method`` and ``engine`` (the moving window's: "auto", "fortran", "scipy"); the window is
-    sized for ``window_accuracy``. atol is rtol/100 times the amplitude's scales.
+    ``method`` and ``engine`` (the moving window's: "auto", "fortran", "scipy"; always the scipy
+    DNS engine, which the cached tables were computed with); the window is sized for
+    ``window_accuracy``. atol is rtol/100 times the amplitude's scales.
     """
 
     R: str
@@ -114,7 +115,8 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     scale = min(1.0, amplitude, amplitude ** ((spec.n + 1.0) / 2.0))
     res = simulate(beads, spec.n, 1.0, (entry, entry + CONTACTS), force, launch=Launch(float(amplitude), centre),
                    method=spec.method, rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale, window="auto",
-                   window_accuracy=spec.window_accuracy, window_engine=spec.engine, death_fraction=DEATH)
+                   window_accuracy=spec.window_accuracy, window_engine=spec.engine, death_fraction=DEATH,
+                   engine="scipy")
     out = []
     for p, alive in zip(res.peaks, res.alive):
         if not alive or not math.isfinite(p):

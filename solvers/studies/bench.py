@@ -6,7 +6,7 @@ For one scene (``bench_scene``):
   ladder; its convergence is the max relative difference to the run at the next tolerance;
 * the DNS on the scipy engine (moving window, solvers/window.py) over a ladder of tolerances with
   explicit (DOP853, RK45) and implicit (Radau, BDF, LSODA) methods;
-* the compiled engine (numba RK45, moving window) and the careful user's vectorised script
+* the compiled engine (numba RK45 and DOP853, moving window) and the careful user's vectorised script
   (studies/reference_script.py) over their ladders, and each of the three engines once more cold
   (first call of a fresh process, empty numba cache): :mod:`~pulsemap.solvers.studies.bench_engines`;
 * baseline (b): the full-chain vectorised DNS (``simulate(window=None)``), same ladder;
@@ -83,8 +83,8 @@ def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = l
 
     points = dns_points(scene, contacts, ref, ladder, "auto", ladder.methods, "dns", log)
     if ladder.engines:
-        points += dns_points(scene, contacts, ref, ladder, "auto", ("RK45",), "compiled", log, engine="compiled",
-                             rtols=ladder.compiled_rtols)
+        points += dns_points(scene, contacts, ref, ladder, "auto", ladder.compiled_methods, "compiled", log,
+                             engine="compiled", rtols=ladder.compiled_rtols)
         points += reference_points(scene, contacts, ref, ladder, log)
     if ladder.baselines:
         points += dns_points(scene, contacts, ref, ladder, None, ladder.full_methods, "baseline-b", log)

@@ -14,10 +14,11 @@ __all__ = ["dns_points", "model_points", "reference_run", "script_points", "scri
 
 
 def reference_run(scene, rtol: float) -> dict:
-    """``pulsemap run`` with the DNS only (full chain, DOP853) at ``rtol``: its result dict."""
+    """``pulsemap run`` with the DNS only (full chain, DOP853 on the scipy engine, independent of the
+    compiled one) at ``rtol``: its result dict."""
     from pulsemap.solvers.studies.run import run_scene
 
-    tuned = scene.with_overrides(dns={**tolerances(scene, rtol), "method": "DOP853"})
+    tuned = scene.with_overrides(dns={**tolerances(scene, rtol), "method": "DOP853", "engine": "scipy"})
     return run_scene(tuned, methods=["dns"])
 
 

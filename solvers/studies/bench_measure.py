@@ -33,7 +33,8 @@ class Ladder:
     max_samples: float = 2e7  # baseline (a): numbers held at once (2N x samples); larger grids in segments
     models: bool = True
     baselines: bool = True
-    compiled_rtols: tuple[float, ...] = (1e-5, 1e-6, 1e-7, 1e-8, 1e-9)  # the compiled engine's line
+    compiled_rtols: tuple[float, ...] = (1e-5, 1e-6, 1e-7, 1e-8, 1e-9)  # the compiled engine's lines
+    compiled_methods: tuple[str, ...] = ("RK45", "DOP853")  # its kernels (Dormand-Prince 5(4), DOP853)
     script_rtols: tuple[float, ...] = (1e-6, 1e-7, 1e-8, 1e-9)  # the careful user's script (reference_script.py)
     engines: bool = True  # the compiled engine and the careful user's script
     cold: bool = True  # each of them (and the scipy engine) once more in a fresh process, numba cache empty

@@ -155,7 +155,8 @@ def test_noisy_rest_state_gives_no_early_peaks():
 @pytest.fixture(scope="module")
 def damped_reference() -> DNSResult:
     beads = chain_length_for(30)
-    return simulate(beads, 1.5, 1.0, (16, 30), damping(0.3, beads), method="DOP853", rtol=1e-9)
+    return simulate(beads, 1.5, 1.0, (16, 30), damping(0.3, beads), method="DOP853", rtol=1e-9,
+                    engine="scipy")
 
 
 @pytest.mark.parametrize("method", ["Radau", "BDF", "LSODA", "RK45"])
@@ -212,7 +213,7 @@ def test_strong_damping_finishes_quickly_with_implicit_method():
     assert res.wall_time_s < 5.0
     assert res.nfev < 50_000
     assert res.njev >= 1  # stiff: the banded analytic Jacobian was used
-    explicit = simulate(beads, 1.5, 1.0, (16, 45), damping(100.0, beads), method="DOP853")
+    explicit = simulate(beads, 1.5, 1.0, (16, 45), damping(100.0, beads), method="DOP853", engine="scipy")
     assert explicit.stop_reason.startswith("pulse died")
     assert res.peaks[0] == pytest.approx(explicit.peaks[0], rel=1e-6)
 
@@ -337,7 +338,7 @@ def test_bad_arguments(kwargs, pattern):
 @pytest.mark.parametrize("method", ["LSODA", "BDF", "Radau"])
 def test_long_chain_methods_agree(method):
     """140 beads to contact 120 (the paper's chain), implicit vs DOP853 at rtol 1e-10."""
-    ref = simulate(140, 1.5, 1.0, (1, 120), method="DOP853")
+    ref = simulate(140, 1.5, 1.0, (1, 120), method="DOP853", engine="scipy")
     res = simulate(140, 1.5, 1.0, (1, 120), method=method)
     assert res.alive.all() and rel(res.peaks, ref.peaks) < 1e-6
     assert res.energy_drift < 1e-6

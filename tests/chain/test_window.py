@@ -18,7 +18,7 @@ from pulsemap.solvers.chain.window import (
 )
 
 BEADS, LAST = 200, 190
-TIGHT = dict(method="DOP853", rtol=1e-12, atol=1e-14)  # integrator error << window error
+TIGHT = dict(method="DOP853", rtol=1e-12, atol=1e-14, engine="scipy")  # integrator error << window error
 
 
 def damping(eps_mu: float, beads: int, first: int = 16, restrict: bool = True) -> OnSiteForce:

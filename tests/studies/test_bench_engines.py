@@ -48,7 +48,8 @@ def test_json_holds_the_three_lines_warm_and_cold(cli_report):
     assert KINDS <= set(lines)
     for kind in KINDS:
         assert len(lines[kind]) >= 2 and all(p["time_s"] > 0 and p["missing"] == 0 for p in lines[kind])
-    assert {p["line"] for p in lines["compiled"]} == {"window RK45"} and not any(p["note"] for p in lines["compiled"])
+    assert {p["line"] for p in lines["compiled"]} == {"window RK45", "window DOP853"}
+    assert not any(p["note"] for p in lines["compiled"])
     assert set(report["cold"]) == KINDS
     for kind, c in report["cold"].items():
         warm = next(p for p in lines[kind] if p["line"] == c["line"] and p["setting"] == c["setting"])
@@ -62,7 +63,8 @@ def test_ratios_are_the_costs_at_equal_accuracy(cli_report):
     report, text, _ = cli_report
     e = report["ratios"]["engines"]
     costs = report["cost_at_target"]
-    assert e["compiled"]["time_s"] == costs["compiled|window RK45"]["time_s"]
+    compiled = [c["time_s"] for key, c in costs.items() if key.startswith("compiled|") and c["time_s"]]
+    assert e["compiled"]["time_s"] == min(compiled) and len(compiled) >= 1  # the best compiled line
     assert e["compiled_vs_script"] == pytest.approx(e["script"]["time_s"] / e["compiled"]["time_s"])
     assert e["compiled_vs_scipy"] == pytest.approx(e["scipy"]["time_s"] / e["compiled"]["time_s"])
     cold = report["cold"]
