@@ -3,10 +3,10 @@
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')       (paper Eq. 1)
 
 Dormand-Prince 5(4) with PI step control and dense output (solvers/chain/compiled_kernel.py; DOP853,
-solvers/chain/compiled_dop853.py, when asked for by name), or for a
-stiff force (method 'auto' chose an implicit method) Rodas4 with the exact banded Jacobian
-(solvers/chain/compiled_stiff.py); the same leading-edge peaks (root of delta' on the dense output) and the same stop rules and messages as
-the scipy engines (solvers/peaks.PeakTracker), and the same DNSResult.
+solvers/chain/compiled_dop853.py, when asked for by name), or for a stiff force (method 'auto' chose
+an implicit method) Rodas4 with the exact banded Jacobian (solvers/chain/compiled_stiff.py); the
+same leading-edge peaks (root of delta' on the dense output) and the same stop rules and messages
+as the scipy engines (solvers/peaks.PeakTracker), and the same DNSResult.
 
 Window (``rule``, a solvers.window.WindowRule): exactly ``rule.behind`` beads are kept behind
 the last peaked contact (the last dropped bead coasts, ``rule.boundary``), the calibrated
