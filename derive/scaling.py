@@ -8,17 +8,25 @@ coefficient x = eps c A^e,
     e = a + b (n + 1)/2 - n          (n = 3/2: e = a + 5b/4 - 3/2),
 
 and every amplitude ratio (P_{k+1}/P_k) is a function of x alone.
+
+Importing this module loads no sympy (only monomial_exponents does, when called): the numeric
+side (solvers/models) takes scaling_exponent from here.
 """
 
 from __future__ import annotations
 
-import sympy
+import typing
 
-from .expression import symbol
+if typing.TYPE_CHECKING:  # pragma: no cover
+    import sympy
 
 
-def monomial_exponents(R: sympy.Expr) -> tuple[int, int] | None:
+def monomial_exponents(R: "sympy.Expr") -> tuple[int, int] | None:
     """(a, b) when R = c u^a v^b with c free of u and v (c may hold parameters and i); else None."""
+    import sympy
+
+    from .expression import symbol
+
     u, v = symbol("u"), symbol("v")
     expr = sympy.expand(R)
     if expr == 0:

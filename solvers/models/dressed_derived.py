@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from pulsemap.derive import cache
-from pulsemap.solvers.models.dressed_expansion import (chain_coefficients, chain_cross, check_monomial, exponent_e,
+from pulsemap.derive.scaling import scaling_exponent
+from pulsemap.solvers.models.dressed_expansion import (chain_coefficients, chain_cross, check_monomial,
                                                        first_order_rate)
 
 NAMESPACE = "dressed-derived"
@@ -127,7 +128,7 @@ def derive_monomial(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> D
     # the integration's accuracy: k1 against the energy balance, accumulated over the contacts used
     spread = float(np.ptp([r["k1"][-1] for r in runs]) + abs(k1 / first_order_rate(a, b, n) - 1) * (SETTLE + SPAN))
     out = DerivedMonomial(
-        a=a, b=b, n=n, e=float(exponent_e(a, b, n)), k1=k1,
+        a=a, b=b, n=n, e=float(scaling_exponent(a, b, n)), k1=k1,
         k2_over_k1=value, k2_over_k1_error=float(cut_err + chain_err + spread),
         cut_extrapolation=float(along[-1] - rho[-1, -1]),
         onset_lag=lag, onset_lag_error=float(lag_err + spread), per_cut=tuple(float(v) for v in rho[:, -1]),

@@ -44,6 +44,7 @@ import math
 import numpy as np
 
 from pulsemap.derive.profile import NPU, exact_profile
+from pulsemap.derive.scaling import scaling_exponent
 
 
 class ExpansionError(ValueError):
@@ -58,12 +59,6 @@ def check_monomial(a, b, error: type[ValueError] = ExpansionError) -> tuple[int,
     if a + b == 0:
         raise error("the constant monomial (a = b = 0) moves the chain at rest: it has no law")
     return int(a), int(b)
-
-
-def exponent_e(a: int, b: int, n: float) -> float:
-    """x = c A^e: e = a + (1 + s) b - 1 - 2 s, s = (n - 1)/2 (n = 3/2: a + 5b/4 - 3/2)."""
-    s = (n - 1) / 2
-    return a + (1 + s) * b - 1 - 2 * s
 
 
 def first_order_rate(a: int, b: int, n: float) -> float:
@@ -205,7 +200,7 @@ def chain_coefficients(a: int, b: int, n: float, *, cut: float, settle: int = 12
     ks, alphas, betas, first = expansion_orbits(((a, b),), ((0, 0),), n, cut=cut, settle=settle, span=span,
                                                 rtol=rtol)
     alpha, beta = alphas[0], betas[0]
-    e = exponent_e(a, b, n)
+    e = scaling_exponent(a, b, n)
     k1 = -(alpha[1:] - alpha[:-1])
     if not np.all(np.isfinite(k1)) or abs(k1[-1]) < 1e-300:
         raise ExpansionError(f"u^{a} v^{b} does no work on the wave (k1 = 0): no decay law to dress")
@@ -222,6 +217,6 @@ def chain_cross(first_mono: tuple[int, int], second_mono: tuple[int, int], n: fl
                                           span=span, rtol=rtol)
     k1 = -(alpha[:, 1:] - alpha[:, :-1])
     mid = (alpha[:, 1:] + alpha[:, :-1]) / 2
-    e1, e2 = exponent_e(*first_mono, n), exponent_e(*second_mono, n)
+    e1, e2 = scaling_exponent(*first_mono, n), scaling_exponent(*second_mono, n)
     k2 = -(beta[0, 1:] - beta[0, :-1]) - k1[0] * e1 * mid[1] - k1[1] * e2 * mid[0]
     return {"steps": ks[:-1], "k2": k2, "k1": k1}

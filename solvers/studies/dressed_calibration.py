@@ -44,9 +44,10 @@ from scipy.integrate import solve_ivp
 
 from pulsemap.derive import cache
 from pulsemap.derive.profile import exact_profile
+from pulsemap.derive.scaling import scaling_exponent
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
-from pulsemap.solvers.models.dressed_expansion import check_monomial, exponent_e, first_order_rate  # noqa: F401 (re-exported)
+from pulsemap.solvers.models.dressed_expansion import check_monomial, first_order_rate  # noqa: F401 (re-exported)
 
 NAMESPACE = "dressed"
 SHIPPED = Path(__file__).resolve().parents[1] / "data" / "dressed_calibration.json"
@@ -205,7 +206,7 @@ def calibrate(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> Monomia
     k1 = first_order_rate(a, b, n)
     if k1 == 0:
         raise CalibrationError(f"u^{a} v^{b} does no work on the wave (k1 = 0): no decay law to dress")
-    e = exponent_e(a, b, n)
+    e = scaling_exponent(a, b, n)
     foundation = b == 0
     runs = []
     for x0 in _ladder(a, b, k1):
