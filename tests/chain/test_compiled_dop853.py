@@ -113,3 +113,17 @@ def test_tolerance_convergence_on_a_damped_chain():
         assert np.array_equal(res.alive, ref.alive)
         err[rtol] = rel(res.peaks[res.alive], ref.peaks[ref.alive])
     assert err[1e-9] < 0.05 * err[1e-7] and err[1e-7] < 1e-4
+
+
+def test_a_scene_asking_for_dop853_runs_it_and_says_so():
+    """`[dns] method = "DOP853"` (or --set dns.method=DOP853) runs the compiled kernel, and the run's
+    record names it; `[dns] engine = "scipy"` still gets the reference engine; the peaks agree."""
+    from pulsemap.solvers.studies.run import run_scene
+
+    scene = load_scene("fig8-eps0.1").with_overrides(contacts=(16, 30), dns={"method": "DOP853"})
+    fast = run_scene(scene, methods=["dns"])
+    ref = run_scene(scene.with_overrides(dns={"engine": "scipy"}), methods=["dns"])
+    assert fast["dns"]["engine"] == "compiled" and fast["dns"]["method"] == "DOP853"
+    assert "DOP853" in fast["dns"]["engine_reason"] and ref["dns"]["engine"] == "scipy"
+    got, want = np.array(fast["peaks"]["dns"], float), np.array(ref["peaks"]["dns"], float)
+    assert got.size == want.size >= 10 and rel(got, want) < 1e-7
