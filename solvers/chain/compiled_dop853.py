@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: 922fd686455f83d5
+# numba cache stamp: 113bf65dfd31564f
 from __future__ import annotations
 
 import numpy as np
@@ -27,8 +27,8 @@ from numba import njit
 from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import rhs
 from pulsemap.solvers.chain.compiled_track import (
-    ATOL, BEADS, CAPACITY, EXP, FACOLD, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, REJECTED, RTOL, T,
-    finish_step, next_step, peak_in_step, track_step)
+    ATOL, CAPACITY, EXP, FACOLD, H, NFEV, REJECTED, RTOL, T,
+    finish_step, next_step, peak_in_step, track_step, window_now)
 
 METHOD = "DOP853"
 SAFE, FAC1, FAC2 = 0.9, 0.333, 6.0  # dop853.f's defaults (BETA = 0: no PI term)
@@ -130,7 +130,6 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
     compiled_kernel.run (same bookkeeping after each accepted step: compiled_track)."""
     n = cf[EXP]
     rtol, atol = cf[RTOL], cf[ATOL]
-    beads = ci[BEADS]
     cap = ci[CAPACITY]
     work = np.empty((18, 2 * cap))
     rc = np.empty((DENSE_ROWS, 2 * cap))
@@ -144,9 +143,7 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
         h, code = next_step(t, h, st, fs, cf, ci)
         if code != 0:
             return code
-        lo, w, wall, has_left = st[LO], st[HI] - st[LO], st[HI] < beads, st[HAS_LEFT] == 1
-        w2 = 2 * w
-        lx, lv, lt = fs[LEFT_X], fs[LEFT_V], fs[LEFT_T]
+        lo, w, wall, has_left, w2, lx, lv, lt = window_now(st, fs, ci)
         # ---- stages
         for i in range(w2):
             ys[i] = y[i] + h * (A[1, 0] * f[i])

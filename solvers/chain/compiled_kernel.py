@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: 922fd686455f83d5
+# numba cache stamp: 113bf65dfd31564f
 from __future__ import annotations
 
 import numpy as np
@@ -26,7 +26,7 @@ from pulsemap.solvers.chain.compiled_ops import (
     C4, C5, E1, E3, E4, E5, E6, E7, FAC_MAX, FAC_MIN, SAFE, dopri_dense, rhs)
 from pulsemap.solvers.chain.compiled_track import (
     ATOL, BEADS, CAPACITY, EXP, FACOLD, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, REJECTED, RTOL, STARTED,
-    T, T_MAXC, finish_step, next_step, peak_in_step, track_step)
+    T, T_MAXC, finish_step, next_step, peak_in_step, track_step, window_now)
 
 
 @njit(cache=True)
@@ -87,7 +87,6 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
     """
     n = cf[EXP]
     rtol, atol = cf[RTOL], cf[ATOL]
-    beads = ci[BEADS]
     cap = ci[CAPACITY]
     work = np.empty((10, 2 * cap))
     rc = np.empty((4, 2 * cap))
@@ -100,9 +99,7 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
         h, code = next_step(t, h, st, fs, cf, ci)
         if code != 0:
             return code
-        lo, w, wall, has_left = st[LO], st[HI] - st[LO], st[HI] < beads, st[HAS_LEFT] == 1
-        w2 = 2 * w
-        lx, lv, lt = fs[LEFT_X], fs[LEFT_V], fs[LEFT_T]
+        lo, w, wall, has_left, w2, lx, lv, lt = window_now(st, fs, ci)
         # ---- stages
         for i in range(w2):
             ys[i] = y[i] + h * A21 * f[i]

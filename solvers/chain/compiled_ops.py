@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 922fd686455f83d5
+# numba cache stamp: 113bf65dfd31564f
 from __future__ import annotations
 
 import numpy as np

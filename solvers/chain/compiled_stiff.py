@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 922fd686455f83d5
+# numba cache stamp: 113bf65dfd31564f
 from __future__ import annotations
 
 import numpy as np
@@ -28,8 +28,8 @@ from pulsemap.solvers.chain.compiled_force import onsite_slopes
 from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import _pow, hermite_dense, rhs
 from pulsemap.solvers.chain.compiled_track import (
-    ATOL, BEADS, CAPACITY, EXP, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, NJEV, REJECTED, RTOL, T,
-    finish_step, next_step, peak_in_step, track_step)
+    ATOL, CAPACITY, EXP, H, NFEV, NJEV, REJECTED, RTOL, T,
+    finish_step, next_step, peak_in_step, track_step, window_now)
 
 METHOD = "Rodas4"  # compiled.STIFF_METHOD
 ORDER = 4  # of the step (the embedded one: 3); the dense output is a cubic Hermite (order 3)
@@ -160,7 +160,6 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
     no growth right after a rejection."""
     n = cf[EXP]
     rtol, atol = cf[RTOL], cf[ATOL]
-    beads = ci[BEADS]
     cap = ci[CAPACITY]
     work = np.empty((10, 2 * cap))
     band = np.empty((5, cap + 1))
@@ -174,9 +173,7 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
         if code != 0:
             return code
         st[NJEV] += 1
-        lo, w, wall, has_left = st[LO], st[HI] - st[LO], st[HI] < beads, st[HAS_LEFT] == 1
-        w2 = 2 * w
-        lx, lv, lt = fs[LEFT_X], fs[LEFT_V], fs[LEFT_T]
+        lo, w, wall, has_left, w2, lx, lv, lt = window_now(st, fs, ci)
         err = np.inf
         if rosenbrock_step(t, h, y, f, yn, err_v, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, k, work, band):
             st[NFEV] += STAGES - 1

@@ -17,7 +17,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: 922fd686455f83d5
+# numba cache stamp: 113bf65dfd31564f
 from __future__ import annotations
 
 import numpy as np
@@ -83,6 +83,15 @@ def locate(p, q, y0, y1, rc, h):
         if (b - a) * abs(h) < 1e-15 + 4.0 * 2.220446049250313e-16 * abs(h) * c:
             break
     return c
+
+
+@njit(cache=True, inline="always")
+def window_now(st, fs, ci):
+    """The window a step integrates: (lo, w, wall, has_left, w2, lx, lv, lt): its first bead (0-based),
+    its beads, whether bead hi is a wall at rest, whether a dropped bead coasts on its left (at lx,
+    lv since lt), and its 2w components."""
+    w = st[HI] - st[LO]
+    return (st[LO], w, st[HI] < ci[BEADS], st[HAS_LEFT] == 1, 2 * w, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T])
 
 
 @njit(cache=True, inline="always")
