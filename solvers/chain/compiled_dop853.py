@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: 113bf65dfd31564f
+# numba cache stamp: deeffb498e18608d
 from __future__ import annotations
 
 import numpy as np
@@ -27,7 +27,7 @@ from numba import njit
 from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import rhs
 from pulsemap.solvers.chain.compiled_track import (
-    ATOL, CAPACITY, EXP, FACOLD, H, NFEV, REJECTED, RTOL, T,
+    ATOL, CAPACITY, EXP, H, NFEV, REJECTED, RTOL, T,
     finish_step, next_step, peak_in_step, track_step, window_now)
 
 METHOD = "DOP853"
@@ -205,7 +205,6 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
             st[REJECTED] = 1
             continue
         h_new = h / max(1.0 / FAC2, min(1.0 / FAC1, fac11 / SAFE))
-        fs[FACOLD] = max(err, 1e-4)
         if st[REJECTED] == 1:
             h_new = min(h_new, h)
         st[REJECTED] = 0

@@ -10,7 +10,7 @@ kernel once per form, so one compiled kernel serves every polynomial R and one e
 Both read column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 113bf65dfd31564f
+# numba cache stamp: deeffb498e18608d
 from __future__ import annotations
 
 from numba import types

@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 113bf65dfd31564f
+# numba cache stamp: deeffb498e18608d
 from __future__ import annotations
 
 import numpy as np

@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 113bf65dfd31564f
+# numba cache stamp: deeffb498e18608d
 from __future__ import annotations
 
 import numpy as np
