@@ -8,7 +8,7 @@ draws). Each chain runs exactly as ``simulate(engine="compiled")`` would (same k
 arithmetic: identical peaks), the chains spread over the cores.
 """
 
-# numba cache stamp: deeffb498e18608d
+# numba cache stamp: 464b50080e72b761
 from __future__ import annotations
 
 import time as _time

@@ -18,14 +18,14 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: deeffb498e18608d
+# numba cache stamp: 464b50080e72b761
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
 from pulsemap.solvers.chain.compiled_kernel import start
-from pulsemap.solvers.chain.compiled_ops import rhs
+from pulsemap.solvers.chain.compiled_ops import NO_NRT, rhs
 from pulsemap.solvers.chain.compiled_track import (
     ATOL, CAPACITY, EXP, H, NFEV, REJECTED, RTOL, T,
     finish_step, next_step, peak_in_step, track_step, window_now)
@@ -88,7 +88,7 @@ D = np.array([
 ])
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def dense_output(rc, h, y, yn, f, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, ys, w, lo, n,
                  has_left, lx, lv, lt, wall, t, exps, coef):
     """The order-7 dense output's rows of the step t -> t + h (stages 13-15 evaluated here; k12 = f(t + h, yn))."""
@@ -127,12 +127,19 @@ def dense_output(rc, h, y, yn, f, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, 
 @njit(cache=True)
 def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
     """Integrate until a stop rule fires; returns its code (state in y, f, fs, st for a resume), as
-    compiled_kernel.run (same bookkeeping after each accepted step: compiled_track)."""
+    compiled_kernel.run (same bookkeeping after each accepted step: compiled_track). Allocates the
+    scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
+    cap = ci[CAPACITY]
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, np.empty((18, 2 * cap)),
+                 np.empty((DENSE_ROWS, 2 * cap)))
+
+
+@njit(**NO_NRT)
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work, rc):
+    """The steps of ``run`` (``work``: 18 rows of scratch, ``rc``: the dense output's DENSE_ROWS rows,
+    each of 2 x ci[CAPACITY])."""
     n = cf[EXP]
     rtol, atol = cf[RTOL], cf[ATOL]
-    cap = ci[CAPACITY]
-    work = np.empty((18, 2 * cap))
-    rc = np.empty((DENSE_ROWS, 2 * cap))
     k1, k2, k3, k4, k5, k6, k7, k8 = work[0], work[1], work[2], work[3], work[4], work[5], work[9], work[10]
     k9, k10, k11, k12, k13, k14, k15 = work[11], work[12], work[13], work[14], work[15], work[16], work[17]
     ys, yn, scratch = work[6], work[7], work[8]  # start() uses rows 6-8 before the first step

@@ -10,7 +10,7 @@ kernel once per form, so one compiled kernel serves every polynomial R and one e
 Both read column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: deeffb498e18608d
+# numba cache stamp: 464b50080e72b761
 from __future__ import annotations
 
 from numba import types

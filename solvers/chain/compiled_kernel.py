@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: deeffb498e18608d
+# numba cache stamp: 464b50080e72b761
 from __future__ import annotations
 
 import numpy as np
@@ -23,13 +23,13 @@ from numba import njit
 
 from pulsemap.solvers.chain.compiled_ops import (
     A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65, A71, A73, A74, A75, A76, BETA, C2, C3,
-    C4, C5, E1, E3, E4, E5, E6, E7, FAC_MAX, FAC_MIN, SAFE, dopri_dense, rhs)
+    C4, C5, E1, E3, E4, E5, E6, E7, FAC_MAX, FAC_MIN, NO_NRT, SAFE, dopri_dense, rhs)
 from pulsemap.solvers.chain.compiled_track import (
     ATOL, BEADS, CAPACITY, EXP, FACOLD, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, REJECTED, RTOL, STARTED,
     T, T_MAXC, finish_step, next_step, peak_in_step, track_step, window_now)
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _initial_step(t, y, f, w, st, fs, cf, exps, coef, wall, work):
     """Hairer's HINIT for the first step."""
     w2 = 2 * w
@@ -60,7 +60,7 @@ def _initial_step(t, y, f, w, st, fs, cf, exps, coef, wall, work):
     return min(100.0 * h, h1, cf[T_MAXC] - t)
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def start(t, y, f, st, fs, cf, ci, exps, coef, work):
     """At a run's first call (st[STARTED] == 0): f at t and the first step size (HINIT)."""
     if st[STARTED] == 0:
@@ -76,6 +76,16 @@ def start(t, y, f, st, fs, cf, ci, exps, coef, work):
 @njit(cache=True)
 def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
     """Integrate until a stop rule fires; returns its code (state in y, f, fs, st for a resume).
+    Allocates the scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
+    cap = ci[CAPACITY]
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, np.empty((10, 2 * cap)),
+                 np.empty((4, 2 * cap)))
+
+
+@njit(**NO_NRT)
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work, rc):
+    """The steps of ``run`` (``work``: 10 rows of scratch, ``rc``: the dense output's 4 rows, each of
+    2 x ci[CAPACITY]).
 
     Per accepted step, in the order of solvers/window.simulate_windowed: blow-up guard (energy
     every ci[ENERGY_EVERY] steps), leading-edge peaks (PeakTracker.record semantics), stop rules
@@ -87,9 +97,6 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
     """
     n = cf[EXP]
     rtol, atol = cf[RTOL], cf[ATOL]
-    cap = ci[CAPACITY]
-    work = np.empty((10, 2 * cap))
-    rc = np.empty((4, 2 * cap))
     k2, k3, k4, k5, k6, k7, ys, yn = work[0], work[1], work[2], work[3], work[4], work[5], work[8], work[9]
     expo1 = 0.2 - BETA * 0.75
     t = fs[T]

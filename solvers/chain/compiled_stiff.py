@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: deeffb498e18608d
+# numba cache stamp: 464b50080e72b761
 from __future__ import annotations
 
 import numpy as np
@@ -26,7 +26,7 @@ from numba import njit
 
 from pulsemap.solvers.chain.compiled_force import onsite_slopes
 from pulsemap.solvers.chain.compiled_kernel import start
-from pulsemap.solvers.chain.compiled_ops import _pow, hermite_dense, rhs
+from pulsemap.solvers.chain.compiled_ops import NO_NRT, _pow, hermite_dense, rhs
 from pulsemap.solvers.chain.compiled_track import (
     ATOL, CAPACITY, EXP, H, NFEV, NJEV, REJECTED, RTOL, T,
     finish_step, next_step, peak_in_step, track_step, window_now)
@@ -55,7 +55,7 @@ STAGES = 6
 SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 6.0
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, band):
     """Eq. 1's Jacobian on the window: band[0, j] the stiffness n delta^(n-1) of the contact left of
     local bead j (j = 0: the coasting bead; band[0, w]: the wall), band[1], band[2] dF/dx, dF/dv.
@@ -78,7 +78,7 @@ def jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, band):
     return ft
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def factor(hg, w, band):
     """LU (Thomas) of the tridiagonal system in K_v left by eliminating K_x = hg (r_x + K_v) from
     (1/hg - J) K = r: band[3] the inverse pivots, band[4] the normalised super-diagonal.
@@ -97,7 +97,7 @@ def factor(hg, w, band):
     return True
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def solve(r, k, hg, w, band):
     """K from (1/hg - J) K = r with factor's LU (interleaved r, K; O(w))."""
     s, dfx, dinv, cp = band[0], band[1], band[3], band[4]
@@ -116,7 +116,7 @@ def solve(r, k, hg, w, band):
         k[2 * j] = hg * (r[2 * j] + k[2 * j + 1])
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, k, work, band):
     """One Rodas4 step from (t, y) with f = f(t, y): yn and the error estimate err (= K_6).
     False when the linear system is singular. ``k``: (STAGES, >= 2w), ``work``: (3, >= 2w) scratch."""
@@ -157,14 +157,19 @@ def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, e
 def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
     """compiled_kernel.run with Rodas4 steps (same arguments, state and stop codes; st[NJEV] counts
     the Jacobians, one per attempted step). Step control: h_new = h min(6, max(0.2, 0.9 err^(-1/4))),
-    no growth right after a rejection."""
+    no growth right after a rejection. Allocates the scratch arrays, then ``steps`` (compiled without
+    reference counting) does the work."""
+    cap = ci[CAPACITY]
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, np.empty((10, 2 * cap)),
+                 np.empty((5, cap + 1)), np.empty((STAGES, 2 * cap)), np.empty((4, 2 * cap)))
+
+
+@njit(**NO_NRT)
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work, band, k, rc):
+    """The steps of ``run`` (scratch: ``work`` 10 rows of 2 x ci[CAPACITY], ``band`` the banded
+    Jacobian 5 x (ci[CAPACITY] + 1), ``k`` the stages, ``rc`` the dense output's 4 rows)."""
     n = cf[EXP]
     rtol, atol = cf[RTOL], cf[ATOL]
-    cap = ci[CAPACITY]
-    work = np.empty((10, 2 * cap))
-    band = np.empty((5, cap + 1))
-    k = np.empty((STAGES, 2 * cap))
-    rc = np.empty((4, 2 * cap))
     yn, fn, err_v, pk = work[6], work[7], work[8], work[9]
     start(fs[T], y, f, st, fs, cf, ci, exps, coef, work)
     t, h = fs[T], fs[H]

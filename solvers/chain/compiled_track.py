@@ -17,13 +17,13 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: deeffb498e18608d
+# numba cache stamp: 464b50080e72b761
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-from pulsemap.solvers.chain.compiled_ops import PULSE_HALF_WIDTH, _pow, pulse_lost, rhs, segment_energy, window_energy
+from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, _pow, pulse_lost, rhs, segment_energy, window_energy
 
 # --- return codes of a kernel's run (solvers/chain/compiled.py turns them into PeakTracker's messages)
 LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM, PAUSED = 1, 2, 3, 4, 5, 6, 7, 8, 9
@@ -43,7 +43,7 @@ BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY, PAUSE_EVE
 N_CI = 9  # PAUSE_EVERY: return PAUSED after every this many accepted steps (0: never), for progress lines
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def dense_value(theta, i, y0, rc):
     """Component i of the dense output at t_old + theta h (module docstring; as many rows as rc has)."""
     th1 = 1.0 - theta
@@ -53,7 +53,7 @@ def dense_value(theta, i, y0, rc):
     return y0[i] + theta * v
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def locate(p, q, y0, y1, rc, h):
     """theta of the root of delta' = v_p - v_q in (0, 1] on the dense output (Illinois method)."""
     a, b = 0.0, 1.0
