@@ -8,7 +8,7 @@ draws). Each chain runs exactly as ``simulate(engine="compiled")`` would (same k
 arithmetic: identical peaks), the chains spread over the cores.
 """
 
-# numba cache stamp: 464b50080e72b761
+# numba cache stamp: 8027f65436727ef9
 from __future__ import annotations
 
 import time as _time
@@ -31,17 +31,18 @@ def run_many(Y, F, FS, ST, CF, CI, PEAKS, TIMES, PULSE, TOTAL, exps, COEF, codes
 
 
 def _coefficients(tables: Sequence[MonomialTable]) -> tuple[np.ndarray, np.ndarray]:
-    """Shared exponents and the (B, M, L) coefficients (short tables padded with their last
-    column, which is what the kernel reads past it anyway)."""
+    """Shared exponents and every chain's kernel coefficients stacked, (B, M, L) or in the dense form
+    (B, 2, 4, L) (MonomialTable.kernel_args; short tables padded with their last column, which is
+    what the kernel reads past it anyway)."""
     exps = tables[0].exponents
     if any(t.exponents.shape != exps.shape or np.any(t.exponents != exps) for t in tables):
         raise ValueError("simulate_many: every chain's R must have the same monomials (exponents)")
-    width = max(t.coefficients.shape[1] for t in tables)
-    coef = np.empty((len(tables), exps.shape[0], width))
-    for b, t in enumerate(tables):
-        c = t.coefficients
-        coef[b, :, : c.shape[1]] = c
-        coef[b, :, c.shape[1]:] = c[:, -1:]
+    each = [t.kernel_args[1] for t in tables]
+    width = max(c.shape[-1] for c in each)
+    coef = np.empty((len(tables), *each[0].shape[:-1], width))
+    for b, c in enumerate(each):
+        coef[b, ..., : c.shape[-1]] = c
+        coef[b, ..., c.shape[-1]:] = c[..., -1:]
     return exps, coef
 
 

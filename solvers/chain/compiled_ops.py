@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 464b50080e72b761
+# numba cache stamp: 8027f65436727ef9
 from __future__ import annotations
 
 import numpy as np

@@ -1,0 +1,91 @@
+"""The on-site force inside the compiled kernels (solvers/chain/compiled_force.py), paper Eq. 1.
+
+A polynomial R reaches the kernels in one of two forms: its dense form P_0(u) + v P_1(u) (two cubics
+by Horner, when every monomial u^a v^b has a <= 3 and b <= 1) or the general monomial table. Both
+must be the same force: checked bead by bead on random states and per-bead coefficients (force and
+its slopes, to round-off), and a run that needs the general table (u^5, v^3) against the scipy engine.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pulsemap.solvers.chain.compiled import MonomialTable
+from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.run import make_force
+
+W, N = 7, 1.5
+DENSE_EXPONENTS = [[0, 1], [1, 0], [2, 1], [3, 0], [3, 1], [2, 0], [1, 1]]
+
+
+def random_table(rng, exponents, columns: int = 5) -> MonomialTable:
+    return MonomialTable.of(exponents, rng.normal(size=(len(exponents), columns)))
+
+
+def window_rhs(table_args, y, lo: int) -> np.ndarray:
+    from pulsemap.solvers.chain.compiled_ops import rhs
+
+    out = np.empty_like(y)
+    rhs(0.3, y, out, W, lo, N, True, 0.4, 0.7, 0.1, True, *table_args)
+    return out
+
+
+def test_dense_form_is_the_table_bead_by_bead():
+    """RHS (Eq. 1 on a window with a coasting left bead and a wall) with the dense form equals the one
+    with the monomial loop, for windows that start before, on and past the last stored column."""
+    rng = np.random.default_rng(7)
+    for trial in range(4):
+        table = random_table(rng, DENSE_EXPONENTS[: 2 + trial])
+        exps, dense = table.kernel_args
+        assert dense.shape == (2, 4, table.coefficients.shape[1])
+        for lo in (0, 2, 4, 9):
+            y = rng.normal(size=2 * W)
+            general = window_rhs((table.exponents, table.coefficients), y, lo)
+            np.testing.assert_allclose(window_rhs((exps, dense), y, lo), general, rtol=1e-13, atol=1e-13)
+
+
+def test_dense_slopes_are_the_tables():
+    """The Rosenbrock kernel's banded Jacobian (dF/dx, dF/dv on its diagonal) is the same in both forms."""
+    from pulsemap.solvers.chain.compiled_stiff import jacobian
+
+    rng = np.random.default_rng(11)
+    table = random_table(rng, DENSE_EXPONENTS)
+    y = rng.normal(size=2 * W)
+    bands = []
+    for args in ((table.exponents, table.coefficients), table.kernel_args):
+        band = np.zeros((5, W + 1))
+        jacobian(0.3, y, W, 3, N, True, 0.4, 0.7, 0.1, True, *args, band)
+        bands.append(band.copy())
+    np.testing.assert_allclose(bands[1], bands[0], rtol=1e-13, atol=1e-13)
+    assert np.any(bands[0] != 0.0)
+
+
+@pytest.mark.parametrize("exponents, dense", [([[1, 0], [0, 1], [2, 1]], True), ([[4, 0]], False),
+                                              ([[0, 2]], False), ([[1, 0], [0, 3]], False)])
+def test_dense_form_only_where_it_fits(exponents, dense):
+    table = random_table(np.random.default_rng(1), exponents)
+    exps, coef = table.kernel_args
+    assert np.array_equal(exps, table.exponents)
+    assert (coef.ndim == 3) == dense
+    if dense:  # each monomial's coefficients land on its (b, a) row, every column
+        for m, (a, b) in enumerate(table.exponents):
+            np.testing.assert_array_equal(coef[b, a], table.coefficients[m])
+    assert MonomialTable.zero().kernel_args[1].shape == (0, 1)  # R = 0: nothing to evaluate
+
+
+def test_general_table_runs_agree_with_scipy():
+    """An R the dense form cannot hold (u^5 and v^3) runs the monomial loop; its peaks equal the
+    independent scipy engine's to 1e-7 on every live contact."""
+    scene = load_scene("fig8-eps0.1").with_overrides(R="-mu*v - 0.5*u^5 - 0.2*v^3")
+    beads, span = dns_span(scene)
+    force = make_force(scene, beads)
+    assert force.monomials.kernel_args[1].ndim == 2
+    args = (beads, scene.exponent, scene.velocity, (span[0], min(span[1], 60)), force)
+    fast = simulate(*args, rtol=1e-10, atol=1e-12, window="auto", window_accuracy=1e-8)
+    ref = simulate(*args, engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window="auto",
+                   window_accuracy=1e-8)
+    assert fast.engine == "compiled" and np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 10
+    assert np.max(np.abs(fast.peaks[fast.alive] / ref.peaks[ref.alive] - 1.0)) < 1e-7
