@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: 8027f65436727ef9
+# numba cache stamp: 7aed613a8f028172
 from __future__ import annotations
 
 import numpy as np

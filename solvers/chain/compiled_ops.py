@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 8027f65436727ef9
+# numba cache stamp: 7aed613a8f028172
 from __future__ import annotations
 
 import numpy as np
@@ -42,9 +42,11 @@ NO_NRT = dict(cache=True, _nrt=False)
 
 @njit(cache=True, inline="always")
 def _pow(d: float, n: float) -> float:
-    """d^n for d > 0 (n = 1.5 by a square root)."""
+    """d^n for d > 0 (n = 1.5 and n = 0.5, the Hertz force and its slope's power, by a square root)."""
     if n == 1.5:
         return d * np.sqrt(d)
+    if n == 0.5:
+        return np.sqrt(d)
     return d**n
 
 
