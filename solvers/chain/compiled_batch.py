@@ -8,7 +8,7 @@ draws). Each chain runs exactly as ``simulate(engine="compiled")`` would (same k
 arithmetic: identical peaks), the chains spread over the cores.
 """
 
-# numba cache stamp: 7aed613a8f028172
+# numba cache stamp: 600946f26897fad1
 from __future__ import annotations
 
 import time as _time

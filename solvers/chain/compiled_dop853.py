@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: 7aed613a8f028172
+# numba cache stamp: 600946f26897fad1
 from __future__ import annotations
 
 import numpy as np

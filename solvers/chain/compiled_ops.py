@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 7aed613a8f028172
+# numba cache stamp: 600946f26897fad1
 from __future__ import annotations
 
 import numpy as np
@@ -32,13 +32,28 @@ BETA = 0.04  # PI control (Hairer's DOPRI5 default, also solvers/chain/hairer.FO
 SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 10.0
 PULSE_HALF_WIDTH = 8  # front.PULSE_HALF_WIDTH (beads each side of a peaked contact carrying the pulse)
 
+
+def _no_nrt_options() -> dict:
+    """NO_NRT: numba's private ``_nrt`` flag where this numba knows it (0.59-0.68 do), else plain
+    caching (the same numbers, a quarter slower): an unknown option would fail at the first call."""
+    try:
+        from numba.core.cpu import CPUTargetOptions
+        from numba.core.options import TargetOptions
+
+        known = isinstance(getattr(CPUTargetOptions, "_nrt", None), TargetOptions.Mapping)
+    except (ImportError, AttributeError):
+        known = False
+    return dict(cache=True, _nrt=False) if known else dict(cache=True)
+
+
 #: numba options of every kernel function that allocates nothing: cached, and compiled without
-#: reference counting (numba's private ``_nrt`` flag). With it, numba increfs every array argument
-#: on entry to a function (and to each inlined helper) and decrefs it on every way out: atomic
-#: operations that took 24 % of the Dormand-Prince kernel's time on vdp-mu3-v2.3 (perf), 1.38 ms
-#: per run against 0.97-1.04 ms without (same steps, same numbers). Only each kernel's ``run``
-#: allocates (its scratch arrays) and then calls its loop, compiled with these options.
-NO_NRT = dict(cache=True, _nrt=False)
+#: reference counting. With it, numba increfs every array argument on entry to a function (and to
+#: each inlined helper) and decrefs it on every way out: atomic operations that took 24 % of the
+#: Dormand-Prince kernel's time on vdp-mu3-v2.3 (perf), 1.38 ms per run against 0.97-1.04 ms
+#: without (same steps, same numbers). Only each kernel's ``run`` allocates (its scratch arrays)
+#: and then calls its loop, compiled with these options.
+NO_NRT = _no_nrt_options()
+
 
 @njit(cache=True, inline="always")
 def _pow(d: float, n: float) -> float:

@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 7aed613a8f028172
+# numba cache stamp: 600946f26897fad1
 from __future__ import annotations
 
 import numpy as np

@@ -89,3 +89,14 @@ def test_general_table_runs_agree_with_scipy():
                    window_accuracy=1e-8)
     assert fast.engine == "compiled" and np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 10
     assert np.max(np.abs(fast.peaks[fast.alive] / ref.peaks[ref.alive] - 1.0)) < 1e-7
+
+
+def test_kernel_loops_compile_without_reference_counting_where_numba_can():
+    """compiled_ops.NO_NRT takes numba's private _nrt flag only where this numba knows it (an unknown
+    option would fail at the first call, not at import)."""
+    from numba.core.cpu import CPUTargetOptions
+
+    from pulsemap.solvers.chain.compiled_ops import NO_NRT
+
+    assert NO_NRT["cache"] is True
+    assert ("_nrt" in NO_NRT) == hasattr(CPUTargetOptions, "_nrt")
