@@ -100,6 +100,16 @@ class MonomialTable:
         """R = 0: the energy is conserved (its drift is reported)."""
         return self.exponents.shape[0] == 0
 
+    @property
+    def stiffness_hint(self) -> float:
+        """The rate OnSiteForce.stiffness_hint gives (solvers/studies/points.py): max over beads of
+        |dF/dv| and sqrt|dF/dx| at rest, i.e. of the u^0 v^1 and u^1 v^0 coefficients."""
+        def largest(a: int, b: int) -> float:
+            rows = (self.exponents[:, 0] == a) & (self.exponents[:, 1] == b)
+            return float(np.abs(self.coefficients[rows].sum(axis=0)).max(initial=0.0))
+
+        return max(largest(0, 1), float(np.sqrt(largest(1, 0))))
+
     describe = "monomial table"
 
 

@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: 600946f26897fad1
+# numba cache stamp: 4b5c8905c6acb87b
 from __future__ import annotations
 
 import numpy as np

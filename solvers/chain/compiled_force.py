@@ -11,7 +11,7 @@ kernel once per form, so one compiled kernel serves every polynomial R (two: the
 general table) and one every other R. All read column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 600946f26897fad1
+# numba cache stamp: 4b5c8905c6acb87b
 from __future__ import annotations
 
 from numba import types

@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 600946f26897fad1
+# numba cache stamp: 4b5c8905c6acb87b
 from __future__ import annotations
 
 import numpy as np

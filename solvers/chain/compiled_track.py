@@ -17,7 +17,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: 600946f26897fad1
+# numba cache stamp: 4b5c8905c6acb87b
 from __future__ import annotations
 
 import numpy as np
