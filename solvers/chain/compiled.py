@@ -192,7 +192,7 @@ def force_data(force) -> tuple[MonomialTable | JitForce | None, str]:
     return (None, data) if isinstance(data, str) else (data, "")
 
 
-def _explicit_reason(method: str) -> str:
+def explicit_reason(method: str) -> str:
     """What an explicit kernel's result says ran."""
     if method == HIGH_ORDER_METHOD:
         return "compiled DOP853 (explicit Runge-Kutta 8(5,3)), method 'DOP853' requested"
@@ -354,7 +354,7 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
         mode="full" if run.rule is None else "window/compiled", window_beads=int(st[K.WIDEST]),
         window_shifts=int(st[K.SHIFTS]), window_rule=run.rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),
         energy_initial=float(fs[K.E0]), pulse_energy=run.pulse_e, total_energy=run.total_e,
-        engine="compiled", engine_reason=f"{engine_reason or _explicit_reason(run.method)}, {run.table.describe}",
+        engine="compiled", engine_reason=f"{engine_reason or explicit_reason(run.method)}, {run.table.describe}",
     )
 
 

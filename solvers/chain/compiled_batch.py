@@ -9,7 +9,7 @@ force call for: Dormand-Prince 5(4), DOP853 when named, Rodas4 for a stiff force
 arithmetic: identical peaks), the chains spread over the cores, one parallel call per kernel used.
 """
 
-# numba cache stamp: 4b5c8905c6acb87b
+# numba cache stamp: 81303f18fb38c3b6
 from __future__ import annotations
 
 import time as _time
@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit, prange
 
 from pulsemap.solvers.chain.compiled import (
-    EXPLICIT_METHODS, HIGH_ORDER_METHOD, METHOD, STIFF_METHOD, MonomialTable, _explicit_reason, drive, kernel_method,
+    EXPLICIT_METHODS, HIGH_ORDER_METHOD, METHOD, STIFF_METHOD, MonomialTable, drive, explicit_reason, kernel_method,
     prepare, result, stiff_reason)
 from pulsemap.solvers.chain.compiled_dop853 import run as run_dop853
 from pulsemap.solvers.chain.compiled_kernel import run
@@ -63,7 +63,7 @@ def kernel_for(table: MonomialTable, velocity: float, exponent: float, method: s
     the force stiff, as equations.choose_method does) and the reason its result gives."""
     stiff = method == "auto" and table.stiffness_hint > STIFFNESS_RATIO * contact_rate(velocity, exponent)
     kernel = kernel_method(method, stiff)
-    why = stiff_reason(table, velocity, exponent) if stiff else _explicit_reason(kernel)
+    why = stiff_reason(table, velocity, exponent) if stiff else explicit_reason(kernel)
     return kernel, f"{why}, batch of chains"
 
 

@@ -5,13 +5,14 @@
 The kernels take the force as two arguments ``(exps, coef)``: a monomial table (int64 exponents
 (M, 2) and per-bead coefficients (M, L); F = sum_m c_m[i] x^a_m v^b_m, compiled.MonomialTable), its
 dense form (coef (2, 4, L): F = P_0(x) + v P_1(x), P_b(x) = sum_a coef[b, a, i] x^a, by Horner; the
-table's kernel_args when a <= 3 and b <= 1) or a generated numba force (a tuple of three C callables force, dF/dx, dF/dv and their per-bead
-arguments (L, 1 + P): [eps_i, parameters at bead i], compiled.JitForce). numba specialises a
-kernel once per form, so one compiled kernel serves every polynomial R (two: the dense form and the
-general table) and one every other R. All read column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
+table's kernel_args when a <= 3 and b <= 1) or a generated numba force (a tuple of three C callables
+force, dF/dx, dF/dv and their per-bead arguments (L, 1 + P): [eps_i, parameters at bead i],
+compiled.JitForce). numba specialises a kernel once per form, so one compiled kernel serves every
+polynomial R (two: the dense form and the general table) and one every other R. All read
+column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 4b5c8905c6acb87b
+# numba cache stamp: 81303f18fb38c3b6
 from __future__ import annotations
 
 from numba import types
