@@ -11,6 +11,7 @@ stops as soon as the last requested contact has peaked or the pulse has died.
 
 from __future__ import annotations
 
+import math
 import numbers
 import time as _time
 from dataclasses import replace
@@ -74,9 +75,9 @@ def validate(
         raise ValueError(f"beads must be an integer >= 2, got {beads!r}; use chain_length_for(last_contact)")
     if beads > MAX_BEADS:
         raise ValueError(f"beads = {beads} is beyond the supported {MAX_BEADS}: use a shorter chain")
-    if not np.isfinite(exponent) or exponent <= 1.0:
+    if not math.isfinite(exponent) or exponent <= 1.0:
         raise ValueError(f"exponent must be a finite number > 1 (Hertz: 1.5), got {exponent!r}")
-    if not np.isfinite(velocity):
+    if not math.isfinite(velocity):
         raise ValueError(f"velocity must be finite, got {velocity!r}")
     if velocity <= 0.0:
         raise ValueError(f"velocity must be > 0 (bead 1 pushes into the chain), got {velocity!r}")
@@ -94,22 +95,22 @@ def validate(
         )
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-    if not (np.isfinite(rtol) and rtol > 0.0):
+    if not (math.isfinite(rtol) and rtol > 0.0):
         raise ValueError(f"rtol must be a finite number > 0, got {rtol!r}")
     if rtol < MIN_RTOL:
         raise ValueError(f"rtol = {rtol:g} is below what float64 can deliver: give rtol >= {MIN_RTOL:.2g} "
                          "(100 x machine epsilon)")
-    if not (np.isfinite(atol) and atol > 0.0):
+    if not (math.isfinite(atol) and atol > 0.0):
         raise ValueError(f"atol must be a finite number > 0, got {atol!r}")
     if not 0.0 < peak_fraction < 1.0:
         raise ValueError(f"peak_fraction must lie in (0, 1), got {peak_fraction!r}")
     if not 0.0 <= death_fraction < 1.0:
         raise ValueError(f"death_fraction must lie in [0, 1), got {death_fraction!r}")
-    if t_max is not None and not (np.isfinite(t_max) and t_max > 0.0):
+    if t_max is not None and not (math.isfinite(t_max) and t_max > 0.0):
         raise ValueError(f"t_max must be a finite number > 0 or None, got {t_max!r}")
-    if not (np.isfinite(stall_factor) and stall_factor > 1.0):
+    if not (math.isfinite(stall_factor) and stall_factor > 1.0):
         raise ValueError(f"stall_factor must be a finite number > 1, got {stall_factor!r}")
-    if not (np.isfinite(overtake_factor) and overtake_factor > 1.0):
+    if not (math.isfinite(overtake_factor) and overtake_factor > 1.0):
         raise ValueError(f"overtake_factor must be a finite number > 1, got {overtake_factor!r}")
     if max_steps is not None and (isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer))
                                   or max_steps < 1):
@@ -121,6 +122,10 @@ def _real(value, name: str) -> None:
     """A TypeError naming ``name`` unless ``value`` is a real number (not a bool, not a string)."""
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
         raise TypeError(f"{name} must be a number, got {type(value).__name__} {value!r}"[:200])
+    try:
+        float(value)
+    except OverflowError:
+        raise ValueError(f"{name} is beyond the float range (an integer of {len(str(value))} digits)") from None
 
 
 # ----------------------------------------------------------------------------- the run
