@@ -110,7 +110,11 @@ class MonomialTable:
 
         return max(largest(0, 1), float(np.sqrt(largest(1, 0))))
 
-    describe = "monomial table"
+    @property
+    def describe(self) -> str:
+        """How R reached the kernels (the two forms round differently: results say which ran)."""
+        dense = self.kernel_args[1].ndim == 3
+        return "monomial table (dense form: cubics P_0(u) + v P_1(u))" if dense else "monomial table"
 
 
 @dataclass(frozen=True)

@@ -82,12 +82,13 @@ def test_general_table_runs_agree_with_scipy():
     scene = load_scene("fig8-eps0.1").with_overrides(R="-mu*v - 0.5*u^5 - 0.2*v^3")
     beads, span = dns_span(scene)
     force = make_force(scene, beads)
-    assert force.monomials.kernel_args[1].ndim == 2
+    assert force.monomials.kernel_args[1].ndim == 2 and force.monomials.describe == "monomial table"
     args = (beads, scene.exponent, scene.velocity, (span[0], min(span[1], 60)), force)
     fast = simulate(*args, rtol=1e-10, atol=1e-12, window="auto", window_accuracy=1e-8)
     ref = simulate(*args, engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window="auto",
                    window_accuracy=1e-8)
     assert fast.engine == "compiled" and np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 10
+    assert fast.engine_reason.endswith(", monomial table")
     assert np.max(np.abs(fast.peaks[fast.alive] / ref.peaks[ref.alive] - 1.0)) < 1e-7
 
 
