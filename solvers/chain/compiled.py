@@ -44,6 +44,14 @@ EXPLICIT_METHODS = (METHOD, HIGH_ORDER_METHOD)
 ENERGY_EVERY = 4  # blow-up guard and energy drift every this many steps (as solvers/window.py)
 DELAY_FACTOR = 2.0  # peaks.primary_pulse_lost's default
 ROOM = 96  # initial buffer beyond ``behind`` (grown on demand)
+# Method 'auto' on the compiled engine runs Rodas4 when the force's stiffness hint exceeds this x
+# the contact rate (the scipy engine's LSODA/DOP853 crossover, equations.STIFFNESS_RATIO = 30, does
+# not hold here). Measured, damped chain (R = -mu v) contacts 1..36, time of the compiled
+# Dormand-Prince 5(4) / Rodas4 at equal accuracy, rtol 1e-6 / 1e-8 / 1e-10: hint 100: 0.32 / 0.17 /
+# 0.11; 300: 0.57 / 0.26 / 0.14; 500: 0.8 / 0.35 / 0.17; 1000: 1.5 / 0.59 / 0.24; 3000: 4.1 / 1.5 /
+# 0.52; 1e5: 76 / 26 / 8 (the explicit kernel stability-bound). Below 300 the explicit kernel is
+# the cheaper at every rtol.
+COMPILED_STIFFNESS_RATIO = 300.0
 DENSE_DEGREES = (4, 2)  # the dense form's powers: u^0..u^3 times v^0, v^1 (compiled_force.py)
 PAUSE_STEPS = 20_000  # accepted steps between progress checks (~2-20 ms of kernel time)
 
@@ -165,8 +173,8 @@ def table_from_module(module, index: Array, eps: Array, params: tuple) -> Monomi
 
 def unavailable(method: str, snapshots: bool = False) -> str:
     """Why the compiled engine cannot run this case ("" when it can; ``force_data`` says whether it can
-    take the force): the scipy engine then runs. A stiff force (method 'auto' chose an implicit
-    method) runs the Rosenbrock kernel (``stiff_reason``)."""
+    take the force): the scipy engine then runs. A stiff force under method 'auto' (``is_stiff``) runs
+    the Rosenbrock kernel (``stiff_reason``)."""
     if snapshots:
         return "strain snapshots are recorded by the scipy engine only"
     if method not in ("auto",) + EXPLICIT_METHODS:
@@ -203,10 +211,28 @@ def explicit_reason(method: str) -> str:
     return "compiled RK45 (Dormand-Prince 5(4))"
 
 
+def is_stiff(force, velocity: float, exponent: float) -> bool:
+    """Method 'auto' on the compiled engine takes Rodas4: the force's stiffness hint (an OnSiteForce's or
+    a MonomialTable's) exceeds COMPILED_STIFFNESS_RATIO x the contact rate."""
+    return force is not None and force.stiffness_hint > COMPILED_STIFFNESS_RATIO * contact_rate(velocity, exponent)
+
+
 def stiff_reason(force, velocity: float, exponent: float) -> str:
     """Why the Rosenbrock kernel (compiled_stiff.py) runs: the stiffness hint against the contact rate."""
-    return (f"compiled Rosenbrock ({STIFF_METHOD}): stiffness hint {force.stiffness_hint:.4g} > {STIFFNESS_RATIO:g} x "
-            f"contact rate {contact_rate(velocity, exponent):.4g}")
+    return (f"compiled Rosenbrock ({STIFF_METHOD}): stiffness hint {force.stiffness_hint:.4g} > "
+            f"{COMPILED_STIFFNESS_RATIO:g} x contact rate {contact_rate(velocity, exponent):.4g}")
+
+
+def auto_reason(force, velocity: float, exponent: float) -> str:
+    """What an 'auto' run on the compiled engine says: Rodas4 and why, or Dormand-Prince 5(4), noting a
+    force the scipy engine would call stiff (equations.STIFFNESS_RATIO) that this engine does not."""
+    if is_stiff(force, velocity, exponent):
+        return stiff_reason(force, velocity, exponent)
+    rate = contact_rate(velocity, exponent)
+    if force is not None and force.stiffness_hint > STIFFNESS_RATIO * rate:
+        return (f"{explicit_reason(METHOD)}: stiffness hint {force.stiffness_hint:.4g} <= {COMPILED_STIFFNESS_RATIO:g} x "
+                f"contact rate {rate:.4g}, where it is cheaper than {STIFF_METHOD}")
+    return explicit_reason(METHOD)
 
 
 def _reason(code: int, track: PeakTracker, fs: Array, st: Array, t_max: float, max_steps: int, method: str) -> str:

@@ -9,7 +9,7 @@ force call for: Dormand-Prince 5(4), DOP853 when named, Rodas4 for a stiff force
 arithmetic: identical peaks), the chains spread over the cores, one parallel call per kernel used.
 """
 
-# numba cache stamp: 81303f18fb38c3b6
+# numba cache stamp: b6ed0dca7f362d3b
 from __future__ import annotations
 
 import time as _time
@@ -19,13 +19,12 @@ import numpy as np
 from numba import njit, prange
 
 from pulsemap.solvers.chain.compiled import (
-    EXPLICIT_METHODS, HIGH_ORDER_METHOD, METHOD, STIFF_METHOD, MonomialTable, drive, explicit_reason, kernel_method,
-    prepare, result, stiff_reason)
+    EXPLICIT_METHODS, HIGH_ORDER_METHOD, METHOD, STIFF_METHOD, MonomialTable, auto_reason, drive, explicit_reason,
+    is_stiff, kernel_method, prepare, result)
 from pulsemap.solvers.chain.compiled_dop853 import run as run_dop853
 from pulsemap.solvers.chain.compiled_kernel import run
 from pulsemap.solvers.chain.compiled_stiff import run as run_rodas4
-from pulsemap.solvers.chain.equations import STIFFNESS_RATIO, DNSResult, default_max_steps, default_t_max
-from pulsemap.solvers.chain.peaks import contact_rate
+from pulsemap.solvers.chain.equations import DNSResult, default_max_steps, default_t_max
 from pulsemap.solvers.chain.scaling import DIRECT_RANGE, needs_rescaling
 
 METHODS = ("auto",) + EXPLICIT_METHODS
@@ -60,10 +59,10 @@ BATCH_KERNELS = {METHOD: run_many, HIGH_ORDER_METHOD: run_many_dop853, STIFF_MET
 
 def kernel_for(table: MonomialTable, velocity: float, exponent: float, method: str) -> tuple[str, str]:
     """The kernel simulate would run for this chain (compiled.kernel_method: Rodas4 when 'auto' finds
-    the force stiff, as equations.choose_method does) and the reason its result gives."""
-    stiff = method == "auto" and table.stiffness_hint > STIFFNESS_RATIO * contact_rate(velocity, exponent)
-    kernel = kernel_method(method, stiff)
-    why = stiff_reason(table, velocity, exponent) if stiff else explicit_reason(kernel)
+    the force stiff, compiled.is_stiff) and the reason its result gives."""
+    auto = method == "auto"
+    kernel = kernel_method(method, auto and is_stiff(table, velocity, exponent))
+    why = auto_reason(table, velocity, exponent) if auto else explicit_reason(kernel)
     return kernel, f"{why}, batch of chains"
 
 

@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 81303f18fb38c3b6
+# numba cache stamp: b6ed0dca7f362d3b
 from __future__ import annotations
 
 from numba import types

@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 81303f18fb38c3b6
+# numba cache stamp: b6ed0dca7f362d3b
 from __future__ import annotations
 
 import numpy as np

@@ -243,7 +243,7 @@ def simulate(
         if not why_scipy:
             data, why_scipy = compiled.force_data(force)
         if not why_scipy:
-            stiff = chosen in IMPLICIT_METHODS
+            stiff = method == "auto" and compiled.is_stiff(force, velocity, exponent)
             return _window_energies(force, compiled.simulate_compiled(
                 beads, exponent, velocity, (first, last), data,
                 rule=None if window is None else _window.resolve_rule(window, window_accuracy), rtol=rtol,
@@ -251,7 +251,8 @@ def simulate(
                 stall_factor=stall_factor, overtake_factor=overtake_factor,
                 max_steps=default_max_steps(last) if max_steps is None else int(max_steps),
                 method=compiled.kernel_method(method, stiff),
-                engine_reason=compiled.stiff_reason(force, velocity, exponent) if stiff else "", progress=progress,
+                engine_reason=compiled.auto_reason(force, velocity, exponent) if method == "auto" else "",
+                progress=progress,
                 launch=launch))
     if window is not None:
         return _window_energies(force, replace(_window.simulate_windowed(

@@ -52,8 +52,8 @@ def test_non_polynomial_R_agrees_with_the_scipy_engine(R):
 
 
 def test_stiff_non_polynomial_R_runs_rosenbrock_with_the_numba_jacobian():
-    """-mu v/(1 + v^2) with eps mu = 100: Rodas4 takes dF/dv from the generated dF/dv function."""
-    scene, beads, _, force = scene_with("-mu*v/(1+v^2)", mu=1000.0)
+    """-mu v/(1 + v^2) with eps mu = 1000: Rodas4 takes dF/dv from the generated dF/dv function."""
+    scene, beads, _, force = scene_with("-mu*v/(1+v^2)", mu=10000.0)
     span = (1, scene.first_perturbed + 20)
     fast = simulate(beads, scene.exponent, scene.velocity, span, force, rtol=1e-9, atol=1e-11, window="auto")
     ref = simulate(beads, scene.exponent, scene.velocity, span, force, engine="scipy", method="Radau", rtol=1e-11,

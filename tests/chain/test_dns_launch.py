@@ -36,7 +36,7 @@ def test_a_launch_into_a_perturbed_chain_agrees_on_both_engines(R, stiff):
     from pulsemap.solvers.studies.forcing import make_force
 
     beads, centre, first = 60, 8, 14
-    scene = with_sets(load_scene("fig8-eps0.1"), [f"perturbation.R={R}", f"perturbation.params.mu={100.0 if stiff else 0.3}",
+    scene = with_sets(load_scene("fig8-eps0.1"), [f"perturbation.R={R}", f"perturbation.params.mu={1000.0 if stiff else 0.3}",
                                                    "perturbation.eps=1.0", f"chain.first_perturbed={first}"])
     force = make_force(scene, beads)
     kw = dict(launch=Launch(0.7, centre), window="auto", rtol=1e-10, atol=1e-13)
