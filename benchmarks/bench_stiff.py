@@ -44,7 +44,7 @@ import time
 t0 = time.process_time()
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.chain.equations import OnSiteForce
-from pulsemap.solvers.chain.compiled import MonomialTable
+from pulsemap.solvers.chain.force_table import MonomialTable
 table = MonomialTable.of([[0, 1]], [[0.0] * 15 + [-1000.0]])
 force = OnSiteForce(lambda x, v: 0 * v, stiffness_hint=1000.0, monomials=table)
 res = simulate(40, 1.5, 1.0, (1, 20), force, window="auto", rtol=1e-6, atol=1e-8)

@@ -3,8 +3,8 @@
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')       (paper Eq. 1)
 
 Dormand-Prince 5(4) with PI step control and dense output (solvers/chain/compiled_kernel.py; DOP853,
-solvers/chain/compiled_dop853.py, when asked for by name), or for a stiff force (method 'auto' chose
-an implicit method) Rodas4 with the exact banded Jacobian (solvers/chain/compiled_stiff.py); the
+solvers/chain/compiled_dop853.py, when asked for by name), or for a stiff force (method 'auto', above
+COMPILED_STIFFNESS_RATIO x the contact rate) Rodas4 with the exact banded Jacobian (solvers/chain/compiled_stiff.py); the
 same leading-edge peaks (root of delta' on the dense output) and the same stop rules and messages
 as the scipy engines (solvers/peaks.PeakTracker), and the same DNSResult.
 
@@ -15,13 +15,8 @@ accuracy rule of window.rule_for_accuracy; ahead, the window ends at the first b
 as soon as the last one moves. ``rule=None`` is the full chain: nothing is dropped and the
 window grows ahead as soon as the last bead moves at all (beads exactly at rest feel no force,
 so this is the full chain's dynamics). The error norm is the RMS over the integrated beads.
-F enters as a monomial table (the generated force module's MONOMIALS and monomial_coefficients,
-derive/monomials.py), so a new polynomial R costs no compilation; a smooth non-polynomial R as a
-generated numba force (JitForce: derive/codegen_jitforce.py, in the cache), compiled once per R.
-A table whose monomials are u^a v^b with a <= 3, b <= 1 (every R of the paper: damping, linear and
-cubic foundations, Van der Pol) reaches the kernels in its dense form P_0(u) + v P_1(u), two cubics
-by Horner (MonomialTable.kernel_args): 43 ns against 98 ns per right-hand side on a 21-bead
-window, the general loop over monomials being the kernels' most expensive part.
+F enters as data (solvers/chain/force_table.py: a monomial table, its dense form, or a generated
+numba force for a non-polynomial R).
 """
 
 from __future__ import annotations
@@ -29,11 +24,11 @@ from __future__ import annotations
 import time as _time
 import warnings
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 
 from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, STIFFNESS_RATIO, DNSResult, energy
+from pulsemap.solvers.chain.force_table import JitForce, MonomialTable
 from pulsemap.solvers.chain.peaks import PeakTracker, first_threshold, primary_pulse_lost, contact_rate, velocity_scale
 
 Array = np.ndarray
@@ -52,129 +47,13 @@ ROOM = 96  # initial buffer beyond ``behind`` (grown on demand)
 # 0.52; 1e5: 76 / 26 / 8 (the explicit kernel stability-bound). Below 300 the explicit kernel is
 # the cheaper at every rtol.
 COMPILED_STIFFNESS_RATIO = 300.0
-DENSE_DEGREES = (4, 2)  # the dense form's powers: u^0..u^3 times v^0, v^1 (compiled_force.py)
 PAUSE_STEPS = 20_000  # accepted steps between progress checks (~2-20 ms of kernel time)
 
 
-@dataclass(frozen=True)
-class MonomialTable:
-    """eps_i R_i(u, v) = sum_m coefficients[m, min(i-1, L-1)] u^a_m v^b_m (i 1-based bead), Eq. 1.
-
-    ``exponents``: (M, 2) int64 (a_m, b_m); ``coefficients``: (M, L) float64, eps and the
-    perturbed range folded in (``table_from_module`` builds both from the generated force module).
-    """
-
-    exponents: Array
-    coefficients: Array
-
-    @classmethod
-    def of(cls, exponents, coefficients) -> "MonomialTable":
-        e = np.ascontiguousarray(np.asarray(exponents, dtype=np.int64).reshape(-1, 2))
-        c = np.ascontiguousarray(np.asarray(coefficients, dtype=np.float64))
-        if c.ndim == 1:
-            c = c.reshape(len(e), -1)
-        if c.shape[0] != e.shape[0] or c.shape[1] < 1 or np.any(e < 0):
-            raise ValueError(f"monomial table: exponents {e.shape} >= 0 and coefficients (M, L >= 1), got {c.shape}")
-        if not np.all(np.isfinite(c)):
-            raise ValueError("monomial table: coefficients must be finite")
-        return cls(e, c)
-
-    @classmethod
-    def zero(cls) -> "MonomialTable":
-        return cls(np.zeros((0, 2), dtype=np.int64), np.zeros((0, 1)))
-
-    @property
-    def constant_term(self) -> bool:
-        """True when some bead has a nonzero u^0 v^0 term (R(0, 0) != 0: not a chain at rest)."""
-        rows = np.flatnonzero((self.exponents[:, 0] == 0) & (self.exponents[:, 1] == 0))
-        return bool(rows.size and np.any(self.coefficients[rows] != 0.0))
-
-    @cached_property
-    def kernel_args(self) -> tuple:
-        """The kernels' (exps, coef) (solvers/chain/compiled_force.py): the dense form (coef of shape
-        (2, 4, L): coef[b, a, col] multiplies u^a v^b) when every monomial has a <= 3 and b <= 1,
-        else the table itself (coef (M, L)); R = 0 stays an empty table (nothing to evaluate)."""
-        e, c = self.exponents, self.coefficients
-        na, nb = DENSE_DEGREES
-        if e.shape[0] == 0 or np.any(e[:, 0] >= na) or np.any(e[:, 1] >= nb):
-            return e, c
-        dense = np.zeros((nb, na, c.shape[1]))
-        for m, (a, b) in enumerate(e):
-            dense[b, a] += c[m]
-        return e, dense
-
-    @property
-    def conservative(self) -> bool:
-        """R = 0: the energy is conserved (its drift is reported)."""
-        return self.exponents.shape[0] == 0
-
-    @property
-    def stiffness_hint(self) -> float:
-        """The rate OnSiteForce.stiffness_hint gives (solvers/studies/points.py): max over beads of
-        |dF/dv| and sqrt|dF/dx| at rest, i.e. of the u^0 v^1 and u^1 v^0 coefficients."""
-        def largest(a: int, b: int) -> float:
-            rows = (self.exponents[:, 0] == a) & (self.exponents[:, 1] == b)
-            return float(np.abs(self.coefficients[rows].sum(axis=0)).max(initial=0.0))
-
-        return max(largest(0, 1), float(np.sqrt(largest(1, 0))))
-
-    @property
-    def describe(self) -> str:
-        """How R reached the kernels (the two forms round differently: results say which ran)."""
-        dense = self.kernel_args[1].ndim == 3
-        return "monomial table (dense form: cubics P_0(u) + v P_1(u))" if dense else "monomial table"
-
-
-@dataclass(frozen=True)
-class JitForce:
-    """eps_i R_i as a generated numba force (derive/codegen_jitforce.py, a non-polynomial R), Eq. 1:
-    ``functions`` its C callables (force, dF/dx, dF/dv), ``arguments`` (L, 1 + P) whose row
-    min(i-1, L-1) is [eps_i, the parameters at bead i] (``jit_force`` builds both)."""
-
-    functions: tuple
-    arguments: Array
-
-    @property
-    def kernel_args(self) -> tuple:
-        return self.functions, self.arguments
-
-    conservative = False
-    describe = "R as a generated numba function (not a polynomial)"
-
-
-def _needed(rows: Array) -> int:
-    """How many leading rows of ``rows`` (beads first) to keep: past the last that differs from the
-    final row every bead is alike (uniform R: O(1) memory)."""
-    differs = np.flatnonzero(np.any(rows != rows[-1:], axis=tuple(range(1, rows.ndim))))
-    return 1 if differs.size == 0 else int(differs[-1]) + 2
-
-
-def jit_force(module, index: Array, eps: Array, params: tuple) -> JitForce:
-    """The generated numba force module's functions with their per-bead arguments ([eps_i, params]
-    in module.PARAMS order; a parameter is a float or an array over beads)."""
-    rows = np.column_stack([np.broadcast_to(np.asarray(a, float), index.shape) for a in (eps, *params)])
-    return JitForce((module.force, module.force_dx, module.force_dv),
-                    np.ascontiguousarray(rows[: _needed(rows)], dtype=np.float64))
-
-
-def table_from_module(module, index: Array, eps: Array, params: tuple) -> MonomialTable | None:
-    """The generated force module's eps_i R_i as a table (None: R is not polynomial, or the module
-    predates tables); columns past the last bead-dependent one are dropped (uniform R: O(1) memory)."""
-    exponents = getattr(module, "MONOMIALS", None)
-    if exponents is None:
-        return None
-    if not exponents:
-        return MonomialTable.zero()
-    with np.errstate(all="ignore"):
-        coef = np.array([np.broadcast_to(np.asarray(c, float), index.shape)
-                         for c in module.monomial_coefficients(index, eps, *params)])
-    return MonomialTable.of(exponents, coef[:, : _needed(coef.T)].copy())
-
-
 def unavailable(method: str, snapshots: bool = False) -> str:
-    """Why the compiled engine cannot run this case ("" when it can; ``force_data`` says whether it can
-    take the force): the scipy engine then runs. A stiff force under method 'auto' (``is_stiff``) runs
-    the Rosenbrock kernel (``stiff_reason``)."""
+    """Why the compiled engine cannot run this case ("" when it can; force_table.force_data says whether
+    it can take the force): the scipy engine then runs. A stiff force under method 'auto' (``is_stiff``)
+    runs the Rosenbrock kernel (``stiff_reason``)."""
     if snapshots:
         return "strain snapshots are recorded by the scipy engine only"
     if method not in ("auto",) + EXPLICIT_METHODS:
@@ -188,20 +67,6 @@ def kernel_method(method: str, stiff: bool) -> str:
     if method in EXPLICIT_METHODS:
         return method
     return STIFF_METHOD if stiff else METHOD
-
-
-def force_data(force) -> tuple[MonomialTable | JitForce | None, str]:
-    """The on-site force as the kernels take it (a monomial table, else the generated numba force the
-    force's ``jit`` builds) and "", or None and why the scipy engine must run instead."""
-    if force is None:
-        return MonomialTable.zero(), ""
-    table = force.monomials
-    if table is not None:
-        return (None, "R(0, 0) != 0: the monomial table has a constant term") if table.constant_term else (table, "")
-    if force.jit is None:
-        return None, "the on-site force has no monomial table and no generated numba form (a Python callable)"
-    data = force.jit()
-    return (None, data) if isinstance(data, str) else (data, "")
 
 
 def explicit_reason(method: str) -> str:

@@ -9,7 +9,7 @@ force call for: Dormand-Prince 5(4), DOP853 when named, Rodas4 for a stiff force
 arithmetic: identical peaks), the chains spread over the cores, one parallel call per kernel used.
 """
 
-# numba cache stamp: b6ed0dca7f362d3b
+# numba cache stamp: 8355ae96e33cf052
 from __future__ import annotations
 
 import time as _time
@@ -19,12 +19,13 @@ import numpy as np
 from numba import njit, prange
 
 from pulsemap.solvers.chain.compiled import (
-    EXPLICIT_METHODS, HIGH_ORDER_METHOD, METHOD, STIFF_METHOD, MonomialTable, auto_reason, drive, explicit_reason,
-    is_stiff, kernel_method, prepare, result)
+    EXPLICIT_METHODS, HIGH_ORDER_METHOD, METHOD, STIFF_METHOD, auto_reason, drive, explicit_reason, is_stiff,
+    kernel_method, prepare, result)
 from pulsemap.solvers.chain.compiled_dop853 import run as run_dop853
 from pulsemap.solvers.chain.compiled_kernel import run
 from pulsemap.solvers.chain.compiled_stiff import run as run_rodas4
 from pulsemap.solvers.chain.equations import DNSResult, default_max_steps, default_t_max
+from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.scaling import DIRECT_RANGE, needs_rescaling
 
 METHODS = ("auto",) + EXPLICIT_METHODS

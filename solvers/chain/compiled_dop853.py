@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: b6ed0dca7f362d3b
+# numba cache stamp: 8355ae96e33cf052
 from __future__ import annotations
 
 import numpy as np

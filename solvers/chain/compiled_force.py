@@ -3,16 +3,16 @@
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')             (paper Eq. 1)
 
 The kernels take the force as two arguments ``(exps, coef)``: a monomial table (int64 exponents
-(M, 2) and per-bead coefficients (M, L); F = sum_m c_m[i] x^a_m v^b_m, compiled.MonomialTable), its
+(M, 2) and per-bead coefficients (M, L); F = sum_m c_m[i] x^a_m v^b_m, force_table.MonomialTable), its
 dense form (coef (2, 4, L): F = P_0(x) + v P_1(x), P_b(x) = sum_a coef[b, a, i] x^a, by Horner; the
 table's kernel_args when a <= 3 and b <= 1) or a generated numba force (a tuple of three C callables
 force, dF/dx, dF/dv and their per-bead arguments (L, 1 + P): [eps_i, parameters at bead i],
-compiled.JitForce). numba specialises a kernel once per form, so one compiled kernel serves every
+force_table.JitForce). numba specialises a kernel once per form, so one compiled kernel serves every
 polynomial R (two: the dense form and the general table) and one every other R. All read
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: b6ed0dca7f362d3b
+# numba cache stamp: 8355ae96e33cf052
 from __future__ import annotations
 
 from numba import types

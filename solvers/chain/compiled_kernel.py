@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: b6ed0dca7f362d3b
+# numba cache stamp: 8355ae96e33cf052
 from __future__ import annotations
 
 import numpy as np

@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: b6ed0dca7f362d3b
+# numba cache stamp: 8355ae96e33cf052
 from __future__ import annotations
 
 import numpy as np

@@ -17,7 +17,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: b6ed0dca7f362d3b
+# numba cache stamp: 8355ae96e33cf052
 from __future__ import annotations
 
 import numpy as np

@@ -27,6 +27,7 @@ from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the 
     OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy, initial_state, make_rhs,
     make_solver, run_scipy)
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
+from pulsemap.solvers.chain.force_table import force_data
 from pulsemap.solvers.chain.front import SNAPSHOT_SPAN, FrontRecorder, check_snapshot_contacts, memo, state_at
 from pulsemap.solvers.chain.launch import Launch
 from pulsemap.solvers.chain.peaks import PeakTracker, contact_rate, scan_step, velocity_scale  # noqa: F401
@@ -241,7 +242,7 @@ def simulate(
         why_scipy = compiled.unavailable(method, bool(snapshots))
         data = None
         if not why_scipy:
-            data, why_scipy = compiled.force_data(force)
+            data, why_scipy = force_data(force)
         if not why_scipy:
             stiff = method == "auto" and compiled.is_stiff(force, velocity, exponent)
             return _window_energies(force, compiled.simulate_compiled(

@@ -52,8 +52,8 @@ class OnSiteForce:
     dforce_dv: Callable[[Array, Array], Array] | None = None
     stiffness_hint: float = 0.0
     restrict: Callable[[int, int], "OnSiteForce"] | None = None
-    monomials: object | None = None  # chain.compiled.MonomialTable: the same force as data (compiled engine)
-    jit: Callable[[], object] | None = None  # builds chain.compiled.JitForce (numba R) or says why not
+    monomials: object | None = None  # chain.force_table.MonomialTable: the same force as data (compiled engine)
+    jit: Callable[[], object] | None = None  # builds chain.force_table.JitForce (numba R) or says why not
 
     @property
     def has_jacobian(self) -> bool:

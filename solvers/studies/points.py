@@ -15,7 +15,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from pulsemap.solvers.chain.compiled import jit_force, table_from_module
+from pulsemap.solvers.chain.force_table import jit_force, table_from_module
 from pulsemap.solvers.chain.dns import OnSiteForce, chain_length_for, simulate
 from pulsemap.solvers.studies.sweep import SweepError, generated_ref, load_generated
 
@@ -159,7 +159,7 @@ def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | No
 
 
 def numba_force(module, idx: np.ndarray, eps: np.ndarray, full: tuple):
-    """The force module's R as a generated numba force for the compiled engine (chain/compiled.JitForce),
+    """The force module's R as a generated numba force for the compiled engine (chain/force_table.JitForce),
     or a string saying why the scipy engine integrates it instead."""
     from pulsemap.solvers.models.codeload import jit_force_module
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pulsemap.solvers.chain.compiled import MonomialTable
+from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.chain.window import rule_for_accuracy
 from pulsemap.solvers.data import scene as scene_module

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pulsemap.solvers.chain.compiled import MonomialTable
+from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.points import dns_span
