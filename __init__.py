@@ -12,31 +12,13 @@ The public API (everything else in the package is internal and may change):
 * :func:`pulsemap.scenes` ``()`` -> the names of the built-in scenes.
 
 ``import pulsemap`` is cheap: sympy, scipy and numpy load when a function first needs them.
-``pulsemap.derive`` is also the subpackage of the symbolic layer (``pulsemap.derive.profile``, ...);
-calling it calls :func:`pulsemap.solvers.api.derive`.
+The symbolic layer (the ``derive/`` folder) installs as :mod:`pulsemap.symbolic`, so that
+``pulsemap.derive`` is a plain function.
 """
 
 from __future__ import annotations
 
-import types
-from typing import Any
-
-import pulsemap.derive as _derive_package
-from pulsemap.derive.provenance import __version__
-from pulsemap.solvers.api import Derivation, Result, dressed, run, scene, scenes
-from pulsemap.solvers.api.derivation import derive as _derive
+from pulsemap.solvers.api import Derivation, Result, derive, dressed, run, scene, scenes
+from pulsemap.symbolic.provenance import __version__
 
 __all__ = ["Derivation", "Result", "__version__", "derive", "dressed", "run", "scene", "scenes"]
-
-
-class _CallableSubpackage(types.ModuleType):
-    """``pulsemap.derive`` is both the subpackage and the function (the import system binds the
-    subpackage to this name, so the function lives on the subpackage's call)."""
-
-    def __call__(self, R: str, **kwargs: Any) -> Derivation:
-        return _derive(R, **kwargs)
-
-
-_derive_package.__class__ = _CallableSubpackage
-_derive_package.__wrapped__ = _derive  # inspect.signature(pulsemap.derive) is the function's
-derive = _derive_package

@@ -17,8 +17,8 @@ import timeit
 COLD = r"""
 import time
 t0 = time.perf_counter()
-from pulsemap.derive.perturbation import make_perturbation
-from pulsemap.derive.derivation import derive_all
+from pulsemap.symbolic.perturbation import make_perturbation
+from pulsemap.symbolic.derivation import derive_all
 t1 = time.perf_counter()
 d = derive_all(make_perturbation({expr!r}, 0.1, {params!r}), sympy_seconds={bound})
 t2 = time.perf_counter()

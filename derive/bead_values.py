@@ -10,8 +10,8 @@ from typing import Any, Mapping
 import numpy as np
 import sympy
 
-from pulsemap.derive.expression import symbol
-from pulsemap.derive.param_values import IndexExpression, ParamValue, PerturbationError, RandomDraw
+from pulsemap.symbolic.expression import symbol
+from pulsemap.symbolic.param_values import IndexExpression, ParamValue, PerturbationError, RandomDraw
 
 def _check_beads(beads: object) -> int:
     if isinstance(beads, bool) or not isinstance(beads, numbers.Integral) or int(beads) < 1:

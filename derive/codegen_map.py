@@ -1,7 +1,7 @@
 """The generated map module: residuals of Eq. 23 with their Jacobian, the long-wave right-hand
 side and closed-form law (Eq. 30) and the stationary function of Eq. 41 with its derivatives.
 
-Parameter arguments are named by :func:`pulsemap.derive.codeprint.param_identifier`; ``PARAMS``
+Parameter arguments are named by :func:`pulsemap.symbolic.codeprint.param_identifier`; ``PARAMS``
 lists the user's parameter names, ``ARGS`` the (name, bead offset) of each parameter argument in
 order (("i", 0) is the bead index).
 """

@@ -9,7 +9,7 @@
 Each is computed with ``mpmath.quad`` on unit sub-intervals at a stated working precision,
 only when asked for, and cached on disk keyed by (n, profile, precision): a second run reads
 them back. The exact profile is a float64 representation, so its constants carry the
-profile's accuracy (see :class:`pulsemap.derive.profile.Profile`) on top of the quadrature error.
+profile's accuracy (see :class:`pulsemap.symbolic.profile.Profile`) on top of the quadrature error.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import sympy
 
-from pulsemap.derive.expression import is_polynomial_in_state, symbol
+from pulsemap.symbolic.expression import is_polynomial_in_state, symbol
 
 
 def polynomial_terms(R: sympy.Expr) -> list[tuple[int, int, sympy.Expr]] | None:

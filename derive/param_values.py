@@ -13,8 +13,8 @@ from typing import Any, Mapping, Union
 import numpy as np
 import sympy
 
-from pulsemap.derive.expression import ExpressionError, check_parameter_name, parse_expression
-from pulsemap.derive.frozenmap import FrozenMap
+from pulsemap.symbolic.expression import ExpressionError, check_parameter_name, parse_expression
+from pulsemap.symbolic.frozenmap import FrozenMap
 
 class PerturbationError(ValueError):
     """A perturbation or one of its parameter values was rejected; the message says why."""

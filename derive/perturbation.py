@@ -24,9 +24,9 @@ from typing import Any, Mapping
 import numpy as np
 import sympy
 
-from pulsemap.derive.bead_values import _bead_values, _check_beads, _evaluate, _frozen_bead_values, _numeric
-from pulsemap.derive.expression import SYMBOLS, ExpressionError, parse_expression, symbol
-from pulsemap.derive.param_values import (DRAW_KEYS, IndexExpression, ParamMap, ParamValue, PerturbationError,
+from pulsemap.symbolic.bead_values import _bead_values, _check_beads, _evaluate, _frozen_bead_values, _numeric
+from pulsemap.symbolic.expression import SYMBOLS, ExpressionError, parse_expression, symbol
+from pulsemap.symbolic.param_values import (DRAW_KEYS, IndexExpression, ParamMap, ParamValue, PerturbationError,
                                           RandomDraw, _check_name, _exact, _finite_float, _is_scalar, _kind,
                                           _to_float, param_data, parse_cli_param, parse_param_value)
 

@@ -1,7 +1,7 @@
 """What a generated module depends on, and the hash it is looked up by (no sympy here).
 
 Kept free of sympy so that ``solvers`` can find generated code without importing the symbolic
-side; ``pulsemap.derive.codegen`` produces the code for a source that is missing.
+side; ``pulsemap.symbolic.codegen`` produces the code for a source that is missing.
 """
 
 from __future__ import annotations

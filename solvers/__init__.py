@@ -4,4 +4,4 @@ Internal: the public interface is ``pulsemap.derive``, ``scene``, ``run`` and ``
 (:mod:`pulsemap.solvers.api`) and the ``pulsemap`` command; everything else may change.
 """
 
-from pulsemap.derive.provenance import __version__  # noqa: F401  (one source for the version)
+from pulsemap.symbolic.provenance import __version__  # noqa: F401  (one source for the version)

@@ -29,12 +29,17 @@ def test_import_is_cheap_and_the_surface_is_small():
         assert getattr(pulsemap, name) is not None
 
 
-def test_derive_is_also_the_subpackage():
-    import pulsemap.derive.profile as profile_module
+def test_derive_is_a_plain_function_and_the_symbolic_layer_has_its_own_name():
+    import inspect
+    import types
 
-    assert callable(pulsemap.derive)
-    assert pulsemap.derive.profile is profile_module
-    assert "eps" in str(__import__("inspect").signature(pulsemap.derive))
+    import pulsemap.symbolic.profile as profile_module
+    from pulsemap.solvers.api.derivation import derive
+
+    assert isinstance(pulsemap.derive, types.FunctionType) and pulsemap.derive is derive
+    assert pulsemap.symbolic.profile is profile_module
+    assert "eps" in str(inspect.signature(pulsemap.derive))
+    assert "Eq. 23" in (inspect.getdoc(pulsemap.derive) or "")
 
 
 # --------------------------------------------------------------------------- derive

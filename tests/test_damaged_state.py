@@ -10,7 +10,7 @@ import math
 import pytest
 
 from conftest import scene_toml, write_scene
-from pulsemap.derive import cache
+from pulsemap.symbolic import cache
 from pulsemap.solvers.cli.main import main
 
 
@@ -32,7 +32,7 @@ INTEGRAL_DAMAGE = {
 
 @pytest.mark.parametrize("how", INTEGRAL_DAMAGE, ids=list(INTEGRAL_DAMAGE))
 def test_a_damaged_integral_entry_is_computed_again(how, own_cache, capsys):
-    from pulsemap.derive.integrals import constants
+    from pulsemap.symbolic.integrals import constants
 
     fresh = {k: c.value for k, c in constants(["f1", "f2"]).items()}
     (path,) = (own_cache / "integrals").glob("*.json")
@@ -50,7 +50,7 @@ def test_a_damaged_integral_entry_is_computed_again(how, own_cache, capsys):
 
 
 def test_an_entry_that_is_not_json_is_noted_once_and_replaced(own_cache, capsys):
-    from pulsemap.derive.integrals import constants
+    from pulsemap.symbolic.integrals import constants
 
     fresh = constants(["f3"])["f3"].value
     (path,) = (own_cache / "integrals").glob("*.json")

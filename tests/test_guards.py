@@ -74,8 +74,8 @@ def test_forcing_ratio_of_damping_is_the_closed_form():
     """R = -mu v: the eps term of Eq. 23 is -eps mu g1_0010 A with g1_0010 = int S' = S(0), so the
     ratio to the contact term f1 A^P is eps mu S(0) A^(1-P) / f1 (constants from derive, not
     from the generated module)."""
-    from pulsemap.derive.integrals import constants
-    from pulsemap.derive.profile import get_profile
+    from pulsemap.symbolic.integrals import constants
+    from pulsemap.symbolic.profile import get_profile
 
     S0 = get_profile("exact", 1.5).S0
     f1 = constants(["f1"], n=1.5, profile="exact")["f1"].value

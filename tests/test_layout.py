@@ -39,7 +39,7 @@ def _target(module: str) -> str | None:
         return None
     if parts[1] == "solvers":
         return parts[2] if len(parts) > 2 else None
-    return parts[1]
+    return "derive" if parts[1] == "symbolic" else parts[1]  # the derive/ folder installs as pulsemap.symbolic
 
 
 SOURCES = sorted(p for folder in ("derive", "solvers") for p in (ROOT / folder).rglob("*.py"))

@@ -35,8 +35,8 @@ import sympy
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pulsemap.derive.expression import parse_expression, symbol
-from pulsemap.derive.perturbation import PerturbationError, make_perturbation
+from pulsemap.symbolic.expression import parse_expression, symbol
+from pulsemap.symbolic.perturbation import PerturbationError, make_perturbation
 
 U, V, I, MU = (symbol(name) for name in ("u", "v", "i", "mu"))
 SENTINEL = Path(os.environ.get("TMPDIR", "/tmp")) / "pulsemap-property-sentinel"
@@ -226,7 +226,7 @@ def independent_terms(poly: dict[tuple[int, int], int], mu_on: tuple[int, int] |
 @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(POLY, st.booleans(), st.sampled_from([0.5, 2.0]))
 def test_polynomial_perturbations_derive_and_match_an_independent_count(poly, with_mu, mu_value) -> None:
-    from pulsemap.derive.derivation import derive_all, to_json
+    from pulsemap.symbolic.derivation import derive_all, to_json
 
     mu_on = min(poly) if with_mu else None
     text = " + ".join(f"({c})*{'mu*' if (a, b) == mu_on else ''}u^{a}*v^{b}" for (a, b), c in sorted(poly.items()))

@@ -96,12 +96,12 @@ def scene_file(tmp_path) -> Path:
 
 
 def test_the_version_has_one_source(capsys):
-    import pulsemap.derive
+    import pulsemap.symbolic
     import pulsemap.solvers
 
     with open(ROOT / "pyproject.toml", "rb") as fh:
         declared = tomllib.load(fh)["project"]["version"]
-    assert pulsemap.derive.__version__ == pulsemap.solvers.__version__ == declared
+    assert pulsemap.symbolic.__version__ == pulsemap.solvers.__version__ == declared
     with pytest.raises(SystemExit) as info:
         main(["--version"])
     assert info.value.code == 0 and capsys.readouterr().out.strip() == f"pulsemap {declared}"
@@ -131,11 +131,11 @@ def test_run_output_records_what_produced_it(scene_file):
 
 
 def test_derive_and_profile_outputs_record_what_produced_them():
-    from pulsemap.derive.balance import derive_balance
-    from pulsemap.derive.derivation import derive_all, to_json
-    from pulsemap.derive.perturbation import make_perturbation
-    from pulsemap.derive.provenance import provenance
-    from pulsemap.derive.report import profile_report
+    from pulsemap.symbolic.balance import derive_balance
+    from pulsemap.symbolic.derivation import derive_all, to_json
+    from pulsemap.symbolic.perturbation import make_perturbation
+    from pulsemap.symbolic.provenance import provenance
+    from pulsemap.symbolic.report import profile_report
 
     d = round_trip(to_json(derive_all(make_perturbation("-mu*v", 0.1, {"mu": 2.0}), sympy_seconds=0)))
     assert d["provenance"] == provenance()

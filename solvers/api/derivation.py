@@ -60,7 +60,7 @@ class Derivation:
     notes: Mapping[str, str]
     """Why the law or Eq. 41 is not available, when it is not."""
     details: Any = field(default=None, repr=False, compare=False)
-    """The internal derivation object (pulsemap.derive.derivation.Derivation); not a stable interface."""
+    """The internal derivation object (pulsemap.symbolic.derivation.Derivation); not a stable interface."""
 
     @property
     def stationary_peaks(self) -> tuple[float, ...]:
@@ -70,7 +70,7 @@ class Derivation:
     @property
     def latex(self) -> str:
         """The map, the long-wave ODE and law, and Eq. 41 in LaTeX, one equation a line."""
-        from pulsemap.derive.derivation import to_latex
+        from pulsemap.symbolic.derivation import to_latex
 
         return "\n".join(line for line in to_latex(self.details).splitlines() if not line.startswith("%"))
 
@@ -80,12 +80,12 @@ class Derivation:
 
     def to_dict(self) -> dict:
         """JSON-serialisable data: the same document as ``pulsemap derive --json`` (with provenance)."""
-        from pulsemap.derive.derivation import to_json
+        from pulsemap.symbolic.derivation import to_json
 
         return to_json(self.details)
 
     def __str__(self) -> str:
-        from pulsemap.derive.derivation import to_text
+        from pulsemap.symbolic.derivation import to_text
 
         return to_text(self.details)
 
@@ -113,12 +113,12 @@ def derive(
 
     Raises TypeError or ValueError naming the argument for bad input.
     """
-    from pulsemap.derive.amplitude_map import MapError
-    from pulsemap.derive.derivation import DerivationError, derive_all
-    from pulsemap.derive.expression import ExpressionError
-    from pulsemap.derive.perturbation import PerturbationError, check_all_used, make_perturbation
-    from pulsemap.derive.profile import ProfileError
-    from pulsemap.derive.stationary import StationaryError
+    from pulsemap.symbolic.amplitude_map import MapError
+    from pulsemap.symbolic.derivation import DerivationError, derive_all
+    from pulsemap.symbolic.expression import ExpressionError
+    from pulsemap.symbolic.perturbation import PerturbationError, check_all_used, make_perturbation
+    from pulsemap.symbolic.profile import ProfileError
+    from pulsemap.symbolic.stationary import StationaryError
 
     if not isinstance(R, str):
         raise TypeError(f"R must be a string formula in u, v, i and parameters (e.g. '-mu*v'), got {type(R).__name__}")
@@ -136,7 +136,7 @@ def derive(
 
 
 def _public(R: str, d: Any) -> Derivation:
-    from pulsemap.derive.longwave import LongwaveLaw
+    from pulsemap.symbolic.longwave import LongwaveLaw
 
     law = d.longwave  # a LongwaveLaw, or a SiteLaw (derive/site_law.py) for a site-dependent R
     uniform = isinstance(law, LongwaveLaw)
@@ -153,7 +153,7 @@ def _public(R: str, d: Any) -> Derivation:
     ode = None if law is None else f"{law.ode().lhs} = {law.ode().rhs}"
     st = d.stationary
     notes = {key: text for key, text in (("law", d.longwave_note), ("stationary", d.stationary_note)) if text}
-    from pulsemap.derive.perturbation import param_data
+    from pulsemap.symbolic.perturbation import param_data
 
     return Derivation(
         R=R,

@@ -35,10 +35,10 @@ def dressed(
 
     Raises TypeError or ValueError naming the argument for bad input.
     """
-    from pulsemap.derive.dressed import DressedError
-    from pulsemap.derive.expression import ExpressionError
-    from pulsemap.derive.perturbation import PerturbationError, check_all_used, make_perturbation
-    from pulsemap.derive.profile import ProfileError
+    from pulsemap.symbolic.dressed import DressedError
+    from pulsemap.symbolic.expression import ExpressionError
+    from pulsemap.symbolic.perturbation import PerturbationError, check_all_used, make_perturbation
+    from pulsemap.symbolic.profile import ProfileError
     from pulsemap.solvers.studies.dressed import derive_dressed
 
     if not isinstance(R, str):

@@ -4,14 +4,14 @@ A chain at rest hit by v0 on bead 1 forms a solitary wave whose peak strain is
 kappa_n * v0^(2/(n+1)) (homogeneity of Eq. 1: x -> lambda x, t -> lambda^(-(n-1)/2) t). kappa_n
 is measured once per n by a DNS at v0 = 1 at a contact far enough down the chain that the wave
 has formed (peaks at contact c-5..c+5 agree to 1e-6 relative; c = 30, doubled while they do
-not, as near n = 1 the wave forms slowly), and cached on disk (pulsemap.derive.cache, namespace "kappa").
+not, as near n = 1 the wave forms slowly), and cached on disk (pulsemap.symbolic.cache, namespace "kappa").
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from pulsemap.derive import cache
+from pulsemap.symbolic import cache
 from pulsemap.solvers.chain.dns import chain_length_for, simulate
 from pulsemap.solvers.chain.peaks import velocity_scale
 

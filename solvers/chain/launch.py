@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pulsemap.derive.profile import exact_profile
+from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce, make_rhs
 
 #: A peak below this fraction of the launched peak A S(0) is round-off, not the pulse (``_peak``).

@@ -78,7 +78,7 @@ def _check_outputs(args: argparse.Namespace) -> None:
 
 def cmd_profile(args: argparse.Namespace) -> int:
     """``pulsemap profile``: S(0), half width, Pade q's, f1..f7, Eq. 4 residual."""
-    from pulsemap.derive.report import profile_report, profile_text
+    from pulsemap.symbolic.report import profile_report, profile_text
 
     t0 = time.perf_counter()
     report = profile_report(n=args.n, profile=args.profile, dps=args.dps)
@@ -92,8 +92,8 @@ def cmd_profile(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------------ derive
 def cmd_derive(args: argparse.Namespace) -> int:
     """``pulsemap derive``: expansion, map (Eq. 23), long-wave law (Eq. 30), Eq. 41; or a balance model."""
-    from pulsemap.derive.derivation import derive_model, to_json, to_latex, to_text
-    from pulsemap.derive.perturbation import check_all_used, make_perturbation, parse_cli_param
+    from pulsemap.symbolic.derivation import derive_model, to_json, to_latex, to_text
+    from pulsemap.symbolic.perturbation import check_all_used, make_perturbation, parse_cli_param
 
     params = {}
     for text in args.param:
@@ -202,7 +202,7 @@ def cmd_table(args: argparse.Namespace) -> int:
 # ---------------------------------------------------------------------------- generate
 def cmd_generate(args: argparse.Namespace) -> int:
     """``pulsemap generate``: write the generated modules the given scenes use."""
-    from pulsemap.derive import codegen
+    from pulsemap.symbolic import codegen
     from pulsemap.solvers.data.scene import builtin_scenes, load_scene
 
     names = args.scenes or builtin_scenes()

@@ -1,7 +1,7 @@
 """Scene files: a chain, an excitation, a perturbation and what to report (the format: docs/design.rst, "Scene files").
 
 A scene is TOML data, parsed with :mod:`tomllib` and validated here; nothing in it is ever
-executed (R is parsed by :mod:`pulsemap.derive.expression`'s whitelisting parser). Every problem is a
+executed (R is parsed by :mod:`pulsemap.symbolic.expression`'s whitelisting parser). Every problem is a
 :class:`SceneError` with a one-line message naming the file or scene, the problem and the fix.
 
     name = "damping-eps0.3"
@@ -23,7 +23,7 @@ executed (R is parsed by :mod:`pulsemap.derive.expression`'s whitelisting parser
     [dns]                   # optional: rtol (1e-10), atol (1e-12), method ("auto"), engine ("compiled" | "scipy")
 
 Built-in scenes (the paper's figures) live in ``solvers/data/scenes/*.toml``; ``default`` is an alias
-of :data:`DEFAULT_SCENE`. ``pulsemap.derive.perturbation`` pulls in sympy, so it is imported lazily:
+of :data:`DEFAULT_SCENE`. ``pulsemap.symbolic.perturbation`` pulls in sympy, so it is imported lazily:
 ``import pulsemap.solvers.data.scene`` stays light.
 
 The format (tables, keys, defaults) is :mod:`~pulsemap.solvers.data.scene_schema`, the field checks
@@ -32,7 +32,7 @@ The format (tables, keys, defaults) is :mod:`~pulsemap.solvers.data.scene_schema
 and loading :mod:`~pulsemap.solvers.data.scene_files`; this module gathers their public names.
 """
 
-from pulsemap.derive.frozenmap import FrozenMap
+from pulsemap.symbolic.frozenmap import FrozenMap
 from pulsemap.solvers.data.scene_checks import check_choice
 from pulsemap.solvers.data.scene_files import builtin_scene_path, builtin_scenes, load_scene, parse_scene
 from pulsemap.solvers.data.scene_schema import (

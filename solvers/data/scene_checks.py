@@ -6,7 +6,7 @@ import sys
 
 from typing import TYPE_CHECKING, Any, Mapping
 
-from pulsemap.derive.frozenmap import FrozenMap
+from pulsemap.symbolic.frozenmap import FrozenMap
 from pulsemap.solvers.data.scene_params import _check_perturbation_object, _scene_hint
 from pulsemap.solvers.data.scene_schema import (
     _SCHEMA,
@@ -77,7 +77,7 @@ def _check_beads(value: Any) -> int | None:
 
 
 def _check_exponent(value: Any) -> float:
-    from pulsemap.derive.profile import ProfileError, check_exponent
+    from pulsemap.symbolic.profile import ProfileError, check_exponent
 
     n = _number(value, "[chain] exponent")
     try:
@@ -183,7 +183,7 @@ def _check_dns_table(table: Mapping[str, Any]) -> FrozenMap:
 
 def _check_consistency(scene: Scene) -> None:
     """Checks that involve several fields: chain length, contacts, first_perturbed, per-bead values."""
-    from pulsemap.derive.perturbation import PerturbationError, RandomDraw
+    from pulsemap.symbolic.perturbation import PerturbationError, RandomDraw
 
     first, last = scene.contacts
     if scene.beads is not None:

@@ -1,6 +1,6 @@
 """The [perturbation] table of a scene: R, eps and the parameter forms (make_perturbation's errors as scene problems).
 
-``pulsemap.derive.perturbation`` pulls in sympy, so it is imported inside the functions.
+``pulsemap.symbolic.perturbation`` pulls in sympy, so it is imported inside the functions.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any, Mapping
 from pulsemap.solvers.data.scene_schema import _number, _Problem, _type_name
 
 if TYPE_CHECKING:  # pragma: no cover
-    from pulsemap.derive.perturbation import Perturbation
+    from pulsemap.symbolic.perturbation import Perturbation
 
 
 def _build_perturbation(table: Mapping[str, Any], name: str, drop_unused: bool = False) -> "Perturbation":
@@ -20,8 +20,8 @@ def _build_perturbation(table: Mapping[str, Any], name: str, drop_unused: bool =
     Every parameter given must occur in R (check_all_used); ``drop_unused`` instead drops the
     ones R does not use (with_overrides(R=...) keeping the old parameters).
     """
-    from pulsemap.derive.expression import ExpressionError
-    from pulsemap.derive.perturbation import PerturbationError, check_all_used, make_perturbation
+    from pulsemap.symbolic.expression import ExpressionError
+    from pulsemap.symbolic.perturbation import PerturbationError, check_all_used, make_perturbation
 
     R = table["R"]
     if not isinstance(R, str):
@@ -41,10 +41,10 @@ def _build_perturbation(table: Mapping[str, Any], name: str, drop_unused: bool =
 
 
 def _check_perturbation_object(value: Any) -> "Perturbation":
-    from pulsemap.derive.perturbation import Perturbation
+    from pulsemap.symbolic.perturbation import Perturbation
 
     if not isinstance(value, Perturbation):
-        raise _Problem(f"perturbation must be a pulsemap.derive.perturbation.Perturbation, got {_type_name(value)}: or pass R, eps, params")
+        raise _Problem(f"perturbation must be a pulsemap.symbolic.perturbation.Perturbation, got {_type_name(value)}: or pass R, eps, params")
     return value
 
 

@@ -6,13 +6,13 @@ import dataclasses
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Mapping
 
-from pulsemap.derive.frozenmap import FrozenMap
+from pulsemap.symbolic.frozenmap import FrozenMap
 from pulsemap.solvers.data.scene_checks import _check_consistency, _check_dns_table, _check_fields
 from pulsemap.solvers.data.scene_params import _build_perturbation
 from pulsemap.solvers.data.scene_schema import DNS_DEFAULTS, SceneError, _as_table, _prefix, _Problem, _unknown
 
 if TYPE_CHECKING:  # pragma: no cover
-    from pulsemap.derive.perturbation import Perturbation
+    from pulsemap.symbolic.perturbation import Perturbation
 
 
 def _default_dns() -> FrozenMap:
@@ -28,7 +28,7 @@ class Scene:
     exponent: float  # n
     first_perturbed: int  # bead where R starts (paper: 16)
     velocity: float  # v0 of bead 1
-    perturbation: "Perturbation"  # R, eps, params (pulsemap.derive.perturbation)
+    perturbation: "Perturbation"  # R, eps, params (pulsemap.symbolic.perturbation)
     contacts: tuple[int, int]  # first and last contact reported (1-based, inclusive)
     methods: tuple[str, ...]  # subset of METHODS, in canonical order
     profile: str = "exact"  # "exact" | "pade"
@@ -44,7 +44,7 @@ class Scene:
         default is filled in; ``beads`` is null when unset. ``parse_scene(d, source)`` of the
         result gives back an equal scene (``source`` in the dict is informational).
         """
-        from pulsemap.derive.perturbation import param_data  # lazily: pulsemap.derive.perturbation imports sympy
+        from pulsemap.symbolic.perturbation import param_data  # lazily: pulsemap.symbolic.perturbation imports sympy
 
         pert = self.perturbation
         return {

@@ -12,8 +12,8 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
-from pulsemap.derive.cache import cache_dir
-from pulsemap.derive.sources import (BALANCE_MODELS, PROFILE_KINDS, VARIANTS, BalanceSource, ForceSource, GeneratedCodeError,
+from pulsemap.symbolic.cache import cache_dir
+from pulsemap.symbolic.sources import (BALANCE_MODELS, PROFILE_KINDS, VARIANTS, BalanceSource, ForceSource, GeneratedCodeError,
                             JitForceSource, MapSource, module_name, source_from_dict, verify_generated)
 
 PACKAGE_DIR = Path(__file__).resolve().parents[2] / "generated"
@@ -108,7 +108,7 @@ def _ensure(source) -> ModuleType:
         except GeneratedCodeError as exc:
             print(f"pulsemap: note: cached module {cached} was damaged ({_reason(exc)}): regenerating it",
                   file=sys.stderr, flush=True)
-    from pulsemap.derive import codegen  # only now: the code is missing or damaged and must be generated
+    from pulsemap.symbolic import codegen  # only now: the code is missing or damaged and must be generated
 
     return _load_path(codegen.write(source))
 
@@ -146,7 +146,7 @@ def balance_module(R_text: str, params, n: float, profile: str = "exact", model:
                    site_dependent=()) -> ModuleType:
     """The generated energy- or momentum-balance module for this source, generating it if missing.
 
-    Raises pulsemap.derive.balance.BalanceError (a ValueError) when the model is undefined for R.
+    Raises pulsemap.symbolic.balance.BalanceError (a ValueError) when the model is undefined for R.
     """
     if model not in BALANCE_MODELS:
         raise ValueError(f"unknown balance model {model!r}: choose one of {', '.join(BALANCE_MODELS)}")

@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pulsemap.derive import cache
-from pulsemap.derive.scaling import scaling_exponent
+from pulsemap.symbolic import cache
+from pulsemap.symbolic.scaling import scaling_exponent
 from pulsemap.solvers.models.dressed_expansion import (chain_coefficients, chain_cross, check_monomial,
                                                        first_order_rate)
 

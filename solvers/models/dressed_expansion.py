@@ -43,8 +43,8 @@ import math
 
 import numpy as np
 
-from pulsemap.derive.profile import NPU, exact_profile
-from pulsemap.derive.scaling import scaling_exponent
+from pulsemap.symbolic.profile import NPU, exact_profile
+from pulsemap.symbolic.scaling import scaling_exponent
 
 
 class ExpansionError(ValueError):
@@ -63,8 +63,8 @@ def check_monomial(a, b, error: type[ValueError] = ExpansionError) -> tuple[int,
 
 def first_order_rate(a: int, b: int, n: float) -> float:
     """k1 = -w_ab / ((n + 1) E_1): d ln A/di = -k1 x (energy balance, derive/balance.py)."""
-    from pulsemap.derive.balance import balance_constants  # mpmath integrals, cached
-    from pulsemap.derive.balance_constants import integral_name
+    from pulsemap.symbolic.balance import balance_constants  # mpmath integrals, cached
+    from pulsemap.symbolic.balance_constants import integral_name
 
     name = integral_name("energy", a, b)
     c = balance_constants(["K1", "V1", name], n=n)

@@ -24,7 +24,7 @@ from typing import Callable
 
 import numpy as np
 
-from pulsemap.derive.profile import exact_profile
+from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.models.amplitude_ode import integrate_amplitude_law
 from pulsemap.solvers.models.balance_eval import BalanceRun
 

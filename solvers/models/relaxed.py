@@ -80,7 +80,7 @@ class RelaxedModel:
         """log P' of the X_SMALL boundary when log_p lies beyond it (monomial path), else None."""
         if self.e is None:
             return None
-        from pulsemap.derive.profile import exact_profile
+        from pulsemap.symbolic.profile import exact_profile
 
         # |x| = (P'/S0)^e; X_SMALL boundary at log P' = log S0 + log(X_SMALL)/e
         bound = math.log(exact_profile(self.n).S0) + math.log(X_SMALL) / self.e
@@ -198,7 +198,7 @@ def build_model(R, R_text: str, used: tuple[str, ...], values: Mapping[str, obje
     ``coefficients``: eps_i R_i(1, 1) per bead (the monomial's local coefficient); needed for a
     single monomial, ignored otherwise. Site-dependent R with several monomials is refused.
     """
-    from pulsemap.derive.scaling import monomial_exponents, scaling_exponent
+    from pulsemap.symbolic.scaling import monomial_exponents, scaling_exponent
 
     if not (math.isfinite(eps) and eps >= 0):
         raise RelaxedError(f"eps must be a finite number >= 0, got {eps!r}")
@@ -234,7 +234,7 @@ def bead_coefficients(force_mod, used: tuple[str, ...], values: Mapping[str, obj
 def model_for_scene(scene, values: Mapping[str, object], *, rtol: float = 1e-9, engine: str = "auto",
                     method: str = "DOP853") -> RelaxedModel:
     """The relaxed model of a scene's eps R (``values``: its parameters, scalars or per-bead arrays)."""
-    from pulsemap.derive.scaling import monomial_exponents
+    from pulsemap.symbolic.scaling import monomial_exponents
     from pulsemap.solvers.models.codeload import force_module
 
     pert = scene.perturbation

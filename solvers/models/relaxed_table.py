@@ -16,7 +16,7 @@ turns them into two interpolants (natural log of the per-contact ratio r = P_{k+
 
 Each run is cached by a key naming everything it depends on (R, parameters, eps, n, lattice
 point, geometry, tolerances, engine), so a table grows run by run and is shared by every scene
-that needs the same runs (pulsemap.derive.cache, namespace "relaxed").
+that needs the same runs (pulsemap.symbolic.cache, namespace "relaxed").
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pulsemap.derive import cache
+from pulsemap.symbolic import cache
 
 if TYPE_CHECKING:  # pragma: no cover
     from pulsemap.solvers.chain.equations import OnSiteForce
@@ -159,7 +159,7 @@ class SegmentTable:
 
     def ensure_entry(self, log_p0: float, margin: int = 3) -> None:
         """Runs whose entry peaks bracket exp(log_p0) with ``margin`` lattice points each side."""
-        from pulsemap.derive.profile import exact_profile
+        from pulsemap.symbolic.profile import exact_profile
 
         S0 = exact_profile(self.spec.n).S0
         j0 = int(math.floor((log_p0 - math.log(S0)) / math.log(2.0) * LATTICE))

@@ -23,7 +23,7 @@ from pulsemap.solvers.models.amplitude_ode import integrate_amplitude_law
 from pulsemap.solvers.models.longwave_eval import LawRun
 
 if TYPE_CHECKING:  # pragma: no cover  (sympy-free at import time)
-    from pulsemap.derive.perturbation import Perturbation
+    from pulsemap.symbolic.perturbation import Perturbation
 
 #: Bead position of a balance law's work at contact index i (derive/site_law.py BEAD_SHIFT).
 BALANCE_SHIFT = 0.5

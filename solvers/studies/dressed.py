@@ -19,15 +19,15 @@ from itertools import combinations
 import numpy as np
 import sympy
 
-from pulsemap.derive.balance import BalanceError, balance_expand, json_header
-from pulsemap.derive.dressed import I as DRESSED_I
-from pulsemap.derive.dressed import CrossTerm, DressedError, DressedLaw, DressedTerm
-from pulsemap.derive.site_law import I as SITE_I
-from pulsemap.derive.site_law import coefficient_of_i
-from pulsemap.derive.expansion import bead_symbol
-from pulsemap.derive.expression import symbol
-from pulsemap.derive.perturbation import Perturbation
-from pulsemap.derive.profile import check_exponent
+from pulsemap.symbolic.balance import BalanceError, balance_expand, json_header
+from pulsemap.symbolic.dressed import I as DRESSED_I
+from pulsemap.symbolic.dressed import CrossTerm, DressedError, DressedLaw, DressedTerm
+from pulsemap.symbolic.site_law import I as SITE_I
+from pulsemap.symbolic.site_law import coefficient_of_i
+from pulsemap.symbolic.expansion import bead_symbol
+from pulsemap.symbolic.expression import symbol
+from pulsemap.symbolic.perturbation import Perturbation
+from pulsemap.symbolic.profile import check_exponent
 from pulsemap.solvers.models.dressed_derived import derive_cross, derive_monomial
 from pulsemap.solvers.models.dressed_eval import DressedCoefficients
 from pulsemap.solvers.models.dressed_expansion import ExpansionError

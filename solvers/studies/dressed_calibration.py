@@ -42,9 +42,9 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from pulsemap.derive import cache
-from pulsemap.derive.profile import exact_profile
-from pulsemap.derive.scaling import scaling_exponent
+from pulsemap.symbolic import cache
+from pulsemap.symbolic.profile import exact_profile
+from pulsemap.symbolic.scaling import scaling_exponent
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
 from pulsemap.solvers.models.dressed_expansion import check_monomial, first_order_rate  # noqa: F401 (re-exported)

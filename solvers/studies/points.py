@@ -27,7 +27,7 @@ __all__ = ["bead_params", "chain_force", "dns_map_task", "dns_span", "dns_task",
 
 
 def _param_data(pert, name: str, beads: int) -> Any:
-    from pulsemap.derive.perturbation import RandomDraw
+    from pulsemap.symbolic.perturbation import RandomDraw
 
     value = pert.params[name]
     if name not in pert.site_dependent:
@@ -39,7 +39,7 @@ def _param_data(pert, name: str, beads: int) -> Any:
 
 def random_params(scene) -> list[str]:
     """Names of the scene's parameters drawn at random per bead (sorted)."""
-    from pulsemap.derive.perturbation import RandomDraw
+    from pulsemap.symbolic.perturbation import RandomDraw
 
     pert = scene.perturbation
     return sorted(n for n in pert.used_parameters if isinstance(pert.params[n], RandomDraw))
@@ -97,7 +97,7 @@ def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, va
 
 
 def bead_params(chain: Mapping[str, Any]) -> dict[str, float | np.ndarray]:
-    """Parameter values: floats, or per-bead arrays (random draws as in pulsemap.derive.perturbation:
+    """Parameter values: floats, or per-bead arrays (random draws as in pulsemap.symbolic.perturbation:
     ``numpy.random.default_rng(seed).uniform(low, high, size=beads)``)."""
     beads = int(chain["beads"])
     out: dict[str, float | np.ndarray] = {}

@@ -21,7 +21,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Sequence
 
-from pulsemap.derive.provenance import provenance
+from pulsemap.symbolic.provenance import provenance
 from pulsemap.solvers import __version__
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene, SceneError, check_choice

@@ -6,7 +6,7 @@ import time
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
-from pulsemap.derive.profile import exact_profile
+from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.models.dressed_eval import evaluate_dressed_law
 from pulsemap.solvers.studies.methods import MODEL_TITLES
 from pulsemap.solvers.studies.points import on_contacts
@@ -19,7 +19,7 @@ METHOD = "dressed-law"
 
 def prepare_dressed(state: "RunState"):
     """The dressed law for the scene's R, or None (refused, with the reason in the result and a warning)."""
-    from pulsemap.derive.dressed import DressedError  # sympy: only when the dressed law is asked for
+    from pulsemap.symbolic.dressed import DressedError  # sympy: only when the dressed law is asked for
     from pulsemap.solvers.studies.dressed import dressed_law
 
     scene, out = state.scene, state.out

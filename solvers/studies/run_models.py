@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pulsemap.derive.profile import exact_profile
+from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.models.balance_eval import BalanceRun, evaluate_balance_law, iterate_balance_map
 from pulsemap.solvers.models.codeload import balance_module, force_module, map_module
 from pulsemap.solvers.models.energy_quadrature import bead_force, evaluate_energy_law, iterate_energy_map
@@ -51,13 +51,13 @@ def _width_warning(mod) -> str | None:
 
 def derive_models(state: "RunState") -> tuple[ModuleType | None, dict[str, ModuleType]]:
     """The generated map module (map, longwave) and balance modules the methods need; a balance model
-    undefined for R is reported as refused (pulsemap.derive.balance.BalanceError), not raised."""
+    undefined for R is reported as refused (pulsemap.symbolic.balance.BalanceError), not raised."""
     scene, choice, methods, out = state.scene, state.choice, state.methods, state.out
     pert = scene.perturbation
     site = pert.site_dependent
     mod = None
     balance: dict[str, ModuleType] = {}
-    from pulsemap.derive.expression import is_polynomial_in_state  # sympy, already loaded with the scene
+    from pulsemap.symbolic.expression import is_polynomial_in_state  # sympy, already loaded with the scene
 
     polynomial = is_polynomial_in_state(pert.R)
     if "map" in methods or "longwave" in methods:
@@ -83,7 +83,7 @@ def derive_models(state: "RunState") -> tuple[ModuleType | None, dict[str, Modul
         try:
             balance[quantity] = balance_module(pert.text, pert.used_parameters, scene.exponent, choice.profile,
                                                quantity, site)
-        except ValueError as exc:  # the model is undefined for this R (pulsemap.derive.balance.BalanceError)
+        except ValueError as exc:  # the model is undefined for this R (pulsemap.symbolic.balance.BalanceError)
             for m in methods:
                 if BALANCE_METHODS.get(m, ("",))[0] == quantity:
                     state.warnings.append(f"{m} refused: {exc}")

@@ -102,7 +102,7 @@ def point_key(params: Mapping[str, Any]) -> str:
 
 def generated_ref(module: ModuleType) -> dict:
     """``{"name", "hash"}`` of a loaded generated module: what a worker needs to load it."""
-    from pulsemap.derive.sources import module_name, source_from_dict, source_hash
+    from pulsemap.symbolic.sources import module_name, source_from_dict, source_hash
 
     source = source_from_dict(module.SOURCE)
     return {"name": module_name(source), "hash": source_hash(source)}
@@ -110,7 +110,7 @@ def generated_ref(module: ModuleType) -> dict:
 
 def load_generated(ref: Mapping[str, str]) -> ModuleType:
     """Load a generated module by name (generated/ or the cache) and check its source hash."""
-    from pulsemap.derive.sources import source_from_dict, source_hash
+    from pulsemap.symbolic.sources import source_from_dict, source_hash
     from pulsemap.solvers.models.codeload import load_by_name
 
     try:

@@ -14,8 +14,8 @@ import re
 import numpy as np
 import pytest
 
-from pulsemap.derive.cache import cache_dir
-from pulsemap.derive.codegen import PACKAGE_DIR, regenerate_text
+from pulsemap.symbolic.cache import cache_dir
+from pulsemap.symbolic.codegen import PACKAGE_DIR, regenerate_text
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.chain.equations import make_rhs
 from pulsemap.solvers.data.scene import load_scene

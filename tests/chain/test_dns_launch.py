@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pulsemap.derive.profile import exact_profile
+from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.chain.launch import Launch
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pulsemap.derive.profile import exact_profile
+from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.dns import simulate
 
 

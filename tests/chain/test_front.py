@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pulsemap.derive.balance import balance_constants
-from pulsemap.derive.profile import exact_profile
+from pulsemap.symbolic.balance import balance_constants
+from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.chain.equations import OnSiteForce, chain_length_for
 from pulsemap.solvers.chain.front import pulse_speed

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pulsemap.derive.profile import exact_profile
+from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.equations import energy
 from pulsemap.solvers.chain.launch import launch, min_centre, soliton_state
 
@@ -22,7 +22,7 @@ def test_launched_soliton_keeps_its_peak(n, A):
 
 def test_launched_state_carries_the_wave_energy():
     """E = E_1 A^(n+1), E_1 = 2.8234866884 (n = 3/2, virial and quadrature in tests/derive)."""
-    from pulsemap.derive.balance import balance_constants
+    from pulsemap.symbolic.balance import balance_constants
 
     c = balance_constants(["K1", "V1"], n=1.5)
     A = 0.8

@@ -278,19 +278,19 @@ def _scene():
 
 
 def _pert(R="-mu*v", eps=0.1, params=None):
-    from pulsemap.derive.perturbation import make_perturbation
+    from pulsemap.symbolic.perturbation import make_perturbation
 
     return make_perturbation(R, eps, {"mu": 1.0} if params is None else params)
 
 
 def _expression_error():
-    from pulsemap.derive.expression import ExpressionError
+    from pulsemap.symbolic.expression import ExpressionError
 
     return ExpressionError
 
 
 def _perturbation_error():
-    from pulsemap.derive.perturbation import PerturbationError
+    from pulsemap.symbolic.perturbation import PerturbationError
 
     return PerturbationError
 
@@ -314,7 +314,7 @@ def _map_error():
 
 
 def _derive(**kw):
-    from pulsemap.derive.derivation import derive_all
+    from pulsemap.symbolic.derivation import derive_all
 
     return derive_all(_pert(), **kw)
 
@@ -328,29 +328,29 @@ def _iterate(seed_A, seed_contact=15, last=20):
 
 
 def _profile_error():
-    from pulsemap.derive.profile import ProfileError
+    from pulsemap.symbolic.profile import ProfileError
 
     return ProfileError
 
 
 def _derivation_error():
-    from pulsemap.derive.derivation import DerivationError
+    from pulsemap.symbolic.derivation import DerivationError
 
     return DerivationError
 
 
 def _map_variant_error():
-    from pulsemap.derive.amplitude_map import MapError
+    from pulsemap.symbolic.amplitude_map import MapError
 
     return MapError
 
 
 API: list[tuple[str, Callable[[], object], Callable[[], type], list[str]]] = [
-    ("parse: __import__", lambda: importlib.import_module("pulsemap.derive.expression").parse_expression("__import__('os')"),
+    ("parse: __import__", lambda: importlib.import_module("pulsemap.symbolic.expression").parse_expression("__import__('os')"),
      _expression_error, ["'__import__'"]),
-    ("parse: lambda", lambda: importlib.import_module("pulsemap.derive.expression").parse_expression("(lambda: 1)()"),
+    ("parse: lambda", lambda: importlib.import_module("pulsemap.symbolic.expression").parse_expression("(lambda: 1)()"),
      _expression_error, ["'lambda'"]),
-    ("parse: not a string", lambda: importlib.import_module("pulsemap.derive.expression").parse_expression(b"u"),
+    ("parse: not a string", lambda: importlib.import_module("pulsemap.symbolic.expression").parse_expression(b"u"),
      _expression_error, ["must be a string", "bytes"]),
     ("perturbation: eps a string", lambda: _pert(eps="small"), _perturbation_error, ["eps", "unknown symbol 'small'"]),
     ("perturbation: eps negative", lambda: _pert(eps=-0.5), _perturbation_error, ["eps = -0.5", ">= 0"]),

@@ -9,8 +9,8 @@ import pytest
 import sympy
 
 from conftest import assert_same_generated_code, scene_toml, write_scene
-from pulsemap.derive import codegen
-from pulsemap.derive.balance import (
+from pulsemap.symbolic import codegen
+from pulsemap.symbolic.balance import (
     BALANCE_METHOD,
     BalanceError,
     balance_constants,
@@ -20,12 +20,12 @@ from pulsemap.derive.balance import (
     to_latex,
     to_text,
 )
-from pulsemap.derive.derivation import DerivationError, derive_model
-from pulsemap.derive.expression import symbol
-from pulsemap.derive.longwave import LAW_RATE, A0, I, I0
-from pulsemap.derive.perturbation import make_perturbation
-from pulsemap.derive.profile import exact_profile
-from pulsemap.derive.sources import BALANCE_METHOD as SOURCES_BALANCE_METHOD
+from pulsemap.symbolic.derivation import DerivationError, derive_model
+from pulsemap.symbolic.expression import symbol
+from pulsemap.symbolic.longwave import LAW_RATE, A0, I, I0
+from pulsemap.symbolic.perturbation import make_perturbation
+from pulsemap.symbolic.profile import exact_profile
+from pulsemap.symbolic.sources import BALANCE_METHOD as SOURCES_BALANCE_METHOD
 from pulsemap.solvers.models.balance_eval import evaluate_balance_law, iterate_balance_map
 from pulsemap.solvers.models.codeload import balance_module
 from pulsemap.solvers.studies.run import MODELS, run_scene, to_csv

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from pulsemap.derive import cache
+from pulsemap.symbolic import cache
 from pulsemap.solvers.models import codeload
 
 

@@ -6,16 +6,16 @@ import sympy
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pulsemap.derive.amplitude_map import A_I, A_NEXT, A_PREV, EPS, AmplitudeMap
-from pulsemap.derive.derivation import derive_all, to_json, to_latex, to_text
-from pulsemap.derive.expansion import D0, D1, W0, W1, ExpansionError, bead_symbol, expand
-from pulsemap.derive.expression import parse_expression, symbol
-from pulsemap.derive.integrals import F_NAMES, constants
-from pulsemap.derive.sources import INTEGRALS_METHOD as METHOD
-from pulsemap.derive.longwave import LAW_RATE, A0, I, I0, longwave_law
-from pulsemap.derive.perturbation import make_perturbation
-from pulsemap.derive.profile import exact_profile
-from pulsemap.derive.stationary import positive_roots
+from pulsemap.symbolic.amplitude_map import A_I, A_NEXT, A_PREV, EPS, AmplitudeMap
+from pulsemap.symbolic.derivation import derive_all, to_json, to_latex, to_text
+from pulsemap.symbolic.expansion import D0, D1, W0, W1, ExpansionError, bead_symbol, expand
+from pulsemap.symbolic.expression import parse_expression, symbol
+from pulsemap.symbolic.integrals import F_NAMES, constants
+from pulsemap.symbolic.sources import INTEGRALS_METHOD as METHOD
+from pulsemap.symbolic.longwave import LAW_RATE, A0, I, I0, longwave_law
+from pulsemap.symbolic.perturbation import make_perturbation
+from pulsemap.symbolic.profile import exact_profile
+from pulsemap.symbolic.stationary import positive_roots
 
 u, v = symbol("u"), symbol("v")
 
@@ -301,8 +301,8 @@ def test_singular_index_at_the_ends_of_the_A0_range_is_finite_or_none(R, A0):
 @pytest.mark.parametrize("kw, needle", [({"A0_value": float("nan")}, "A0 = nan"), ({"A0_value": 0.0}, "A0 = 0"),
                                         ({"i0": float("inf")}, "i0 = inf"), ({"sympy_seconds": -1}, "sympy_seconds = -1")])
 def test_law_options_out_of_range_are_refused(kw, needle):
-    from pulsemap.derive.balance import BalanceError, derive_balance
-    from pulsemap.derive.derivation import DerivationError
+    from pulsemap.symbolic.balance import BalanceError, derive_balance
+    from pulsemap.symbolic.derivation import DerivationError
 
     pert = make_perturbation("-mu*v", 0.1, {"mu": 1.0})
     with pytest.raises(DerivationError, match=needle.replace("(", r"\(")):
@@ -313,12 +313,12 @@ def test_law_options_out_of_range_are_refused(kw, needle):
 
 def test_max_seconds_stops_a_long_derivation_and_the_next_run_resumes(tmp_path, monkeypatch):
     """derive --max-seconds: DeriveTimeout naming where it stopped; the integrals done stay cached."""
-    from pulsemap.derive import cache
-    from pulsemap.derive.budget import DeriveTimeout
+    from pulsemap.symbolic import cache
+    from pulsemap.symbolic.budget import DeriveTimeout
 
     import time
 
-    from pulsemap.derive import integrals
+    from pulsemap.symbolic import integrals
 
     monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path))
     compute = integrals._compute_bounded
@@ -338,7 +338,7 @@ def test_max_seconds_stops_a_long_derivation_and_the_next_run_resumes(tmp_path, 
 
 @pytest.mark.parametrize("bad", [0, -1, float("nan"), float("inf"), "10", True])
 def test_max_seconds_out_of_range_is_refused(bad):
-    from pulsemap.derive.derivation import DerivationError
+    from pulsemap.symbolic.derivation import DerivationError
 
     with pytest.raises(DerivationError, match="max_seconds"):
         derive_all(make_perturbation("-mu*v", 0.1, {"mu": 1}), max_seconds=bad)

@@ -8,10 +8,10 @@ import json
 import pytest
 import sympy
 
-from pulsemap.derive.derivation import derive_all, to_json, to_latex, to_text
-from pulsemap.derive.expression import UserSymbol
-from pulsemap.derive.longwave import LAW_RATE
-from pulsemap.derive.perturbation import make_perturbation
+from pulsemap.symbolic.derivation import derive_all, to_json, to_latex, to_text
+from pulsemap.symbolic.expression import UserSymbol
+from pulsemap.symbolic.longwave import LAW_RATE
+from pulsemap.symbolic.perturbation import make_perturbation
 
 
 def _derive(R, params, **kw):

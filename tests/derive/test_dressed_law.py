@@ -5,7 +5,7 @@ import math
 import pytest
 import sympy
 
-from pulsemap.derive.dressed import A, A_S, I0, CrossTerm, DressedLaw, DressedTerm
+from pulsemap.symbolic.dressed import A, A_S, I0, CrossTerm, DressedLaw, DressedTerm
 
 
 def _term(c=-0.1, e=sympy.Rational(-1, 4), k1=-4 / 9, rho=0.29, lag=0.27, next_kind="x^2", nxt=0.08, name="v"):

@@ -1,4 +1,4 @@
-"""Tests for pulsemap.derive.expression: correctness, a catalogue of hostile inputs, and properties."""
+"""Tests for pulsemap.symbolic.expression: correctness, a catalogue of hostile inputs, and properties."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import sympy
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pulsemap.derive.expression import (
+from pulsemap.symbolic.expression import (
     FUNCTIONS,
     MAX_LENGTH,
     SYMBOLS,

@@ -10,12 +10,12 @@ import pytest
 import sympy
 
 from conftest import assert_same_generated_code
-from pulsemap.derive import codegen
-from pulsemap.derive.amplitude_map import A_I, A_NEXT, A_PREV, EPS, AmplitudeMap
-from pulsemap.derive.expansion import expand
-from pulsemap.derive.expression import parse_expression, symbol
-from pulsemap.derive.integrals import METHOD_VERSION
-from pulsemap.derive.sources import INTEGRALS_METHOD, GeneratedCodeError, verify_generated
+from pulsemap.symbolic import codegen
+from pulsemap.symbolic.amplitude_map import A_I, A_NEXT, A_PREV, EPS, AmplitudeMap
+from pulsemap.symbolic.expansion import expand
+from pulsemap.symbolic.expression import parse_expression, symbol
+from pulsemap.symbolic.integrals import METHOD_VERSION
+from pulsemap.symbolic.sources import INTEGRALS_METHOD, GeneratedCodeError, verify_generated
 from pulsemap.solvers.models.codeload import GeneratedModuleError, _load_path, force_module, map_module
 from pulsemap.solvers.models.map_iteration import iterate_map
 from pulsemap.solvers.models.map_bracket import fallback as _fallback
@@ -136,8 +136,8 @@ def test_van_der_pol_stable_and_unstable_stationary_amplitudes():
 
 
 def test_fold_by_continuation_equals_the_derivation():
-    from pulsemap.derive.derivation import derive_all
-    from pulsemap.derive.perturbation import make_perturbation
+    from pulsemap.symbolic.derivation import derive_all
+    from pulsemap.symbolic.perturbation import make_perturbation
 
     mod = map_module(VDP, ["mu"], 1.5, "exact", "1d")
     cont = continue_roots(mod, {"mu": 3.0}, "mu", 1.0, 4.0, 61)
@@ -183,7 +183,7 @@ def test_site_dependent_map_uses_per_bead_values():
 def test_closed_form_longwave_law_ends_as_the_derivation_says(text, name, eps):
     """The generated closed-form law (Eq. 30) ends where, and as (extinction / blow-up), the symbolic
     law's singular index says; the amplitudes before the end move the same way."""
-    from pulsemap.derive.longwave import longwave_law
+    from pulsemap.symbolic.longwave import longwave_law
 
     from pulsemap.solvers.models.longwave_eval import evaluate_law
 

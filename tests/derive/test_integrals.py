@@ -5,9 +5,9 @@ import time
 import numpy as np
 import pytest
 
-from pulsemap.derive import integrals
-from pulsemap.derive.integrals import constants, f_constants, g1, g2
-from pulsemap.derive.profile import exact_profile
+from pulsemap.symbolic import integrals
+from pulsemap.symbolic.integrals import constants, f_constants, g1, g2
+from pulsemap.symbolic.profile import exact_profile
 
 
 def _simpson(profile, func, lo, hi=0.0, m=20000):

@@ -11,9 +11,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pulsemap.derive.derivation import derive_all, to_json, to_latex, to_text
-from pulsemap.derive.expression import RESERVED, check_parameter_name
-from pulsemap.derive.perturbation import make_perturbation
+from pulsemap.symbolic.derivation import derive_all, to_json, to_latex, to_text
+from pulsemap.symbolic.expression import RESERVED, check_parameter_name
+from pulsemap.symbolic.perturbation import make_perturbation
 from pulsemap.solvers.models.codeload import balance_module, force_module, map_module
 
 #: Names the derivation or a generated module uses itself: profile constants and integrals, the

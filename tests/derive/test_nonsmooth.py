@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from pulsemap.derive.balance import BalanceError, balance_expand
-from pulsemap.derive.codegen_force import DELTA
-from pulsemap.derive.expansion import ExpansionError, expand
-from pulsemap.derive.expression import parse_expression
+from pulsemap.symbolic.balance import BalanceError, balance_expand
+from pulsemap.symbolic.codegen_force import DELTA
+from pulsemap.symbolic.expansion import ExpansionError, expand
+from pulsemap.symbolic.expression import parse_expression
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.chain.equations import OnSiteForce, choose_method
 from pulsemap.solvers.models.codeload import force_module

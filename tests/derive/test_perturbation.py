@@ -1,4 +1,4 @@
-"""Tests for pulsemap.derive.perturbation: parameter forms, per-bead values and validation messages."""
+"""Tests for pulsemap.symbolic.perturbation: parameter forms, per-bead values and validation messages."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import sympy
 
-from pulsemap.derive.expression import symbol
-from pulsemap.derive.perturbation import (
+from pulsemap.symbolic.expression import symbol
+from pulsemap.symbolic.perturbation import (
     IndexExpression,
     ParamMap,
     Perturbation,

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pulsemap.derive.profile import (
+from pulsemap.symbolic.profile import (
     ProfileError,
     equation4_residual,
     exact_profile,
@@ -120,7 +120,7 @@ def test_near_one_the_profile_is_wide_and_still_solves_eq4():
 
 
 def test_blocked_inner_product_is_np_dot_for_one_block():
-    from pulsemap.derive.profile import _dot
+    from pulsemap.symbolic.profile import _dot
 
     rng = np.random.default_rng(3)
     a, b = rng.normal(size=8192), rng.normal(size=8192)

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 import sympy
 
-from pulsemap.derive.balance import derive_balance
-from pulsemap.derive.derivation import derive_all
-from pulsemap.derive.perturbation import make_perturbation
-from pulsemap.derive.site_law import A0, I, I0, SiteLaw
+from pulsemap.symbolic.balance import derive_balance
+from pulsemap.symbolic.derivation import derive_all
+from pulsemap.symbolic.perturbation import make_perturbation
+from pulsemap.symbolic.site_law import A0, I, I0, SiteLaw
 
 
 def _residual_at(law: SiteLaw, points):
@@ -62,7 +62,7 @@ def test_per_bead_list_law_is_a_quadrature():
 
 
 def test_site_law_in_json_and_text():
-    from pulsemap.derive.derivation import to_json, to_text
+    from pulsemap.symbolic.derivation import to_json, to_text
 
     d = derive_all(GRADED)
     data = to_json(d)

@@ -9,8 +9,8 @@ import shutil
 import numpy as np
 import pytest
 
-from pulsemap.derive import codegen
-from pulsemap.derive.sources import ForceSource, module_name
+from pulsemap.symbolic import codegen
+from pulsemap.symbolic.sources import ForceSource, module_name
 from pulsemap.solvers.models import codeload
 from pulsemap.solvers.models.codeload import GeneratedModuleError, force_module, load_by_name
 

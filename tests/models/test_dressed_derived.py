@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from pulsemap.derive.profile import exact_profile
+from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
 from pulsemap.solvers.models import dressed_derived as dd

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import sympy
 
-from pulsemap.derive.dressed import A, A_S, I0, DressedLaw, DressedTerm
+from pulsemap.symbolic.dressed import A, A_S, I0, DressedLaw, DressedTerm
 from pulsemap.solvers.models.dressed_eval import DressedCoefficients, DressedEvalError, evaluate_dressed_law
 
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pulsemap.derive.balance import balance_constants
+from pulsemap.symbolic.balance import balance_constants
 from pulsemap.solvers.models.energy_quadrature import (EnergyQuadratureError, evaluate_energy_law,
                                                        iterate_energy_map, wave_table, work)
 

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from pulsemap.derive.perturbation import make_perturbation
-from pulsemap.derive.profile import exact_profile
-from pulsemap.derive.scaling import monomial_exponents, scaling_exponent
+from pulsemap.symbolic.perturbation import make_perturbation
+from pulsemap.symbolic.profile import exact_profile
+from pulsemap.symbolic.scaling import monomial_exponents, scaling_exponent
 from pulsemap.solvers.models import relaxed_table as rt
 from pulsemap.solvers.models.codeload import force_module
 from pulsemap.solvers.models.relaxed import RelaxedError, bead_coefficients, build_model, iterate_relaxed

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
-from pulsemap.derive import cache
+from pulsemap.symbolic import cache
 from pulsemap.solvers.models import relaxed_table as rt
 
 

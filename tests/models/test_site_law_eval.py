@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from pulsemap.derive.balance import derive_balance
-from pulsemap.derive.derivation import derive_all
-from pulsemap.derive.perturbation import make_perturbation
-from pulsemap.derive.site_law import A0, I, I0
+from pulsemap.symbolic.balance import derive_balance
+from pulsemap.symbolic.derivation import derive_all
+from pulsemap.symbolic.perturbation import make_perturbation
+from pulsemap.symbolic.site_law import A0, I, I0
 from pulsemap.solvers.models.codeload import balance_module, map_module
 from pulsemap.solvers.models.site_law_eval import SiteLawError, evaluate_site_law
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import sympy
 
-from pulsemap.derive.profile import exact_profile
+from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
 from pulsemap.solvers.studies import dressed_calibration as dc
@@ -159,7 +159,7 @@ def test_api_dressed():
 def test_site_coefficients_along_a_grid_equal_the_pointwise_ones():
     """coefficient_along (one lambdified evaluation over the grid) against coefficient_at (sympy
     substitution per bead position) on a random foundation: the same numbers."""
-    from pulsemap.derive.balance import balance_expand
+    from pulsemap.symbolic.balance import balance_expand
     from pulsemap.solvers.data.scene import load_scene
     from pulsemap.solvers.studies.dressed import coefficient_along, coefficient_at
 

@@ -63,7 +63,7 @@ def test_site_dependent_scene_solves_the_law_with_bead_coefficients():
 
 
 def test_van_der_pol_mu3_both_impulses_approach_the_stable_root():
-    from pulsemap.derive.derivation import derive_all
+    from pulsemap.symbolic.derivation import derive_all
 
     finals = []
     for name in ("vdp-mu3-v2.3", "vdp-mu3-v0.3"):
