@@ -35,10 +35,11 @@ scene = pulsemap.scene("fig8-eps0.3", **{"output.contacts": [16, 40]})
 result = pulsemap.run(scene, methods=["dns", "map", "longwave"])
 print(result)
 for model in ("map", "longwave"):
-    print(f"{model}: max relative error against the DNS {result.errors[model]['max_rel']:.3g}")
+    e = result.errors[model]
+    print(f"{model}: RMS error against the DNS {e['rms_pct']:.3g} % (max {e['max_pct']:.3g} %) over the live range")
 
 # %% [markdown]
-# Peaks per contact are numpy arrays; the figure needs matplotlib (`pip install "pulsemap[plot]"`).
+# Peaks per contact are numpy arrays; the figure needs matplotlib (`pip install "pulsemap[notebook]"`).
 
 # %%
 print(result.contacts[:5], result.peaks["dns"][:5])

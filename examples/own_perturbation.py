@@ -39,7 +39,7 @@ scene = pulsemap.scene(
 )
 for profile in ("exact", "pade"):
     r = pulsemap.run(scene, methods=["dns", "map", "longwave"], profile=profile)
-    print(profile, {m: round(e["max_rel"], 4) for m, e in r.errors.items()})
+    print(profile, "RMS error % vs DNS:", {m: round(e["rms_pct"], 2) for m, e in r.errors.items()})
 
 # %%
 try:

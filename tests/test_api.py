@@ -136,9 +136,15 @@ def test_derive_bad_input(call, error, words):
 # --------------------------------------------------------------------------- scenes
 
 
-def test_scenes_lists_the_builtins():
+def test_scenes_lists_what_the_cli_lists_and_every_name_loads(capsys):
+    from pulsemap.solvers.cli.main import main
+
     names = pulsemap.scenes()
-    assert names == builtin_scenes() and "fig8-eps0.3" in names
+    assert names[:len(builtin_scenes())] == builtin_scenes() and "fig8-eps0.3" in names and "damp-10" in names
+    assert main(["scenes"]) == 0
+    listed = [line.split()[0] for line in capsys.readouterr().out.splitlines() if line.startswith("  ")]
+    assert listed == names
+    assert all(pulsemap.scene(name).name for name in names)
 
 
 def test_scene_overrides_dotted_and_short():
@@ -193,7 +199,10 @@ def test_run_arrays_and_errors(result):
     assert np.all(np.isfinite(dns)) and np.all(np.diff(dns) < 0)  # damping: the pulse decays
     for name in ("map", "longwave"):  # errors recomputed from the arrays
         rel = np.abs(result.peaks[name] / dns - 1)
-        assert result.errors[name]["max_rel"] == pytest.approx(np.nanmax(rel), rel=1e-12)
+        assert result.errors[name]["live_range"] == [16, 30]  # the DNS peak stays above 2 % of the seed's
+        assert result.errors[name]["unit"] == "percent"
+        assert result.errors[name]["max_pct"] == pytest.approx(100 * np.nanmax(rel), rel=1e-12)
+        assert result.errors[name]["rms_pct"] == pytest.approx(100 * np.sqrt(np.nanmean(rel ** 2)), rel=1e-12)
         assert result.errors[name]["compared"] == int(np.sum(np.isfinite(rel)))
     assert result.timings["dns"] > 0
 
@@ -215,6 +224,9 @@ def test_run_renders(result, tmp_path):
     assert json.loads(json.dumps(data)) == data and data is not result.data
     html = result._repr_html_()
     assert "fig8-eps0.3" in html and all(f"<td>{m}</td>" in html for m in result.methods)
+    for name in ("map", "longwave"):  # the errors as every output shows them (3 significant digits)
+        assert f"<td>{result.errors[name]['rms_pct']:.3g}</td>" in html
+    assert f"pulsemap {pulsemap.__version__}" in html  # provenance
     assert "map" in repr(result) and "scene fig8-eps0.3" in str(result)
 
 
@@ -232,15 +244,16 @@ def test_run_plot(result, tmp_path):
     fig = result.plot(str(path))
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert {line.get_label() for line in fig.axes[0].get_lines()} >= {"DNS", "long-wave law"}
+    assert fig._repr_png_()[:8] == b"\x89PNG\r\n\x1a\n"  # Jupyter shows it without %matplotlib inline
 
 
 def test_missing_optional_packages_give_the_install_hint(result, monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
     monkeypatch.setitem(sys.modules, "pandas", None)
-    with pytest.raises(ImportError, match=r'pip install "pulsemap\[plot\]"'):
+    with pytest.raises(ImportError, match=r'pip install "pulsemap\[notebook\]"'):
         result.plot()
-    with pytest.raises(ImportError, match="pip install pandas"):
+    with pytest.raises(ImportError, match=r'pip install "pulsemap\[notebook\]"'):
         result.to_dataframe()
 
 
@@ -258,6 +271,8 @@ def test_run_without_dns_and_choices():
     (lambda: pulsemap.run("default", methods=[]), ValueError, "methods is empty"),
     (lambda: pulsemap.run("default", methods="map", profile="exat"), ValueError, "exact"),
     (lambda: pulsemap.run("default", methods="map", variant=1), TypeError, "variant must be a string"),
+    (lambda: pulsemap.run("default", methods="map", rank=True), ValueError, "add 'dns' to the methods"),
+    (lambda: pulsemap.run("default", methods="map", rank=1), TypeError, "rank must be True or False"),
 ])
 def test_run_bad_input(call, error, words):
     with pytest.raises(error) as info:

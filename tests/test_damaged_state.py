@@ -108,7 +108,7 @@ def test_a_non_utf8_line_in_a_rows_file_names_the_file_and_line(tmp_path, capsys
     (row,) = table([str(scene)], rows_file=rows_file, columns=COLUMNS[:1])
     good = rows_file.read_bytes()
     for damage in (b'{"scene": "\xff"}\n', json.dumps({**row, "live": "many"}).encode() + b"\n",
-                   json.dumps({**row, "winner": {"model": "map", "rms_rel": "small"}}).encode() + b"\n"):
+                   json.dumps({**row, "winner": {"model": "map", "rms_pct": "small"}}).encode() + b"\n"):
         rows_file.write_bytes(damage + good)  # line 1 damaged, line 2 the good row
         capsys.readouterr()
         assert list(read_rows(rows_file).values()) == [row]

@@ -47,7 +47,7 @@ def test_example_runs(script, tmp_path_factory, monkeypatch):
     try:
         import matplotlib  # noqa: F401
     except ImportError:
-        assert 'pip install "pulsemap[plot]"' in out
+        assert 'pip install "pulsemap[notebook]"' in out
     else:
         assert figure.read_bytes()[:4] == b"\x89PNG" and f"figure written to {figure.name}" in out
     assert r"\tag{23.1}" in out or "0 = " in out  # the map or the law printed

@@ -10,7 +10,7 @@ from typing import Any, Mapping
 
 __all__ = ["Result"]
 
-PLOT_HINT = 'pip install "pulsemap[plot]"'
+NOTEBOOK_HINT = 'pip install "pulsemap[notebook]"'
 
 
 @dataclass(frozen=True)
@@ -29,8 +29,10 @@ class Result:
     peaks: Mapping[str, Any]
     """Method -> peaks per contact (numpy float arrays), for every method that was computed."""
     errors: Mapping[str, Mapping[str, Any]]
-    """Model -> errors against the live DNS peaks: max_rel, rms_rel, compared, missing, and
-    max_rel_strong (only where the DNS peak is at least 10 % of the seed peak)."""
+    """Model -> its error against the DNS, the one definition every output uses: ``rms_pct`` and
+    ``max_pct`` (percent) over ``live_range`` (contacts first_perturbed up to the last whose DNS
+    peak is >= 2 % of the seed peak; a live contact without a model value counts 100 %),
+    ``compared``, ``missing`` and ``unit`` ("percent")."""
     timings: Mapping[str, float]
     """Seconds per step (derive_map, dns, map, longwave, ...)."""
     produced_by: Mapping[str, Mapping[str, Any]]
@@ -85,7 +87,7 @@ class Result:
         try:
             import pandas as pd
         except ImportError:
-            raise ImportError("Result.to_dataframe() needs pandas: pip install pandas") from None
+            raise ImportError(f"Result.to_dataframe() needs pandas: {NOTEBOOK_HINT}") from None
         columns: dict[str, Any] = dict(self.peaks)
         alive = (self.data.get("dns") or {}).get("alive")
         if alive is not None:
@@ -97,19 +99,13 @@ class Result:
     def plot(self, path: str | None = None, *, log_y: bool = False):
         """The peaks against the contact index in the paper's style (DNS +, map dots, law a line);
         saved to ``path`` when given. Returns the matplotlib Figure. Needs matplotlib."""
+        from pulsemap.solvers.data.plotting import figures, peaks_figure
+
         try:
-            from matplotlib.figure import Figure
+            plt = figures(ImportError)
         except ImportError:
-            raise ImportError(f"Result.plot() needs matplotlib: {PLOT_HINT}") from None
-        from pulsemap.solvers.data.plotting import peaks_figure
-
-        class _Figures:  # peaks_figure's plt.subplots, without pyplot (keeps the caller's backend)
-            @staticmethod
-            def subplots(figsize):
-                fig = Figure(figsize=figsize)
-                return fig, fig.subplots()
-
-        fig = peaks_figure(self.data, _Figures, log_y)
+            raise ImportError(f"Result.plot() needs matplotlib: {NOTEBOOK_HINT}") from None
+        fig = peaks_figure(self.data, plt, log_y)
         if path is not None:
             fig.savefig(path, dpi=120)
         return fig
@@ -119,7 +115,13 @@ class Result:
 
         return to_text(self.data)
 
+    @property
+    def ranking(self) -> list[dict]:
+        """Every model against the DNS, least RMS first (``pulsemap.run(..., rank=True)``; else [])."""
+        return copy.deepcopy(self.data.get("ranking") or [])
+
     def _repr_html_(self) -> str:
+        """A compact table for Jupyter: per method its error, time and what produced it; then provenance."""
         sc = self.provenance["scene"]
         ch = self.provenance["choices"]
         e = html.escape
@@ -127,26 +129,32 @@ class Result:
                 f"eps = {sc['perturbation']['eps']:g}, v0 = {sc['excitation']['velocity']:g}, contacts "
                 f"{int(self.contacts[0])}..{int(self.contacts[-1])}; profile {e(ch['profile'])}, "
                 f"map variant {e(ch['variant'])}")
-        rows = ["<tr><th>method</th><th>max rel error vs DNS</th><th>rms rel error</th>"
-                "<th>contacts compared</th><th>time [s]</th><th>produced by</th></tr>"]
+        span = next((err["live_range"] for err in self.errors.values() if err.get("live_range")), None)
+        where = f" over contacts {span[0]}..{span[1]}" if span else ""
+        best = (self.data.get("best") or {}).get("column")
+        rows = [f"<tr><th>method</th><th>RMS error %{where}</th><th>max error %</th><th>time [s]</th>"
+                "<th>produced by</th></tr>"]
         for name in self.methods:
             err = self.errors.get(name, {})
             how = self.produced_by.get(name, {})
             if name == "dns":
                 what = f"{how.get('method', '')} rtol {how.get('rtol', '')} atol {how.get('atol', '')}"
             else:
-                what = ", ".join(f"{k} {how[k]}" for k in ("profile", "variant") if k in how)
+                what = ", ".join([str(how.get("model", ""))] + [f"{k} {how[k]}" for k in ("profile", "variant")
+                                                                if k in how])
+            label = f"{name} (best)" if name == best else name
             rows.append("<tr>" + "".join(f"<td>{e(str(c))}</td>" for c in (
-                name, _fmt(err.get("max_rel")), _fmt(err.get("rms_rel")), err.get("compared", ""),
-                _fmt(self.timings.get(name), ".3g"), what)) + "</tr>")
+                label, _fmt(err.get("rms_pct")), _fmt(err.get("max_pct")), _fmt(self.timings.get(name), ".3g"),
+                what)) + "</tr>")
+        versions = ", ".join(f"{k} {v}" for k, v in self.provenance.items() if isinstance(v, str))
         warn = "".join(f"<li>{e(w)}</li>" for w in self.warnings)
-        return (f"<div>{head}<table>{''.join(rows)}</table>"
+        return (f"<div>{head}<table>{''.join(rows)}</table><small>{e(versions)}</small>"
                 + (f"<ul>{warn}</ul>" if warn else "") + "</div>")
 
     def __repr__(self) -> str:
-        errs = ", ".join(f"{k} {_fmt(v.get('max_rel'))}" for k, v in self.errors.items())
+        errs = ", ".join(f"{k} {_fmt(v.get('rms_pct'))}" for k, v in self.errors.items())
         return (f"Result(scene={self.scene!r}, methods={list(self.methods)}, contacts="
-                f"{int(self.contacts[0])}..{int(self.contacts[-1])}" + (f", max rel error vs DNS: {errs}" if errs else "")
+                f"{int(self.contacts[0])}..{int(self.contacts[-1])}" + (f", RMS error % vs DNS: {errs}" if errs else "")
                 + ")")
 
 

@@ -18,15 +18,18 @@ def run(
     profile: str | None = None,
     variant: str | None = None,
     progress: bool = False,
+    rank: bool = False,
 ) -> Result:
     """Run ``scene`` (a :func:`pulsemap.scene`, a built-in name or a path to a scene file).
 
     ``methods``: any of "dns", "map", "longwave", "energy-map", "energy-law", "momentum-map",
-    "momentum-law" (a list, or one name or comma-separated names); default: the scene's own.
-    ``profile`` ("exact" | "pade") and ``variant`` ("paper" | "corrected" | "1d") override the
-    scene's. With the DNS among the methods, the models start from its peak at the last
-    unperturbed contact and their errors against it are in :attr:`Result.errors`.
-    ``progress``: report the DNS's progress on stderr.
+    "momentum-law", "relaxed", "dressed-law" (a list, or one name or comma-separated names);
+    default: the scene's own. ``profile`` ("exact" | "pade") and ``variant`` ("paper" |
+    "corrected" | "1d") override the scene's. With the DNS among the methods, the models start
+    from its peak at the last unperturbed contact and their errors against it (percent over the
+    live range) are in :attr:`Result.errors`. ``progress``: report the DNS's progress on stderr.
+    ``rank``: also rank every model against the DNS (:attr:`Result.ranking`); the best joins the
+    peaks and errors under its ranking name (e.g. "relaxed", "map/1d").
     """
     from pulsemap.solvers.api.scenes import scene as load
     from pulsemap.solvers.studies.run import run_scene
@@ -46,6 +49,14 @@ def run(
     for name, value in (("profile", profile), ("variant", variant)):
         if value is not None and not isinstance(value, str):
             raise TypeError(f"{name} must be a string, got {type(value).__name__} {value!r}")
-    if not isinstance(progress, bool):
-        raise TypeError(f"progress must be True or False, got {progress!r}")
-    return Result.from_run(run_scene(scene, methods=methods, profile=profile, variant=variant, progress=progress))
+    for name, flag in (("progress", progress), ("rank", rank)):
+        if not isinstance(flag, bool):
+            raise TypeError(f"{name} must be True or False, got {flag!r}")
+    if rank and "dns" not in [m.strip() for m in (methods or scene.methods)]:
+        raise ValueError("rank=True ranks every model against the DNS: add 'dns' to the methods")
+    out = run_scene(scene, methods=methods, profile=profile, variant=variant, progress=progress)
+    if rank:
+        from pulsemap.solvers.studies.ranking import add_ranking
+
+        add_ranking(scene, out)
+    return Result.from_run(out)

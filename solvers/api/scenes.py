@@ -14,6 +14,7 @@ from typing import Any, Mapping
 from pulsemap.solvers.api.checks import closest
 from pulsemap.solvers.data.overrides import set_key
 from pulsemap.solvers.data.scene import Scene, builtin_scenes, load_scene, parse_scene
+from pulsemap.solvers.data.scene_files import suite_scene_names
 from pulsemap.solvers.data.scene_schema import _SCHEMA, _TABLES
 
 __all__ = ["scene", "scenes"]
@@ -25,8 +26,11 @@ SHORT = {key.rsplit(".", 1)[-1]: key for key in KEYS}
 
 
 def scenes() -> list[str]:
-    """Names of the built-in scenes (the paper's figures and the Van der Pol chains), sorted."""
-    return builtin_scenes()
+    """Every scene name :func:`scene` and :func:`pulsemap.run` accept, as ``pulsemap scenes`` lists
+    them: the paper's figures and the Van der Pol chains, then the suite's stiff and extreme cases
+    (each group sorted; the alias "default" is not listed)."""
+    paper = builtin_scenes()
+    return paper + [n for n in suite_scene_names() if n not in paper]
 
 
 def scene(name_or_path: "str | Path | Mapping[str, Any] | Scene", **overrides: Any) -> Scene:

@@ -44,7 +44,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     from pulsemap.solvers.studies.bench import BenchError, Ladder, plot, quick_ladder, run_bench, to_csv, to_text
     from pulsemap.solvers.cli.common import UsageError, progress_log, write_json, write_text
-    from pulsemap.solvers.data.plotting import pyplot
+    from pulsemap.solvers.data.plotting import figures
 
     if args.repeats is not None and args.repeats < 1:
         raise UsageError(f"--repeats must be >= 1, got {args.repeats}")
@@ -55,7 +55,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
                      baselines=not args.no_baselines, models=not args.no_models, engines=not args.no_engines,
                      cold=not args.no_cold)
     if args.plot:
-        pyplot(BenchError)  # fail before the runs, not after
+        figures(BenchError)  # fail before the runs, not after
     log = progress_log(args.quiet)
     reports = run_bench(args.scenes, ladder, log, sets=args.sets)
     print(to_text(reports))

@@ -136,20 +136,22 @@ def cmd_derive(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------------- run
 def cmd_run(args: argparse.Namespace) -> int:
     """``pulsemap run SCENE``: DNS, map and long-wave peaks per contact, errors, timings."""
-    from pulsemap.solvers.studies.ranking import rank_models
+    from pulsemap.solvers.studies.ranking import add_ranking
     from pulsemap.solvers.studies.run import plot, run_scene, to_csv, to_text
     from pulsemap.solvers.studies.run_report import nothing_ran
 
     scene = load_scene_with_sets(args.scene, args.sets)
     methods = args.methods.split(",") if args.methods else None
+    if args.rank and "dns" not in [m.strip() for m in (methods or scene.methods)]:
+        raise UsageError("--rank ranks every model against the DNS: add dns to the methods")
     snapshots = _contact_list(args.snapshots, "--snapshots") if args.snapshots else ()
     result = run_scene(scene, methods=methods, profile=args.profile, variant=args.variant,
                        progress=not args.quiet, seed_peak=args.seed_peak, snapshots=snapshots)
     why = nothing_ran(result)
     if why:
         raise UsageError(why)
-    if not args.no_rank and any(m != "dns" for m in result["choices"]["methods"]):
-        result["ranking"] = rank_models(scene, result)
+    if args.rank:
+        add_ranking(scene, result)
     print(to_text(result, every=1 if args.all else None))
     if args.json:
         write_json(args.json, result)
@@ -170,11 +172,12 @@ def _contact_list(text: str, option: str) -> tuple[int, ...]:
 
 def cmd_scenes(args: argparse.Namespace) -> int:
     """``pulsemap scenes``: the built-in scenes."""
+    from pulsemap.solvers.api.scenes import scenes
     from pulsemap.solvers.data.scene import DEFAULT_SCENE, builtin_scenes, load_scene
-    from pulsemap.solvers.data.scene_files import suite_scene_names
 
-    for title, names in (("paper scenes", builtin_scenes()), ("suite scenes (stiff and extreme cases)",
-                                                              suite_scene_names())):
+    every, paper = scenes(), set(builtin_scenes())  # the one list pulsemap.scenes() returns
+    for title, names in (("paper scenes", [n for n in every if n in paper]),
+                         ("suite scenes (stiff and extreme cases)", [n for n in every if n not in paper])):
         print(f"{title}:")
         for name in names:
             sc = load_scene(name)
@@ -244,6 +247,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(Starosvetsky's amplitude map, long-wave law, stationary shocks, checked by DNS).",
     )
     from pulsemap.solvers import __version__
+    from pulsemap.solvers.data.scene_schema import METHODS
 
     parser.add_argument("--version", action="version", version=f"pulsemap {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -286,8 +290,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("run", help="run a scene: DNS, map and long-wave law side by side")
     p.add_argument("scene", metavar="SCENE", help="a TOML scene file or a built-in name (see 'pulsemap scenes')")
-    p.add_argument("--methods", help="comma list overriding the scene's methods (map, longwave, energy-map, energy-law, "
-                        "momentum-map, momentum-law, dns)")
+    p.add_argument("--methods", help=f"comma list overriding the scene's methods ({', '.join(METHODS)})")
     p.add_argument("--profile", help="exact or pade (default: the scene's, else exact)")
     p.add_argument("--variant", help="map variant: paper, corrected, 1d (default: the scene's, else paper)")
     p.add_argument("--json", metavar="OUT", help="write the result as JSON ('-' for stdout)")
@@ -299,8 +302,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "peak there, or v0 through kappa_n without the DNS)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--all", action="store_true", help="print every contact (default: at most 40 rows, evenly spaced)")
-    p.add_argument("--no-rank", action="store_true",
-                   help="skip the ranking of every model against this DNS (shown by default, milliseconds per model)")
+    p.add_argument("--rank", action="store_true",
+                   help="also rank every model against this DNS (needs dns among the methods); the best joins the "
+                        "peaks, CSV, plot and JSON")
     p.add_argument("--snapshots", metavar="C1,C2,...",
                    help="contacts at whose peak time the DNS keeps the strains delta_j around the pulse (JSON)")
     add_set_option(p)

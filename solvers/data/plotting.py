@@ -1,11 +1,15 @@
-"""Matplotlib for the ``--plot`` options: optional, headless (Agg backend), one clear error when missing.
+"""Matplotlib for the figures: optional, one clear error when missing, no pyplot.
 
+Figures are built as ``matplotlib.figure.Figure`` objects, never through pyplot: nothing changes
+the caller's backend, nothing is closed behind a notebook's back, and a figure returned to
+Jupyter shows itself (it has ``_repr_png_``) without ``%matplotlib inline``.
 Also the figure of ``pulsemap run``: leading-edge peaks per contact for the DNS and every model,
 the contact where the DNS lost the pulse marked, a legend entry for every line, linear or log y.
 """
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 
 #: The one hint every --plot gives when matplotlib is missing.
@@ -13,16 +17,44 @@ INSTALL_HINT = 'pip install "pulsemap[plot]"'
 NEEDS_MATPLOTLIB = f"--plot needs matplotlib: {INSTALL_HINT}"
 
 
-def pyplot(error: type[ValueError] = ValueError):
-    """``matplotlib.pyplot`` on the Agg backend; raises ``error`` naming the fix when matplotlib is missing."""
-    try:
-        import matplotlib
+@functools.lru_cache(maxsize=None)
+def _figure_class():
+    """A matplotlib Figure that renders itself as PNG in Jupyter (no pyplot, no backend)."""
+    import io
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
+
+    class InlineFigure(Figure):
+        def _repr_png_(self) -> bytes:
+            buf = io.BytesIO()
+            self.savefig(buf, format="png", dpi=100, bbox_inches="tight")
+            return buf.getvalue()
+
+    return InlineFigure
+
+
+class Figures:
+    """``subplots`` as pyplot has it, making backend-free figures (see the module docstring)."""
+
+    @staticmethod
+    def subplots(nrows: int = 1, ncols: int = 1, *, figsize=None, **kwargs):
+        fig = _figure_class()(figsize=figsize)
+        return fig, fig.subplots(nrows, ncols, **kwargs)
+
+    @staticmethod
+    def close(fig) -> None:
+        """Nothing to release: the figure is no pyplot figure."""
+
+
+def figures(error: type[Exception] = ValueError) -> Figures:
+    """The figure maker; raises ``error`` naming the fix when matplotlib is missing."""
+    try:
+        import matplotlib.figure  # noqa: F401 (checked on every call: the class below is cached)
+
+        _figure_class()
     except ImportError:
         raise error(NEEDS_MATPLOTLIB) from None
-    return plt
+    return Figures()
 
 
 def require_matplotlib(error: type[ValueError] = ValueError) -> None:
@@ -60,7 +92,8 @@ def peaks_figure(result: dict, plt, log_y: bool = False):
         if not x:
             continue
         fmt, kw = _STYLES.get(name, ("--" if name.endswith("law") else ":", {"lw": 1}))
-        ax.plot(x, y, fmt, label=titles.get(name, name), **kw)
+        best = name == (result.get("best") or {}).get("column")
+        ax.plot(x, y, fmt, label=titles.get(name, name) + (" (best of the ranking)" if best else ""), **kw)
     dns = result.get("dns") or {}
     alive = dns.get("alive")
     if alive and not all(alive) and any(alive):
@@ -78,6 +111,5 @@ def peaks_figure(result: dict, plt, log_y: bool = False):
     return fig
 
 
-def save(fig, plt, path: str) -> None:
+def save(fig, path: str) -> None:
     fig.savefig(path, dpi=120)
-    plt.close(fig)

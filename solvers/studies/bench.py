@@ -148,14 +148,14 @@ def summarize(points: list[Point], costs: dict, default_dns: float | None, targe
         fastest_dns = min((p.time_s for p in points if p.kind == "dns"), default=None)
         default_line = f"map/{scene.profile}/{scene.variant}"
         default = next((p for p in models if p.line == default_line), None)
-        best_model = min(models, key=lambda p: (p.error if p.error is not None else math.inf))
+        best_model = min(models, key=lambda p: (p.rms_pct if p.rms_pct is not None else math.inf))
         slowest = max(p.time_s for p in models)
         out["models"] = {
             "map_line": default_line,
             "map_time_s": None if default is None else default.time_s,
-            "map_error": None if default is None else default.error,
+            "map_rms_pct": None if default is None else default.rms_pct,
             "slowest_model_time_s": slowest,
-            "most_accurate": {"line": best_model.line, "error": best_model.error, "time_s": best_model.time_s},
+            "most_accurate": {"line": best_model.line, "rms_pct": best_model.rms_pct, "time_s": best_model.time_s},
             "run_dns_time_s": default_dns,
             "run_dns_vs_map": (default_dns / default.time_s) if default and default_dns else None,
             "dns_at_target_vs_map": (dns_t / default.time_s) if default and dns_t else None,

@@ -128,9 +128,12 @@ def model_points(scene, reference: dict, ref: list, ladder: Ladder, log: Callabl
                     why = "; ".join(w for w in res.get("warnings", []) if model in w) or "no value"
                     log(f"  model      {label}: not computed ({why})")
                     continue
-                err, missing = peak_error(peaks, ref)
-                point = Point("model", label, profile + (f" {variant}" if variant else ""), None, err, missing,
-                              best, None, f"{missing} live contacts without a value" if missing else "")
-                log(f"  model      {label:24s} err {fmt(err)} missing {missing:3d} time {best:10.6f} s")
+                e = res["errors"][model]  # studies/errors.py: every output's error, against the reference DNS
+                point = Point("model", label, profile + (f" {variant}" if variant else ""), None,
+                              None if e["max_pct"] is None else e["max_pct"] / 100.0, e["missing"], best, None,
+                              f"{e['missing']} live contacts without a value (counted 100 %)" if e["missing"] else "",
+                              rms_pct=e["rms_pct"], live_range=None if e["live_range"] is None else tuple(e["live_range"]))
+                log(f"  model      {label:24s} RMS {fmt(e['rms_pct'], '.3g')} % max {fmt(e['max_pct'], '.3g')} % "
+                    f"time {best:10.6f} s")
                 out.append(point)
     return out

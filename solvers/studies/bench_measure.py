@@ -55,11 +55,13 @@ class Point:
     line: str  # the work-precision line it belongs to (method and mode, or model)
     setting: str  # tolerance / sampling / profile, human-readable
     rtol: float | None
-    error: float | None  # max relative peak error vs the reference over live contacts
+    error: float | None  # max relative peak error vs the reference (a model: max_pct / 100 over the live range)
     missing: int  # live reference contacts without a value
     time_s: float
     nfev: int | None = None
     note: str = ""
+    rms_pct: float | None = None  # a model's error as every output reports it (studies/errors.py)
+    live_range: tuple[int, int] | None = None  # the contacts that error is taken over
 
 
 def best_of(run: Callable[[], tuple[object, float]], repeats: int) -> tuple[object, float]:

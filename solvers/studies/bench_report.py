@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pulsemap.solvers.studies.bench_measure import BenchError, fmt
+from pulsemap.solvers.studies.errors import DEFINITION
 
 __all__ = ["engine_lines", "plot", "to_csv", "to_text"]
 
@@ -18,8 +19,19 @@ def to_text(reports: list[dict]) -> str:
         lines.append(f"  {'kind':10s} {'line':26s} {'setting':18s} {'max rel err':>11s} {'missing':>7s} "
                      f"{'time [s]':>10s} {'nfev':>8s}")
         for p in r["points"]:
+            if p["kind"] == "model":
+                continue
             lines.append(f"  {p['kind']:10s} {p['line']:26s} {p['setting']:18s} {fmt(p['error']):>11s} "
                          f"{p['missing']:7d} {p['time_s']:10.4g} {'' if p['nfev'] is None else p['nfev']:>8}")
+        models = [p for p in r["points"] if p["kind"] == "model"]
+        if models:
+            span = next((p["live_range"] for p in models if p.get("live_range")), None)
+            lines.append("  models against the reference DNS (" + DEFINITION
+                         + (f"; live range {span[0]}..{span[1]}" if span else "") + "):")
+            for p in models:
+                lines.append(f"  {'model':10s} {p['line']:26s} RMS {fmt(p['rms_pct'], '.3g'):>6s} %  max "
+                             f"{fmt(None if p['error'] is None else 100 * p['error'], '.3g'):>6s} %  time {p['time_s']:.4g} s"
+                             + (f"  ({p['note']})" if p.get("note") else ""))
         rat = r["ratios"]
         t = rat["target"]
         lines.append(f"  at max rel error {t:g} (log-log interpolation on each line; best line of each kind):")
@@ -30,13 +42,13 @@ def to_text(reports: list[dict]) -> str:
         lines.append(f"    ratio (b)/DNS = {fmt(rat['dns_vs_b'], '.3g')}   ratio (a)/DNS = {fmt(rat['dns_vs_a'], '.3g')}")
         if "models" in rat:
             m = rat["models"]
-            lines.append(f"    map ({m['map_line']}): {fmt(m['map_time_s'], '.3g')} s, max rel err {fmt(m['map_error'])};"
+            lines.append(f"    map ({m['map_line']}): {fmt(m['map_time_s'], '.3g')} s, RMS {fmt(m['map_rms_pct'], '.3g')} %;"
                          f" DNS of `pulsemap run` ({fmt(m['run_dns_time_s'], '.3g')} s) / map = "
                          f"{fmt(m['run_dns_vs_map'], '.3g')}, DNS at {t:g} / map = {fmt(m['dns_at_target_vs_map'], '.3g')},"
                          f" fastest DNS run / map = {fmt(m['fastest_dns_vs_map'], '.3g')}")
             lines.append(f"    slowest model {m['slowest_model_time_s']:.3g} s (DNS of `pulsemap run` / it = "
                          f"{fmt(m['run_dns_vs_slowest_model'], '.3g')}); most accurate model "
-                         f"{m['most_accurate']['line']} (max rel err {fmt(m['most_accurate']['error'])})")
+                         f"{m['most_accurate']['line']} (RMS {fmt(m['most_accurate']['rms_pct'], '.3g')} %)")
         if "engines" in rat:
             lines += engine_lines(rat["engines"], r.get("cold", {}), t)
         lines.append(f"  (benchmark took {r['bench_time_s']:.1f} s)")
@@ -68,22 +80,23 @@ def engine_lines(e: dict, cold: dict, target: float) -> list[str]:
 
 
 def to_csv(reports: list[dict]) -> str:
-    """One row per measured run."""
-    rows = ["scene,kind,line,setting,rtol,max_rel_error,missing,time_s,nfev"]
+    """One row per measured run (a model's also with its RMS error in percent, studies/errors.py)."""
+    rows = ["scene,kind,line,setting,rtol,max_rel_error,missing,time_s,nfev,rms_pct"]
     for r in reports:
         for p in r["points"]:
             rows.append(",".join([r["scene"], p["kind"], p["line"], p["setting"],
                                   "" if p["rtol"] is None else repr(p["rtol"]),
                                   "" if p["error"] is None else repr(p["error"]), str(p["missing"]),
-                                  repr(p["time_s"]), "" if p["nfev"] is None else str(p["nfev"])]))
+                                  repr(p["time_s"]), "" if p["nfev"] is None else str(p["nfev"]),
+                                  "" if p.get("rms_pct") is None else repr(p["rms_pct"])]))
     return "\n".join(rows) + "\n"
 
 
 def plot(reports: list[dict], path: str) -> None:
     """Log-log error against time, one panel per scene (matplotlib, optional)."""
-    from pulsemap.solvers.data.plotting import pyplot
+    from pulsemap.solvers.data.plotting import figures
 
-    plt = pyplot(BenchError)
+    plt = figures(BenchError)
     fig, axes = plt.subplots(1, len(reports), figsize=(6.5 * len(reports), 4.8), squeeze=False)
     styles = {"dns": "o-", "baseline-b": "s--", "baseline-a": "^:", "model": "x", "compiled": "D-", "script": "v-."}
     names = {"dns": "scipy engine", "compiled": "compiled engine", "script": "user's script"}

@@ -76,9 +76,9 @@ def _f(x, width: int, prec: int) -> str:
 def plot(report: dict, path: str) -> None:
     """A Fig. 12-like plot: stationary peaks against the parameter, stable solid, unstable
     dashed, the fold, the DNS's settled amplitudes and the thresholds found. Needs matplotlib."""
-    from pulsemap.solvers.data.plotting import pyplot
+    from pulsemap.solvers.data.plotting import figures
 
-    plt = pyplot(BifurcationError)
+    plt = figures(BifurcationError)
     name = report["param"]
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     styles = {"exact": ("k", 1.6), "pade": ("tab:gray", 0.9)}

@@ -151,9 +151,9 @@ def _pct(x) -> str:
 
 def plot(report: dict, path: str) -> None:
     """Mean and spread (one standard deviation) of the DNS and map peaks per contact (Fig. 13)."""
-    from pulsemap.solvers.data.plotting import pyplot
+    from pulsemap.solvers.data.plotting import figures
 
-    plt = pyplot(EnsembleError)
+    plt = figures(EnsembleError)
     st = report["statistics"]
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for key, color, label in (("dns", "k", "DNS"), ("map", "tab:red", "map")):

@@ -1,46 +1,59 @@
-"""Errors of the reduced models against the DNS peaks: max and RMS relative error per model."""
+"""The error of a reduced model against the DNS: one definition, used by every output.
+
+A model's error is its relative peak error |model - DNS| / DNS in percent over the *live range*:
+contacts first_perturbed .. the last contact whose DNS peak is still >= LIVE_FRACTION of the seed
+peak (the DNS peak at contact first_perturbed - 1, which seeds every model). Past it the pulse has
+all but died and relative errors measure noise on a vanishing peak, not the model. A live contact
+where the model has no value (it has ended: died, blown up) counts as a relative error of 100 %.
+``run`` (text, JSON ``errors``, ``Result.errors``), ``--rank``, ``table``, ``sweep`` and ``bench``
+all call :func:`model_error`.
+"""
 
 from __future__ import annotations
 
-import numpy as np
+import math
+from typing import Sequence
 
-__all__ = ["STRONG_FRACTION", "errors_vs_dns"]
+__all__ = ["LIVE_FRACTION", "UNIT", "live_contacts", "model_error"]
 
-STRONG_FRACTION = 0.1  # "strong" contacts: DNS peak at least this fraction of the seed peak
+LIVE_FRACTION = 0.02
+UNIT = "percent"
+#: What an error means, in one line (text reports and docs).
+DEFINITION = (f"|model peak - DNS peak| / DNS peak in percent over the live range (contacts first_perturbed up to "
+              f"the last whose DNS peak is >= {100 * LIVE_FRACTION:g} % of the seed peak); a live contact where the "
+              "model has no value counts 100 %")
 
 
-def errors_vs_dns(ref: list, alive: list, values: list, seed_peak: float | None = None) -> dict:
-    """Max and RMS relative error of ``values`` against the live DNS peaks.
+def live_contacts(contacts: Sequence[int], dns: Sequence[float | None], seed_contact: int,
+                  seed_peak: float | None, fraction: float = LIVE_FRACTION) -> list[int]:
+    """Contacts after ``seed_contact`` up to the last one whose DNS peak is >= fraction * seed_peak
+    (only contacts with a live DNS peak; [] without a seed)."""
+    if seed_peak is None or not (math.isfinite(seed_peak) and seed_peak > 0):
+        return []
+    alive = [(int(c), p) for c, p in zip(contacts, dns) if c > seed_contact and p is not None]
+    strong = [c for c, p in alive if p >= fraction * seed_peak]
+    if not strong:
+        return []
+    return [c for c, _ in alive if c <= strong[-1]]
 
-    ``max_rel_strong``: the max over contacts whose DNS peak is at least STRONG_FRACTION of the
-    seed peak (near extinction relative errors of any model approach 100 %).
+
+def model_error(contacts: Sequence[int], dns: Sequence[float | None], values: Sequence[float | None],
+                seed_contact: int, seed_peak: float | None) -> dict:
+    """The error of ``values`` against the DNS peaks ``dns`` (both per contact of ``contacts``).
+
+    ``{"unit": "percent", "rms_pct", "max_pct", "live_range": [first, last] or None, "compared":
+    live contacts with a model value, "missing": live contacts without one (each counted 100 %)}``;
+    rms_pct and max_pct are None when the live range is empty.
     """
-    out = _rel_errors(ref, alive, values)
-    if seed_peak is not None:
-        strong = [a and r is not None and r >= STRONG_FRACTION * seed_peak for r, a in zip(ref, alive)]
-        strong_errors = _rel_errors(ref, strong, values)
-        out["max_rel_strong"] = strong_errors["max_rel"]
-        out["max_rel_strong_all"] = strong_errors.get("max_rel_all")
+    live = live_contacts(contacts, dns, seed_contact, seed_peak)
+    ref = dict(zip((int(c) for c in contacts), dns))
+    got = dict(zip((int(c) for c in contacts), values))
+    rel = [abs(got[c] - ref[c]) / ref[c] for c in live if got.get(c) is not None]
+    missing = len(live) - len(rel)
+    full = rel + [1.0] * missing
+    out: dict = {"unit": UNIT, "rms_pct": None, "max_pct": None, "live_range": [live[0], live[-1]] if live else None,
+                 "compared": len(rel), "missing": missing}
+    if full:
+        out["rms_pct"] = 100.0 * math.sqrt(sum(e * e for e in full) / len(full))
+        out["max_pct"] = 100.0 * max(full)
     return out
-
-
-def _rel_errors(ref: list, alive: list, values: list) -> dict:
-    """Max/RMS relative error where the model has a value; ``*_all``: over every live contact, a
-    model that has ended (no value) counting as predicting 0 (relative error 1), for rankings."""
-    rel = []
-    missing = 0
-    for r, a, v in zip(ref, alive, values):
-        if not a or r is None:
-            continue
-        if v is None:
-            missing += 1
-            continue
-        rel.append(abs(v - r) / abs(r))
-    if not rel:
-        out = {"max_rel": None, "rms_rel": None, "compared": 0, "missing": missing}
-        out.update(max_rel_all=1.0 if missing else None, rms_rel_all=1.0 if missing else None)
-        return out
-    arr = np.array(rel)
-    full = np.concatenate([arr, np.ones(missing)])
-    return {"max_rel": float(arr.max()), "rms_rel": float(np.sqrt(np.mean(arr**2))), "compared": int(arr.size),
-            "missing": missing, "max_rel_all": float(full.max()), "rms_rel_all": float(np.sqrt(np.mean(full**2)))}

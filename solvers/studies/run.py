@@ -25,9 +25,8 @@ from pulsemap.symbolic.provenance import provenance
 from pulsemap.solvers import __version__
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene, SceneError, check_choice
-from pulsemap.solvers.studies.errors import STRONG_FRACTION, errors_vs_dns
+from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import make_force
-from pulsemap.solvers.studies.live_range import live_contacts, rms_on
 from pulsemap.solvers.studies.methods import (
     BALANCE_METHODS,
     DRIFT_WARN,
@@ -50,7 +49,6 @@ __all__ = [
     "FORCING_WARN",
     "MODELS",
     "MODEL_TITLES",
-    "STRONG_FRACTION",
     "WIDTH_WARN",
     "Choice",
     "RunError",
@@ -217,18 +215,16 @@ def reuse_dns_run(state: RunState, reuse_dns: dict) -> None:
 
 
 def compare_with_dns(state: RunState) -> None:
-    """Max and RMS relative error of every model that has peaks, against the live DNS peaks; under
-    ``live`` the same over the live range (studies/live_range.py: contacts first_perturbed up to the
-    last whose DNS peak is >= 2 % of the seed peak), the range the ranking table uses."""
+    """The error of every model that has peaks against the DNS peaks (studies/errors.py: percent over
+    the live range, the one definition every output reports)."""
     if state.dns_peaks is None:
         return
     out = state.out
     seed_peak = out.get("seed", {}).get("peak")
-    live = live_contacts(state.contacts, state.dns_peaks, state.scene.first_perturbed - 1, seed_peak)
     for name in MODELS:
         if out["peaks"][name] is not None:
-            out["errors"][name] = errors_vs_dns(state.dns_peaks, state.dns_alive, out["peaks"][name], seed_peak)
-            out["errors"][name]["live"] = rms_on(state.contacts, state.dns_peaks, out["peaks"][name], live)
+            out["errors"][name] = model_error(state.contacts, state.dns_peaks, out["peaks"][name],
+                                              state.scene.first_perturbed - 1, seed_peak)
 
 
 def run_scene(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pulsemap.solvers.studies.errors import DEFINITION
 from pulsemap.solvers.studies.methods import MODELS, RunError
 
 __all__ = ["LEGEND", "nothing_ran", "plot", "to_csv", "to_text"]
@@ -10,34 +11,38 @@ __all__ = ["LEGEND", "nothing_ran", "plot", "to_csv", "to_text"]
 #: The text table shows every contact up to this many rows, else every k-th (``--all``: every contact).
 MAX_ROWS = 40
 LEGEND = ("peak: the leading-edge maximum of delta_i = x_i - x_(i+1) at contact i (its first maximum in time); "
-          "error: |model peak - DNS peak| / DNS peak in percent, over the contacts where the DNS's primary pulse is "
-          "alive (max, RMS)")
+          "error: " + DEFINITION)
 FIRST_ORDER_NOTE = 20.0  # RMS % of the paper's map above which run says why and points to the ranking
 
 
 def _columns(result: dict) -> list[str]:
-    """The DNS (when there is one), then the models the run was asked for, in the order asked."""
+    """The DNS (when there is one), the models the run was asked for, in the order asked, then the
+    best of the ranking when the run did not compute it (``--rank``)."""
     methods = result["choices"]["methods"]
     cols = ["dns"] if result["peaks"].get("dns") is not None else []
-    return cols + [m for m in methods if m != "dns" and m in MODELS]
+    cols += [m for m in methods if m != "dns" and m in MODELS]
+    best = (result.get("best") or {}).get("column")
+    return cols + ([best] if best is not None and best not in cols else [])
 
 
 def _pct(x: float | None) -> str:
-    return "-" if x is None else f"{100.0 * x:.3g} %"
+    return "-" if x is None else f"{x:.3g} %"
 
 
 def to_csv(result: dict) -> str:
-    """One row per contact: contact, the peak of each method asked for (empty where it has none), and
-    from the DNS whether its pulse is alive, the arrival time of the peak, the pulse speed (contacts
-    per unit time) and the energies of the pulse and of the chain."""
+    """One row per contact: contact, the peak of each method asked for (and of the best of the ranking;
+    empty where it has none), and from the DNS whether its pulse is alive, whether the contact is in
+    the live range the errors are taken over (studies/errors.py), the arrival time of the peak, the
+    pulse speed (contacts per unit time) and the energies of the pulse and of the chain."""
     cols = _columns(result)
     dns = result.get("dns") or {}
     extra = [k for k in ("arrival_times", "speed", "pulse_energy", "total_energy") if dns.get(k) is not None]
     names = {"arrival_times": "dns_arrival_time", "speed": "dns_speed", "pulse_energy": "dns_pulse_energy",
              "total_energy": "dns_total_energy"}
-    head = ["contact"] + cols + (["dns_alive"] if dns else []) + [names[k] for k in extra]
+    head = ["contact"] + cols + (["dns_alive", "live_range"] if dns else []) + [names[k] for k in extra]
     lines = [",".join(head)]
     alive = dns.get("alive") or [None] * len(result["contacts"])
+    span = _live_range(result)
     for k, c in enumerate(result["contacts"]):
         row = [str(c)]
         for name in cols:
@@ -45,6 +50,7 @@ def to_csv(result: dict) -> str:
             row.append("" if vals is None or vals[k] is None else repr(vals[k]))
         if dns:
             row.append("" if alive[k] is None else str(bool(alive[k])).lower())
+            row.append(str(span is not None and span[0] <= c <= span[1] and bool(alive[k])).lower())
         for key in extra:
             v = dns[key][k]
             row.append("" if v is None else repr(v))
@@ -52,48 +58,51 @@ def to_csv(result: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _live_range(result: dict) -> list[int] | None:
+    """[first, last] contact of the live range the errors are taken over (None without one)."""
+    return next((e["live_range"] for e in result["errors"].values() if e.get("live_range")), None)
+
+
 def _error_line(name: str, err: dict) -> str:
-    if err["max_rel"] is None:
-        line = f"  {name:8s} vs DNS: nothing to compare ({err['missing']} live contacts without a value)"
-    else:
-        line = (f"  {name:8s} vs DNS: max {_pct(err['max_rel'])}, RMS {_pct(err['rms_rel'])} over {err['compared']} live "
-                "contacts" + (f" ({err['missing']} without a value)" if err["missing"] else "")
-                + (f"; max {_pct(err['max_rel_strong'])} while the DNS peak >= 10 % of its entry value"
-                   if err.get("max_rel_strong") is not None else ""))
-    live = err.get("live") or {}
-    if live.get("rms_rel_all") is not None:
-        a, b = live["contacts"]
-        line += (f"\n  {'':8s}   live range {a}..{b} (DNS peak >= 2 % of the seed's): RMS {_pct(live['rms_rel_all'])}, "
-                 f"max {_pct(live['max_rel_all'])}"
-                 + (f" ({live['missing']} contacts without a value count as 100 %)" if live["missing"] else ""))
-    return line
+    if err["rms_pct"] is None:
+        return f"  {name:8s} vs DNS: nothing to compare (no live range: the DNS pulse died before reaching it)"
+    a, b = err["live_range"]
+    return (f"  {name:8s} vs DNS: RMS {_pct(err['rms_pct'])}, max {_pct(err['max_pct'])} over the live range {a}..{b}"
+            + (f" ({err['missing']} contacts without a value count as 100 %)" if err["missing"] else ""))
 
 
 def _ranking_lines(result: dict) -> list[str]:
-    ranking = result.get("ranking") or []
-    if not ranking:
-        return []
-    span = ranking[0].get("live_contacts")
-    where = f" over the live range {span[0]}..{span[1]}" if span else ""
-    lines = [f"  ranking against this DNS, every model (RMS error %{where}, a model that ended counts 100 %): "
-             + ", ".join(f"{r['model']} {r['rms_pct']:.3g}" for r in ranking)]
-    paper = next((r for r in ranking if r["model"] == "map/paper"), None)
-    best = ranking[0]
-    if paper is not None and paper is not best and paper["rms_pct"] > FIRST_ORDER_NOTE:
-        eps = result["scene"]["perturbation"]["eps"]
-        lines.append(f"  the paper's map (Eq. 23, variant paper) is a first-order theory in eps: at eps = {eps:g} it is "
-                     f"{paper['rms_pct']:.3g} % RMS off the DNS; {best['model']} does best here ({best['rms_pct']:.3g} %); "
-                     "`pulsemap table` ranks every model on every paper scene")
+    """The ranking (``--rank``), the best model and what it is; a note when the paper's map is far off."""
+    ranking = result.get("ranking")
+    lines = []
+    if ranking:
+        span = ranking[0].get("live_range")
+        where = f" over the live range {span[0]}..{span[1]}" if span else ""
+        lines.append(f"  ranking against this DNS, every model (RMS error %{where}): "
+                     + ", ".join(f"{r['model']} {r['rms_pct']:.3g}" for r in ranking))
+    best = result.get("best")
+    if best:
+        lines.append(f"  best of the ranking: {best['model']} (column {best['column']} in the peaks, CSV, plot and JSON)")
+    err = result["errors"].get("map")
+    if result["choices"]["variant"] != "paper" or err is None or err["rms_pct"] is None \
+            or err["rms_pct"] <= FIRST_ORDER_NOTE:
+        return lines
+    eps = result["scene"]["perturbation"]["eps"]
+    note = (f"  the paper's map (Eq. 23, variant paper) is a first-order theory in eps: at eps = {eps:g} it is "
+            f"{_pct(err['rms_pct'])} RMS off the DNS; ")
+    if best and best["model"] != "map/paper":
+        ranked = next(r for r in ranking if r["model"] == best["model"])
+        note += f"{best['model']} does best here ({_pct(ranked['rms_pct'])}); "
+    elif not ranking:
+        note += "`pulsemap run --rank` ranks every model against this DNS; "
+    lines.append(note + "`pulsemap table` ranks every model on every paper scene")
     return lines
 
 
 def _peak_rows(result: dict, cols: list[str], every: int | None) -> list[str]:
-    ranking = result.get("ranking") or []
-    best = ranking[0] if ranking else None
-    shown_best = best is not None and best["model"] not in cols and not (
-        best["model"] == f"map/{result['choices']['variant']}" and "map" in cols)
-    headers = [("dns" if c == "dns" else c) for c in cols] + ([f"best: {best['model']}"] if shown_best else [])
-    series = [result["peaks"][c] for c in cols] + ([best["peaks"]] if shown_best else [])
+    best = (result.get("best") or {}).get("column")
+    headers = [f"best: {c}" if c == best and c not in result["choices"]["methods"] else c for c in cols]
+    series = [result["peaks"][c] for c in cols]
     width = max([12] + [len(h) + 1 for h in headers])
     contacts = result["contacts"]
     valued = [k for k in range(len(contacts)) if any(v is not None and v[k] is not None for v in series)]
@@ -140,8 +149,8 @@ def to_text(result: dict, every: int | None = None) -> str:
         lines.append(f"  DNS: {d['method']} rtol {d['rtol']:g}, {d['beads']} beads, {d['stop_reason']}{span}")
         if d.get("energy_drift") is not None:
             lines.append(f"  DNS energy drift (R = 0 conserves energy: the run's accuracy): {d['energy_drift']:.2g} relative")
-    for name in MODELS:
-        if isinstance(result.get(name), dict):
+    for name in dict.fromkeys([*MODELS, *_columns(result)]):
+        if name != "dns" and isinstance(result.get(name), dict):
             info = result[name]
             status = f" [{info['refused']}]" if "refused" in info else ""
             lines.append(f"  {name}: {info.get('model', '')}{status}")
@@ -151,7 +160,7 @@ def to_text(result: dict, every: int | None = None) -> str:
     t = result["timings_s"]
     lines.append("  time: " + ", ".join(f"{k} {v:.4g} s" for k, v in t.items()))
     cols = _columns(result)
-    if cols or result.get("ranking"):
+    if cols:
         lines += _peak_rows(result, cols, every)
     for w in result["warnings"]:
         lines.append(f"  warning: {w}")
@@ -170,7 +179,6 @@ def nothing_ran(result: dict) -> str:
 def plot(result: dict, path: str, log_y: bool = False) -> None:
     """The paper's style: DNS as +, map as dots, long-wave law as a line, the DNS's stop marked
     (data/plotting.peaks_figure; matplotlib, optional)."""
-    from pulsemap.solvers.data.plotting import peaks_figure, pyplot, save
+    from pulsemap.solvers.data.plotting import figures, peaks_figure, save
 
-    plt = pyplot(RunError)
-    save(peaks_figure(result, plt, log_y), plt, path)
+    save(peaks_figure(result, figures(RunError), log_y), path)

@@ -5,7 +5,9 @@
 point is the scene with those keys set (data/overrides.py, checked like a scene file before
 anything runs), run by ``run_scene`` on sweep.run_sweep (process pool, Dask, resumable --out).
 The report has, per point, the values set, the DNS's live contacts and stop reason, and each
-model's max and RMS relative error against the DNS in percent.
+model's error against the DNS as ``run`` reports it (studies/errors.py: RMS and max in percent over
+the live range). A value of A:B:K is rounded to 12 significant digits, so 0.05:0.5:10 gives 0.15
+(as a user writes it), not 0.15000000000000002.
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ from pulsemap.solvers.data.overrides import check_key, parse_assignment, with_se
 from pulsemap.solvers.data.scene import Scene, SceneError, parse_scene
 
 MAX_POINTS = 10_000
+#: What a point's errors are (part of its key: records of an older measure are computed again).
+ERRORS = "percent over the live range"
 
 
 class SceneSweepError(ValueError):
@@ -39,7 +43,7 @@ def parse_over(text: str, scene: Scene) -> tuple[str, list]:
             raise SceneSweepError(f"--over {text}: A:B:K needs two numbers and an integer count, got {spec!r}") from None
         if not (np.isfinite(a) and np.isfinite(b)) or not 1 <= k <= MAX_POINTS:
             raise SceneSweepError(f"--over {text}: A and B must be finite and K an integer from 1 to {MAX_POINTS}")
-        values = [float(v) for v in np.linspace(a, b, k)] if k > 1 else [a]
+        values = [float(f"{v:.12g}") for v in np.linspace(a, b, k)] if k > 1 else [a]
         return key, values
     if len(parts) != 1 or not spec:
         raise SceneSweepError(f"--over {text}: expected KEY=A:B:K or KEY=v1,v2,...")
@@ -62,7 +66,7 @@ def sweep_points(scene: Scene, overs: Sequence[str], methods: Sequence[str] | No
         sets = dict(zip(keys, combo))
         point_scene = with_sets(scene, list(sets.items()))
         points.append({"scene": point_scene.as_dict(), "sets": sets,
-                       "methods": list(methods) if methods else list(point_scene.methods)})
+                       "methods": list(methods) if methods else list(point_scene.methods), "errors": ERRORS})
     return points
 
 
@@ -76,15 +80,10 @@ def scene_task(point: Mapping[str, Any]) -> dict:
     return {
         "live_contacts": len(dns.get("live_contacts", [])) if dns else None,
         "stop_reason": dns.get("stop_reason"),
-        "errors": {m: {"max_pct": _pct(e.get("max_rel")), "rms_pct": _pct(e.get("rms_rel"))}
-                   for m, e in res["errors"].items()},
+        "errors": res["errors"],  # studies/errors.py: what run reports
         "warnings": res["warnings"],
         "timings_s": res["timings_s"],
     }
-
-
-def _pct(x: float | None) -> float | None:
-    return None if x is None else 100.0 * float(x)
 
 
 def scene_sweep(scene: Scene, overs: Sequence[str], *, methods: Sequence[str] | None = None,
@@ -114,13 +113,14 @@ def scene_sweep(scene: Scene, overs: Sequence[str], *, methods: Sequence[str] | 
 
 
 def to_text(report: dict) -> str:
-    """One line per point: the values set, live contacts, each model's max / RMS error (%)."""
+    """One line per point: the values set, live contacts, each model's RMS / max error (%)."""
+    from pulsemap.solvers.studies.errors import DEFINITION
+
     keys = report["keys"]
     models = [m for m in report["methods"] if m != "dns"]
-    head = [k.removeprefix("perturbation.params.") for k in keys] + ["live", *(f"{m} max/rms %" for m in models)]
+    head = [k.removeprefix("perturbation.params.") for k in keys] + ["live", *(f"{m} rms/max %" for m in models)]
     lines = [f"sweep of scene {report['scene']['name']} over {', '.join(report['over'])}",
-             "errors: max / RMS relative error of the model's peaks against the DNS peaks, in percent, over the "
-             "contacts where the DNS's primary pulse is alive; live: how many contacts that is",
+             f"errors: RMS / max of {DEFINITION}; live: contacts where the DNS's primary pulse is alive",
              "  ".join(f"{h:>18s}" for h in head)]
     for row in report["points"]:
         cells = [_fmt(row["sets"][k]) for k in keys]
@@ -130,7 +130,7 @@ def to_text(report: dict) -> str:
         cells.append("-" if row.get("live_contacts") is None else str(row["live_contacts"]))
         for m in models:
             e = row["errors"].get(m)
-            cells.append("-" if not e or e["max_pct"] is None else f"{e['max_pct']:.3g} / {e['rms_pct']:.3g}")
+            cells.append("-" if not e or e.get("rms_pct") is None else f"{e['rms_pct']:.3g} / {e['max_pct']:.3g}")
         lines.append("  ".join(f"{c:>18s}" for c in cells))
     lines.append(f"{report['computed']} points run, {report['skipped']} from the --out file, {report['failed']} failed "
                  f"({report['wall_s']:.1f} s, {report['executor']})")

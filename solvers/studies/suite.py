@@ -146,8 +146,9 @@ def run_case(ref: str, *, check: bool = True, repeats: int = 1) -> dict:
                stop_reason=dns.get("stop_reason"), live_contacts=len(dns.get("live_contacts", [])),
                warnings=list(result["warnings"]))
     errors = result.get("errors", {})
-    row["map_error"] = (errors.get("map") or {}).get("max_rel")
-    row["longwave_error"] = (errors.get("longwave") or {}).get("max_rel")
+    for key, model in (("map_error", "map"), ("longwave_error", "longwave")):  # studies/errors.py, as a fraction
+        pct = (errors.get(model) or {}).get("max_pct")
+        row[key] = None if pct is None else pct / 100.0
     if check and result["peaks"]["dns"] is not None:
         second = other_method(dns["method"])
         span = check_contacts(scene.contacts)

@@ -3,10 +3,10 @@
 One DNS per scene (the reference), then every model column seeded from the same DNS peak at
 contact first_perturbed - 1: the paper's map (exact and Pade profile; variants corrected and 1d),
 the long-wave law (both profiles), and the energy- and momentum-balance maps and laws
-(derive/balance.py), and the relaxed map (models/relaxed.py). Errors are relative to the DNS over
-the live range (studies/live_range.py: contacts first_perturbed up to the last whose DNS peak is
->= 2 % of the seed peak); a model that has ended there (died, blown up) counts as predicting 0,
-i.e. a relative error of 100 %. The winner of a scene is the model with the least RMS of that error.
+(derive/balance.py), and the relaxed map (models/relaxed.py). Errors are every output's
+(studies/errors.py: percent over the live range, contacts first_perturbed up to the last whose
+DNS peak is >= 2 % of the seed peak; a model that has ended there counts 100 %). The winner of a
+scene is the model with the least RMS of that error.
 
 Each scene's row is appended to a JSON-lines file as soon as it is finished; a rerun skips the
 scenes whose row is there with the same key (scene, columns, table version), so an interrupted
@@ -29,7 +29,7 @@ from pulsemap.solvers.studies.run import run_scene
 from pulsemap.solvers.data.scene import builtin_scenes, load_scene
 
 #: Bump when what a row holds or how it is computed changes (old rows are then recomputed).
-TABLE_VERSION = 3
+TABLE_VERSION = 4
 DEFAULT_ROWS_FILE = "pulsemap-table.jsonl"
 
 
@@ -76,8 +76,8 @@ def row_key(scene_data: dict, columns=COLUMNS) -> str:
 
 
 def winner(errors: dict) -> tuple[str | None, float | None, str | None, float | None]:
-    """(best key, its RMS, runner-up key, its RMS) by the RMS relative error over the live range."""
-    scored = sorted((_live(e)["rms_rel_all"], k) for k, e in errors.items() if _live(e).get("rms_rel_all") is not None)
+    """(best key, its RMS %, runner-up key, its RMS %) by the RMS error (studies/errors.py)."""
+    scored = sorted((e["rms_pct"], k) for k, e in errors.items() if e is not None and e.get("rms_pct") is not None)
     if not scored:
         return None, None, None, None
     best = scored[0]
@@ -121,7 +121,7 @@ def scene_row(name: str, progress: bool = False, columns=COLUMNS, eps: float | N
             why = [w for w in res["warnings"] if w.startswith(col.method) or "skipped" in w]
             row["notes"][col.key] = why[0] if why else "not computed"
     best, best_rms, second, second_rms = winner(row["errors"])
-    row["winner"] = {"model": best, "rms_rel": best_rms, "runner_up": second, "runner_up_rms_rel": second_rms}
+    row["winner"] = {"model": best, "rms_pct": best_rms, "runner_up": second, "runner_up_rms_pct": second_rms}
     row["total_s"] = time.perf_counter() - t0
     return row
 
@@ -139,30 +139,28 @@ def check_row(row: dict) -> str | None:
                          ("live", int), ("errors", dict)):
         if not isinstance(row.get(field), kinds) or isinstance(row.get(field), bool):
             return f"'{field}' is missing or of the wrong type"
-    def numbers(err: dict) -> bool:
-        return all(v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)) for v in err.values())
+    def number(v) -> bool:
+        return v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
 
     for name, err in row["errors"].items():
         if err is None:
             continue
-        live = err.get("live") if isinstance(err, dict) else None
-        flat = {k: v for k, v in err.items() if k != "live"} if isinstance(err, dict) else None
-        if flat is None or not numbers(flat):
+        if not isinstance(err, dict) or not all(number(err.get(k)) for k in ("rms_pct", "max_pct", "compared", "missing")):
             return f"errors of {name!r} are not numbers"
-        if live is not None and not (isinstance(live, dict) and numbers({k: v for k, v in live.items() if k != "contacts"})
-                                     and (live.get("contacts") is None or (isinstance(live["contacts"], list) and all(
-                                         isinstance(c, int) and not isinstance(c, bool) for c in live["contacts"])))):
-            return f"live-range errors of {name!r} are not numbers"
+        span = err.get("live_range")
+        if span is not None and not (isinstance(span, list) and len(span) == 2 and all(
+                isinstance(c, int) and not isinstance(c, bool) for c in span)):
+            return f"live range of {name!r} is not two contacts"
     winner = row.get("winner")
     if winner is None:
         return None
     if not isinstance(winner, dict):
         return "'winner' is not a table"
-    for field, kinds in (("model", str), ("runner_up", str), ("rms_rel", (int, float)), ("runner_up_rms_rel", (int, float))):
+    for field, kinds in (("model", str), ("runner_up", str), ("rms_pct", (int, float)), ("runner_up_rms_pct", (int, float))):
         value = winner.get(field)
         if value is not None and (not isinstance(value, kinds) or isinstance(value, bool)):
             return f"winner '{field}' is of the wrong type"
-    if winner.get("model") is not None and winner.get("rms_rel") is None:
+    if winner.get("model") is not None and winner.get("rms_pct") is None:
         return "a winner without its error"
     return None
 
@@ -199,18 +197,10 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
     return rows
 
 
-def _live(err) -> dict:
-    """The errors over the live range (studies/live_range.py); rows of older versions: over all live contacts."""
-    if err is None:
-        return {}
-    return err.get("live") or err
-
-
 def _fmt(err) -> str:
-    live = _live(err)
-    if live.get("max_rel_all") is None:
+    if err is None or err.get("max_pct") is None:
         return "–"
-    return f"{100 * live['max_rel_all']:.1f} / {100 * live['rms_rel_all']:.1f}"
+    return f"{err['max_pct']:.1f} / {err['rms_pct']:.1f}"
 
 
 def markdown(rows: list[dict], columns=COLUMNS) -> str:
@@ -230,7 +220,7 @@ def markdown(rows: list[dict], columns=COLUMNS) -> str:
         sep,
     ]
     for r in rows:
-        span = next((_live(e).get("contacts") for e in r["errors"].values() if _live(e).get("contacts")), None)
+        span = next((e["live_range"] for e in r["errors"].values() if e is not None and e.get("live_range")), None)
         live = f"{span[0]}..{span[1]}" if span else str(r["live"])
         cells = [r["scene"], f"`{r['R']}`", f"{r['eps']:g}", f"{r['v0']:g}", live]
         cells += [_fmt(r["errors"].get(k)) for k in keys]
@@ -238,8 +228,8 @@ def markdown(rows: list[dict], columns=COLUMNS) -> str:
         if w.get("model"):
             margin = ""
             if w.get("runner_up"):
-                margin = f" (vs {w['runner_up']} {100 * w['runner_up_rms_rel']:.1f})"
-            cells.append(f"**{w['model']}** {100 * w['rms_rel']:.1f}{margin}")
+                margin = f" (vs {w['runner_up']} {w['runner_up_rms_pct']:.1f})"
+            cells.append(f"**{w['model']}** {w['rms_pct']:.1f}{margin}")
         else:
             cells.append("–")
         lines.append("| " + " | ".join(cells) + " |")

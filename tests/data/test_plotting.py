@@ -1,4 +1,5 @@
-"""solvers/plotting.py: headless pyplot, one clear error when matplotlib is missing."""
+"""solvers/data/plotting.py: figures without pyplot (the caller's backend untouched, PNG in Jupyter), one
+clear error when matplotlib is missing."""
 
 from __future__ import annotations
 
@@ -6,18 +7,18 @@ import sys
 
 import pytest
 
-from pulsemap.solvers.data.plotting import NEEDS_MATPLOTLIB, pyplot
+from pulsemap.solvers.data.plotting import NEEDS_MATPLOTLIB, figures
 
 
 class _Error(ValueError):
     pass
 
 
-@pytest.mark.parametrize("module", ["matplotlib", "matplotlib.pyplot"])
+@pytest.mark.parametrize("module", ["matplotlib", "matplotlib.figure"])
 def test_missing_matplotlib_is_a_one_line_user_error(monkeypatch, module):
     monkeypatch.setitem(sys.modules, module, None)  # import raises ImportError
     with pytest.raises(_Error) as info:
-        pyplot(_Error)
+        figures(_Error)
     assert str(info.value) == NEEDS_MATPLOTLIB and 'pip install "pulsemap[plot]"' in str(info.value)
     assert info.value.__cause__ is None and info.value.__suppress_context__
 
@@ -39,10 +40,13 @@ def test_every_plot_names_its_own_error_when_matplotlib_is_missing(monkeypatch):
             plot({}, "unused.png")
 
 
-def test_pyplot_is_headless():
-    pytest.importorskip("matplotlib")
-    plt = pyplot()
-    assert plt.get_backend().lower() == "agg"
+def test_figures_leave_the_backend_alone_and_render_as_png():
+    matplotlib = pytest.importorskip("matplotlib")
+    before = matplotlib.get_backend()
+    fig, ax = figures().subplots(figsize=(2, 1.5))
+    ax.plot([0, 1], [1, 0])
+    assert matplotlib.get_backend() == before
+    assert fig._repr_png_()[:8] == b"\x89PNG\r\n\x1a\n"  # what Jupyter shows without %matplotlib inline
 
 
 @pytest.mark.parametrize("command", [["run", "default"], ["bench", "default", "--quick"],
@@ -78,7 +82,7 @@ def _run_result(alive: list[bool]) -> dict:
 def test_run_figure_has_a_legend_entry_per_line_and_marks_the_stop():
     from pulsemap.solvers.data.plotting import peaks_figure
 
-    plt = pyplot()
+    plt = figures()
     fig = peaks_figure(_run_result([True] * 5 + [False] * 3), plt, log_y=True)
     ax = fig.axes[0]
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
@@ -98,7 +102,7 @@ def test_run_figure_has_a_legend_entry_per_line_and_marks_the_stop():
 def test_run_plot_writes_a_png(tmp_path):
     from pulsemap.solvers.studies.run import plot
 
-    pyplot()
+    figures()
     path = tmp_path / "run.png"
     plot(_run_result([True] * 5 + [False] * 3), str(path), log_y=True)
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -76,8 +76,8 @@ def test_dressed_law_beats_the_energy_law_on_damping():
     from pulsemap.solvers.studies.run import run_scene
 
     res = run_scene(load_scene("fig8-eps0.1").with_overrides(contacts=(16, 60)), methods=["dns", "energy-law", "dressed-law"])
-    d, e = res["errors"]["dressed-law"]["rms_rel"], res["errors"]["energy-law"]["rms_rel"]
-    assert d < 0.01 and d < e / 10
+    d, e = res["errors"]["dressed-law"]["rms_pct"], res["errors"]["energy-law"]["rms_pct"]
+    assert d < 1 and d < e / 10
     info = res["dressed-law"]
     assert info["coefficients"]["v"]["k1"] == pytest.approx(-4 / 9, rel=1e-10)
     assert {"v:k2_over_k1", "v:onset_lag"} <= set(info["derived"]) and not info["calibrated"]
@@ -94,8 +94,8 @@ def test_dressed_law_follows_a_graded_foundation_and_refuses_the_pade_profile():
                       "perturbation": {"R": "-k*u", "eps": 0.01, "params": {"k": "1 + (i - 16)/50"}},
                       "output": {"contacts": [16, 120], "methods": ["dressed-law", "energy-law", "dns"]}}, "t")
     res = run_scene(sc)
-    d, e = res["errors"]["dressed-law"]["rms_rel"], res["errors"]["energy-law"]["rms_rel"]
-    assert d < e / 2 and d < 0.05
+    d, e = res["errors"]["dressed-law"]["rms_pct"], res["errors"]["energy-law"]["rms_pct"]
+    assert d < e / 2 and d < 5
     res = run_scene(sc, methods=["dressed-law"], profile="pade")
     assert "exact profile" in res["dressed-law"]["refused"]
     assert res["peaks"]["dressed-law"] is None

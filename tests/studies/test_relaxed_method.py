@@ -6,7 +6,7 @@ import pytest
 
 from conftest import scene_toml, write_scene
 from pulsemap.solvers.data.scene import load_scene
-from pulsemap.solvers.studies.live_range import live_contacts, rms_on
+from pulsemap.solvers.studies.errors import live_contacts, model_error
 from pulsemap.solvers.studies.run import run_scene
 
 
@@ -15,9 +15,9 @@ def test_relaxed_runs_beside_the_dns_with_live_range_errors(tmp_path):
                                                             methods=("dns", "relaxed")))))
     res = run_scene(scene)
     assert res["relaxed"]["status"] in ("ok", "died") and res["relaxed"]["segment_runs"] > 0
-    live = res["errors"]["relaxed"]["live"]
-    assert live["contacts"][0] == 16 and live["missing"] == 0
-    assert live["rms_rel_all"] < 0.02  # the damped pulse: the relaxed map within 2 % of the DNS
+    err = res["errors"]["relaxed"]
+    assert err["live_range"][0] == 16 and err["missing"] == 0
+    assert err["rms_pct"] < 2  # the damped pulse: the relaxed map within 2 % of the DNS
 
 
 def test_site_dependent_polynomial_is_refused_not_raised(tmp_path):
@@ -32,5 +32,9 @@ def test_live_range_ends_at_two_percent_of_the_seed():
     contacts = list(range(15, 22))
     dns = [1.0, 0.5, 0.1, 0.03, 0.021, 0.019, None]
     assert live_contacts(contacts, dns, 15, 1.0) == [16, 17, 18, 19]
-    err = rms_on(contacts, dns, [None, 0.5, 0.1, 0.03, None, 0.0, None], [16, 17, 18, 19])
-    assert err["rms_rel"] == 0.0 and err["missing"] == 1 and err["rms_rel_all"] == pytest.approx(0.5)
+    err = model_error(contacts, dns, [None, 0.5, 0.1, 0.03, None, 0.0, None], 15, 1.0)
+    assert err["live_range"] == [16, 19] and err["compared"] == 3 and err["missing"] == 1
+    assert err["rms_pct"] == pytest.approx(50.0) and err["max_pct"] == 100.0  # 19 has no value: 100 %
+    err = model_error(contacts, dns, [None, 0.55, 0.1, 0.03, 0.021, None, None], 15, 1.0)
+    assert err["missing"] == 0 and err["rms_pct"] == pytest.approx(100 * (0.1 ** 2 / 4) ** 0.5)
+    assert model_error(contacts, dns, dns, 15, None)["rms_pct"] is None  # no seed: no live range

@@ -26,13 +26,15 @@ def test_run_json_contract_and_seed_from_dns():
     assert res["choices"] == {"profile": "exact", "variant": "paper", "methods": ["map", "longwave", "dns"]}
     for name in ("map", "longwave"):
         err = res["errors"][name]
-        assert err["compared"] > 0 and 0 <= err["rms_rel"] <= err["max_rel"]
-    # errors recomputed from the peaks
+        assert err["compared"] > 0 and 0 <= err["rms_pct"] <= err["max_pct"] and err["unit"] == "percent"
+    # errors recomputed from the peaks over the live range (DNS peak >= 2 % of the seed peak)
     d, m = np.array(res["peaks"]["dns"], float), np.array(res["peaks"]["map"], float)
-    ok = np.isfinite(d) & np.isfinite(m)
-    assert res["errors"]["map"]["max_rel"] == pytest.approx(np.max(np.abs(m[ok] - d[ok]) / d[ok]))
+    a, b = res["errors"]["map"]["live_range"]
+    assert a == 16 and d[b - 16] >= 0.02 * res["seed"]["peak"] and not (d[b - 15:] >= 0.02 * res["seed"]["peak"]).any()
+    ok = slice(a - 16, b - 15)
+    assert res["errors"]["map"]["max_pct"] == pytest.approx(100 * np.max(np.abs(m[ok] - d[ok]) / d[ok]))
     assert set(res["timings_s"]) >= {"dns", "map", "longwave"}
-    assert to_csv(res).splitlines()[0] == ("contact,dns,map,longwave,dns_alive,dns_arrival_time,dns_speed,"
+    assert to_csv(res).splitlines()[0] == ("contact,dns,map,longwave,dns_alive,live_range,dns_arrival_time,dns_speed,"
                                            "dns_pulse_energy,dns_total_energy")
 
 

@@ -11,7 +11,7 @@ import pytest
 from pulsemap.solvers.cli.main import main
 from pulsemap.solvers.data.overrides import with_sets
 from pulsemap.solvers.data.scene import load_scene
-from pulsemap.solvers.studies.ranking import rank_models
+from pulsemap.solvers.studies.ranking import add_ranking, rank_models
 from pulsemap.solvers.studies.run import run_scene
 from pulsemap.solvers.studies.run_report import LEGEND, MAX_ROWS, to_csv, to_text
 
@@ -39,8 +39,10 @@ def test_errors_in_percent_with_a_legend(short):
     text = to_text(res)
     assert LEGEND in text and "leading-edge maximum of delta_i = x_i - x_(i+1)" in text
     err = res["errors"]["map"]
-    assert f"max {100 * err['max_rel']:.3g} %, RMS {100 * err['rms_rel']:.3g} %" in text
-    assert "max rel" not in text
+    a, b = err["live_range"]
+    assert f"RMS {err['rms_pct']:.3g} %, max {err['max_pct']:.3g} % over the live range {a}..{b}" in text
+    lines = [line for line in text.splitlines() if "vs DNS:" in line]
+    assert len(lines) == 1 and lines[0].count("RMS") == 1  # one error per model, no second window
 
 
 def test_only_the_columns_asked_for_and_every_contact(short):
@@ -68,19 +70,59 @@ def test_ranking_matches_each_model_run_alone(short):
     assert [r["rms_pct"] for r in ranking] == sorted(r["rms_pct"] for r in ranking)
     alone = run_scene(scene, methods=["dns", "map"], variant="1d")
     entry = next(r for r in ranking if r["model"] == "map/1d")
-    assert entry["rms_pct"] == pytest.approx(100 * alone["errors"]["map"]["live"]["rms_rel_all"], rel=1e-12)
+    assert {k: entry[k] for k in alone["errors"]["map"]} == alone["errors"]["map"]
     assert entry["peaks"] == alone["peaks"]["map"]
 
 
-def test_quick_start_screen_shows_the_best_model_next_to_the_papers_map(capsys):
-    assert main(["run", "default", "--quiet"]) == 0
+def test_rank_shows_the_best_model_in_every_output(capsys, tmp_path):
+    """--rank: the best model's peaks are in the text table, the CSV, the plot and the JSON, with what it is."""
+    pytest.importorskip("matplotlib")
+    files = {k: tmp_path / f"run.{k}" for k in ("json", "csv", "png")}
+    assert main(["run", "default", "--quiet", "--rank", "--set", "output.contacts=[16, 40]", "--json", str(files["json"]),
+                 "--csv", str(files["csv"]), "--plot", str(files["png"])]) == 0
     out = capsys.readouterr().out
     ranking_line = next(line for line in out.splitlines() if "ranking against this DNS" in line)
     best = ranking_line.split(": ", 1)[1].split(",")[0].rsplit(" ", 1)[0]
+    data = json.loads(files["json"].read_text())
+    assert data["best"]["model"] == best == data["ranking"][0]["model"]
+    column = data["best"]["column"]
+    assert data["peaks"][column] is not None and data["errors"][column]["rms_pct"] == data["ranking"][0]["rms_pct"]
+    assert f"  {column}: {data[column]['model']}" in out  # one line on what it is
     header = _table_rows(out)[0]
-    assert header[:4] == ["contact", "dns", "map", "longwave"] and header[-1] == best
+    assert header[:4] == ["contact", "dns", "map", "longwave"]
+    assert column in ("map", "longwave") or header[-1] == column
+    assert column in files["csv"].read_text().splitlines()[0].split(",")
+    from pulsemap.solvers.data.plotting import figures, peaks_figure
+
+    labels = [line.get_label() for line in peaks_figure(data, figures()).axes[0].get_lines()]
+    assert sum(label.endswith("(best of the ranking)") for label in labels) == 1
     if best != "map/paper":
-        assert "first-order theory in eps" in out and "pulsemap table" in out
+        assert "first-order theory in eps" in out and f"{best} does best here" in out
+
+
+def test_the_default_run_ranks_nothing_and_says_how(short):
+    _, res = short
+    assert "ranking" not in res and "best" not in res
+    text = to_text(res)
+    if res["errors"]["map"]["rms_pct"] > 20:
+        assert "`pulsemap run --rank` ranks every model" in text
+
+
+def test_rank_without_the_dns_is_a_usage_error(capsys):
+    assert main(["run", "default", "--methods", "map", "--rank", "--quiet"]) == 2
+    assert "add dns to the methods" in capsys.readouterr().err
+
+
+def test_add_ranking_adds_a_best_the_run_did_not_compute(short):
+    scene, res = short
+    res = json.loads(json.dumps(res))
+    add_ranking(scene, res)
+    best = res["best"]
+    if best["model"] == "map/paper":
+        assert best["column"] == "map"
+    else:
+        assert res["peaks"][best["column"]] == rank_models(scene, res)[0]["peaks"]
+        assert best["column"] in to_csv(res).splitlines()[0].split(",")
 
 
 def test_csv_has_arrival_times_and_speeds(short):

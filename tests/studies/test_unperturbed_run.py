@@ -51,7 +51,7 @@ def test_laws_and_balance_maps_stay_at_the_seed(r0_run):
     for name in ("longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "dressed-law"):
         assert r0_run["peaks"][name] == pytest.approx([seed] * len(r0_run["contacts"]), rel=1e-12), name
     assert r0_run["longwave"]["kind"] == "constant"
-    assert r0_run["errors"]["longwave"]["max_rel"] < 1e-4
+    assert r0_run["errors"]["longwave"]["max_pct"] < 1e-2
 
 
 def test_the_relaxed_map_is_the_identity_at_r0(r0_run):
