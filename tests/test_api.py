@@ -278,3 +278,18 @@ def test_run_bad_input(call, error, words):
     with pytest.raises(error) as info:
         call()
     assert words in str(info.value)
+
+
+def test_every_method_is_in_the_method_lists_of_help_and_run_help(capsys):
+    import pydoc
+
+    from pulsemap.solvers.cli.main import main
+    from pulsemap.solvers.data.scene_schema import METHODS
+
+    doc = pydoc.render_doc(pulsemap.run, renderer=pydoc.plaintext)
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    cli = " ".join(capsys.readouterr().out.split())
+    for method in METHODS:
+        assert f'"{method}"' in doc and method in cli, method
+    assert "relaxed" in cli and "dressed-law" in cli

@@ -321,8 +321,9 @@ def test_run_names_every_model_and_measures_errors():
         assert res[m]["model"].startswith(m.replace("-map", "-balance map").replace("-law", "-balance law"))
         assert "balance_" in res[m]["generated"]
     d, e = np.array(res["peaks"]["dns"], float), np.array(res["peaks"]["energy-law"], float)
-    ok = np.isfinite(d) & np.isfinite(e)
-    assert res["errors"]["energy-law"]["max_rel"] == pytest.approx(np.max(np.abs(e[ok] - d[ok]) / d[ok]))
+    a, b = res["errors"]["energy-law"]["live_range"]
+    ok = slice(a - 16, b - 15)
+    assert res["errors"]["energy-law"]["max_pct"] == pytest.approx(100 * np.max(np.abs(e[ok] - d[ok]) / d[ok]))
     header = to_csv(res).splitlines()[0]
     assert header.startswith("contact,dns,map,longwave,energy-map,energy-law,momentum-map,momentum-law,relaxed,dressed-law,dns_alive,")
 
@@ -334,12 +335,12 @@ def test_energy_law_converges_to_the_dns_as_eps_vanishes_for_damping():
     for eps in (0.01, 0.003):
         scene = load_scene("fig8-eps0.1").with_overrides(eps=eps, contacts=(16, 70))
         res = run_scene(scene, methods=["dns", "energy-law", "momentum-law", "map"])
-        errs.append(res["errors"]["energy-law"]["max_rel"])
+        errs.append(res["errors"]["energy-law"]["max_pct"])
         d = np.array(res["peaks"]["dns"], float)
         m = np.array(res["peaks"]["momentum-law"], float)
         mom.append(math.log(m[-1] / m[0]) / math.log(d[-1] / d[0]))
-        print(f"eps {eps}: energy-law max rel {errs[-1]:.2e}, map {res['errors']['map']['max_rel']:.2e}")
-    assert errs[1] < 0.5 * errs[0] and errs[1] < 2e-3
+        print(f"eps {eps}: energy-law max {errs[-1]:.2e} %, map {res['errors']['map']['max_pct']:.2e} %")
+    assert errs[1] < 0.5 * errs[0] and errs[1] < 0.2
     assert mom[1] == pytest.approx(9 / 5, rel=0.1)
 
 
@@ -350,10 +351,10 @@ def test_energy_law_converges_to_the_dns_for_foundations_and_van_der_pol(name):
     errs, maps = [], []
     for eps in (0.01, 0.003):
         res = run_scene(load_scene(name).with_overrides(eps=eps, contacts=(16, 70)), methods=["dns", "energy-law", "map"])
-        errs.append(res["errors"]["energy-law"]["max_rel"])
-        maps.append(res["errors"]["map"]["max_rel"])
-    print(f"{name}: energy-law max rel {errs}, paper map {maps}")
-    assert errs[1] < 0.5 * errs[0] and errs[1] < 0.01
+        errs.append(res["errors"]["energy-law"]["max_pct"])
+        maps.append(res["errors"]["map"]["max_pct"])
+    print(f"{name}: energy-law max % {errs}, paper map {maps}")
+    assert errs[1] < 0.5 * errs[0] and errs[1] < 1
     assert maps[1] > 2 * errs[1]
 
 

@@ -58,3 +58,14 @@ def test_cli_sweep(capsys):
     cap = capsys.readouterr()
     assert "perturbation.eps" in cap.out and "2 points run" in cap.out
     assert "[sweep] 1/2 perturbation.eps=0.1: ok" in cap.err
+
+
+def test_grid_values_and_progress_lines_read_as_the_user_wrote_them(capsys):
+    scene = with_sets(load_scene("default"), ["output.contacts=[16, 20]"])
+    points = sweep_points(scene, ["perturbation.eps=0.05:0.5:10"], methods=["map"])
+    eps = [p["sets"]["perturbation.eps"] for p in points]
+    assert eps == [0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5]  # not 0.15000000000000002
+    assert all(abs(e - (0.05 + 0.05 * k)) < 1e-15 for k, e in enumerate(eps))  # the same grid, rounded
+    scene_sweep(scene, ["perturbation.eps=0.05:0.5:10"], methods=["map"], max_workers=1, progress=True)
+    err = capsys.readouterr().err
+    assert "perturbation.eps=0.15: ok" in err and "0000000" not in err
