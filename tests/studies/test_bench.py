@@ -85,6 +85,8 @@ def test_ratios_and_reports(tiny_report):
     assert m["map_line"] == "map/exact/paper" and m["run_dns_vs_map"] == pytest.approx(m["run_dns_time_s"] / m["map_time_s"])
     text = to_text([tiny_report])
     assert "ratio (b)/DNS" in text and "window LSODA" in text
+    paper = next(p for p in tiny_report["points"] if p["line"] == "map/exact/paper")
+    assert "models against the reference DNS (" in text and f"RMS {paper['rms_pct']:.3g} %" in text  # percent
     csv = to_csv([tiny_report]).splitlines()
     assert len(csv) == 1 + len(tiny_report["points"]) and csv[0].startswith("scene,kind,line")
 

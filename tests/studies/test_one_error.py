@@ -73,3 +73,24 @@ def test_every_rms_a_user_sees_is_the_same_number(name, contacts, models):
         key = Column(model).key
         assert row["errors"][key] == res["errors"][model] == record["errors"][model]
     assert row["winner"]["rms_pct"] == min(res["errors"][m]["rms_pct"] for m in models)
+
+
+def test_bench_reports_the_models_with_the_same_error():
+    from pulsemap.solvers.studies.bench_lines import model_points
+    from pulsemap.solvers.studies.bench_measure import quick_ladder
+    from pulsemap.solvers.studies.bench_report import to_csv as bench_csv
+
+    name, contacts, models = CASES[0]
+    scene = with_sets(load_scene(name), [f"output.contacts={contacts}"])
+    res = run_scene(scene, methods=["dns", *models])
+    points = {p.line: p for p in model_points(scene, res, res["peaks"]["dns"], quick_ladder(repeats=1), lambda s: None)}
+    for model in models:
+        err, point = res["errors"][model], points[f"{model}/exact" + ("/paper" if model == "map" else "")]
+        assert point.rms_pct == err["rms_pct"] and point.error == err["max_pct"] / 100
+        assert list(point.live_range) == err["live_range"]
+    from dataclasses import asdict
+
+    csv = bench_csv([{"scene": name, "points": [asdict(p) for p in points.values()]}]).splitlines()
+    head = csv[0].split(",")
+    row = next(r.split(",") for r in csv[1:] if r.split(",")[2] == "map/exact/paper")
+    assert float(row[head.index("rms_pct")]) == res["errors"]["map"]["rms_pct"]
