@@ -15,11 +15,11 @@ realisations whose DNS primary pulse is alive at that contact.
 
 from __future__ import annotations
 
-import math
 from typing import Any, Sequence
 
 import numpy as np
 
+from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.sweep import run_sweep
 
 MAX_REALISATIONS = 100_000
@@ -79,15 +79,14 @@ def statistics(results: Sequence[dict], first_perturbed: int) -> dict:
         per["map"].append(_stats([r["map_peaks"][k] for r in ok if r["peaks"][k] is not None]))
         per["rel_error"].append(_stats([r["rel_error"][k] for r in ok]))
     rows = []
-    for r in ok:
-        errs = [e for c, e in zip(r["contacts"], r["rel_error"]) if c >= first_perturbed and e is not None]
+    for r in ok:  # each realisation's map error as run reports it (studies/errors.py)
+        err = model_error(r["contacts"], r["peaks"], r["map_peaks"], first_perturbed - 1, r.get("seed_peak"))
         rows.append({"live_contacts": sum(1 for c, p in zip(r["contacts"], r["peaks"]) if c >= first_perturbed and p is not None),
-                     "max_rel": max(errs) if errs else None,
-                     "rms_rel": float(math.sqrt(np.mean(np.square(errs)))) if errs else None})
+                     **err})
     return {"contacts": contacts, **per, "realisations": rows,
             "live_contacts": _stats([r["live_contacts"] for r in rows]),
-            "max_rel": _stats([r["max_rel"] for r in rows]),
-            "rms_rel": _stats([r["rms_rel"] for r in rows])}
+            "max_pct": _stats([r["max_pct"] for r in rows]),
+            "rms_pct": _stats([r["rms_pct"] for r in rows])}
 
 
 def ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = None, variant: str | None = None,
@@ -130,11 +129,11 @@ def to_text(report: dict) -> str:
     if st["contacts"]:
         lc = st["live_contacts"]
         lines.append(f"  live contacts per realisation: mean {lc['mean']:.3g}, min {lc['min']:.0f}, max {lc['max']:.0f}")
-        for key, label in (("max_rel", "max"), ("rms_rel", "RMS")):
+        for key, label in (("rms_pct", "RMS"), ("max_pct", "max")):
             s = st[key]
             if s["n"]:
-                lines.append(f"  map {label} rel. error over a realisation's live contacts: mean {100 * s['mean']:.1f} %"
-                             + (f", std {100 * s['std']:.1f} %" if s["std"] is not None else ""))
+                lines.append(f"  map {label} error of a realisation (percent over its live range): mean {s['mean']:.1f} %"
+                             + (f", std {s['std']:.1f} %" if s["std"] is not None else ""))
         lines.append(f"  {'contact':>7s} {'alive':>5s} {'DNS mean':>9s} {'DNS std':>8s} {'map mean':>9s} {'map std':>8s} "
                      f"{'err mean':>8s} {'err std':>8s}")
         for c, d, m, e in zip(st["contacts"], st["dns"], st["map"], st["rel_error"]):

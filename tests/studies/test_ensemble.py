@@ -50,6 +50,8 @@ def test_a_realisation_equals_pulsemap_run_of_that_seed(tmp_path):
     assert res["peaks"][k0:] == ref["peaks"]["dns"]
     assert res["map_peaks"][k0:] == ref["peaks"]["map"]
     assert res["seed_peak"] == ref["dns"]["seed_peak"]
+    row = rep["statistics"]["realisations"][j]  # the realisation's map error is the one run reports
+    assert {k: row[k] for k in ref["errors"]["map"]} == ref["errors"]["map"]
 
 
 def test_statistics_per_contact_recomputed_from_the_records(tmp_path):
@@ -73,6 +75,7 @@ def test_statistics_per_contact_recomputed_from_the_records(tmp_path):
             assert e["mean"] == pytest.approx(errs.mean(), rel=1e-12)
     # the realisations differ: the spread is real
     assert st["dns"][2]["std"] > 0
+    assert st["rms_pct"]["mean"] == pytest.approx(np.mean([row["rms_pct"] for row in st["realisations"]]), rel=1e-12)
 
 
 def test_a_larger_ensemble_reuses_the_recorded_realisations(tmp_path):
