@@ -16,8 +16,10 @@ For one scene (``bench_scene``):
   variant, the long-wave law of Eq. 30, and whatever else is listed), seeded as ``pulsemap run``
   seeds it (the reference DNS peak at contact first_perturbed - 1, Eq. 32).
 
-Error: max relative peak error over the contacts where the reference has a live primary pulse
-(a run without a value at such a contact is counted separately as ``missing``). Time: one
+Error of a DNS: max relative peak error over the contacts where the reference has a live primary
+pulse (a run without a value at such a contact is counted separately as ``missing``). Error of a
+model: ``pulsemap run``'s (studies/errors.py: RMS and max in percent over the live range, against
+the reference DNS; ``Point.error`` holds its max as a fraction for the work-precision plot). Time: one
 warm-up run, then the best of K (DiffEqDevTools' convention); for a DNS the integrator's wall
 time (force construction excluded), for a model its evaluation (derivation and code loading,
 one-off and cached, excluded).
