@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pulsemap.solvers.studies.errors import DEFINITION
+from pulsemap.solvers.studies.errors import DEFINITION, LIVE_FRACTION
 from pulsemap.solvers.studies.methods import MODELS, RunError
 
 __all__ = ["LEGEND", "nothing_ran", "plot", "to_csv", "to_text"]
@@ -65,7 +65,8 @@ def _live_range(result: dict) -> list[int] | None:
 
 def _error_line(name: str, err: dict) -> str:
     if err["rms_pct"] is None:
-        return f"  {name:8s} vs DNS: nothing to compare (no live range: the DNS pulse died before reaching it)"
+        return (f"  {name:8s} vs DNS: nothing to compare (no contact after the seed where the DNS peak is >= "
+                f"{100 * LIVE_FRACTION:g} % of the seed's)")
     a, b = err["live_range"]
     return (f"  {name:8s} vs DNS: RMS {_pct(err['rms_pct'])}, max {_pct(err['max_pct'])} over the live range {a}..{b}"
             + (f" ({err['missing']} contacts without a value count as 100 %)" if err["missing"] else ""))
