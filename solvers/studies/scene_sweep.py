@@ -118,9 +118,9 @@ def to_text(report: dict) -> str:
 
     keys = report["keys"]
     models = [m for m in report["methods"] if m != "dns"]
-    head = [k.removeprefix("perturbation.params.") for k in keys] + ["live", *(f"{m} rms/max %" for m in models)]
+    head = [k.removeprefix("perturbation.params.") for k in keys] + ["alive", *(f"{m} rms/max %" for m in models)]
     lines = [f"sweep of scene {report['scene']['name']} over {', '.join(report['over'])}",
-             f"errors: RMS / max of {DEFINITION}; live: contacts where the DNS's primary pulse is alive",
+             f"errors: RMS / max of {DEFINITION}; alive: how many contacts the DNS's primary pulse reached",
              "  ".join(f"{h:>18s}" for h in head)]
     for row in report["points"]:
         cells = [_fmt(row["sets"][k]) for k in keys]
