@@ -146,7 +146,8 @@ class Result:
             rows.append("<tr>" + "".join(f"<td>{e(str(c))}</td>" for c in (
                 label, _fmt(err.get("rms_pct")), _fmt(err.get("max_pct")), _fmt(self.timings.get(name), ".3g"),
                 what)) + "</tr>")
-        versions = ", ".join(f"{k} {v}" for k, v in self.provenance.items() if isinstance(v, str))
+        versions = ", ".join(f"{k} {v}" for k, v in self.provenance.items()
+                             if isinstance(v, str) and k != "pulsemap_version")  # "pulsemap" is there too
         warn = "".join(f"<li>{e(w)}</li>" for w in self.warnings)
         return (f"<div>{head}<table>{''.join(rows)}</table><small>{e(versions)}</small>"
                 + (f"<ul>{warn}</ul>" if warn else "") + "</div>")
