@@ -11,10 +11,9 @@ import sympy
 
 from .balance_constants import BalanceError
 from .balance_expansion import A, BalanceExpansion
-from .longwave import LAW_RATE, A0, I, I0, integrate_reciprocal
+from .longwave import LAW_RATE, A0, I, I0, reciprocal_integral
 from .perturbation import Perturbation
 from .site_law import SiteLaw, coefficient_of_i, site_law
-from .timebox import bounded
 
 __all__ = ["B", "EPS", "K_SYMBOLS", "BalanceLaw", "balance_law", "balance_site_law"]
 
@@ -136,7 +135,7 @@ def balance_law(ex: BalanceExpansion, constants: dict, params: dict, eps: float,
         return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, kind, law_A, None)
     if any(c is None for c in coeffs):
         return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None)
-    G = bounded(integrate_reciprocal, (coeffs, powers, B), seconds) if seconds > 0 else None
+    G = reciprocal_integral(coeffs, powers, seconds)
     if G is not None and not G.has(sympy.Integral):
         implicit = sympy.Float(K / eps, 17) * (G.xreplace({B: A**Q}) - G.xreplace({B: A0**Q})) + I0
         return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "implicit", None, implicit)

@@ -21,7 +21,7 @@ import sympy
 
 from .amplitude_map import EPS, F_SYMBOLS, AmplitudeMap
 from .expression import UserSymbol, symbol
-from .timebox import bounded
+from .sympy_cache import bounded_cached
 
 B = sympy.Symbol("B", positive=True)
 A = sympy.Symbol("A", positive=True)
@@ -212,13 +212,20 @@ def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> Longwa
     # several powers: Eq. 31a, closed form if sympy finds one in time
     if any(c is None for c in coeffs):
         return LongwaveLaw(P, powers, coeffs, symb, f13, eps, "quadrature", None, None)
-    G = bounded(integrate_reciprocal, (coeffs, powers, B), seconds) if seconds > 0 else None
+    G = reciprocal_integral(coeffs, powers, seconds)
     implicit = None
     kind = "quadrature"
     if G is not None and not G.has(sympy.Integral):
         implicit = sympy.Float(f13 / eps, 17) * (G.xreplace({B: A**P}) - G.xreplace({B: A0**P})) + I0
         kind = "implicit"
     return LongwaveLaw(P, powers, coeffs, symb, f13, eps, kind, None, implicit)
+
+
+def reciprocal_integral(coeffs, powers, seconds: float) -> sympy.Expr | None:
+    """int dB / sum_p C_p B^p (Eq. 31a) if sympy finds it within ``seconds``, else None; the outcome,
+    found or not, is cached (derive/sympy_cache.py: a larger bound tries again)."""
+    key = f"{[repr(float(c)) for c in coeffs]}|{[str(p) for p in powers]}|{sympy.srepr(B)}"
+    return bounded_cached("integrate_reciprocal", key, integrate_reciprocal, (coeffs, powers, B), seconds)
 
 
 def integrate_reciprocal(coeffs, powers, B: sympy.Symbol) -> sympy.Expr:

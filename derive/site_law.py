@@ -29,7 +29,7 @@ from sympy.core.function import AppliedUndef
 from .expansion import bead_symbol
 from .expression import symbol
 from .perturbation import IndexExpression, Perturbation
-from .timebox import bounded
+from .sympy_cache import bounded_cached
 
 A0 = sympy.Symbol("A_0", positive=True)
 I = symbol("i")  # noqa: E741  (the continuous contact index; the same symbol as R's i)
@@ -143,7 +143,9 @@ def site_law(model: str, Q: sympy.Rational, scale_name: str, scale: float, eps: 
     if C.atoms(AppliedUndef):
         return SiteLaw(model, Q, scale_name, scale, eps, powers, coeffs, "quadrature", None,
                        "parameters given bead by bead: piecewise-constant coefficients")
-    G = bounded(sympy.integrate, (C.xreplace({I: IVAR}), (IVAR, I0, I)), seconds)
+    integrand = C.xreplace({I: IVAR})
+    G = bounded_cached("integrate", f"{sympy.srepr(integrand)}|{sympy.srepr((IVAR, I0, I))}", sympy.integrate,
+                       (integrand, (IVAR, I0, I)), seconds)
     if G is None or G.has(sympy.Integral):
         return SiteLaw(model, Q, scale_name, scale, eps, powers, coeffs, "quadrature", None,
                        "sympy found no antiderivative of the coefficient within the time bound")

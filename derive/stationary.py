@@ -21,7 +21,7 @@ import sympy
 
 from .amplitude_map import AmplitudeMap, integral_symbol
 from .expression import symbol
-from .timebox import bounded
+from .sympy_cache import bounded_cached
 
 A = sympy.Symbol("A", positive=True)
 
@@ -137,7 +137,7 @@ def find_folds(amap: AmplitudeMap, name: str, params: dict, S0: float, seconds: 
     phi = sum((k * A**p for p, k in _power_terms(amap, others)), sympy.Integer(0))
     if par not in phi.free_symbols:
         raise StationaryError(f"--fold {name}: Eq. 41 does not depend on '{name}'")
-    sols = bounded(_solve_for_param, (phi, par), seconds)
+    sols = bounded_cached("solve", f"{sympy.srepr(phi)}|{sympy.srepr(par)}", _solve_for_param, (phi, par), seconds)
     if not sols:
         raise StationaryError(f"--fold {name}: could not solve Eq. 41 for {name} within {seconds:g} s")
     folds: list[Fold] = []
