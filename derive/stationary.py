@@ -21,6 +21,7 @@ import sympy
 
 from .amplitude_map import AmplitudeMap, integral_symbol
 from .expression import symbol
+from .longwave import needs_values
 from .sympy_cache import bounded_cached
 
 A = sympy.Symbol("A", positive=True)
@@ -51,6 +52,7 @@ class Stationary:
     S0: float
     fold: Fold | None = None
     folds: tuple[Fold, ...] = ()
+    missing: tuple[str, ...] = ()  # free parameters (no value): no roots without them
 
     def peaks(self) -> tuple[float, ...]:
         return tuple(r * self.S0 for r in self.roots)
@@ -176,8 +178,10 @@ def stationary(amap: AmplitudeMap, params: dict, S0: float, fold: str | None = N
     terms = _power_terms(amap, params)
     numeric = sum((k * A**p for p, k in terms), sympy.Integer(0))
     if any(k.free_symbols for _, k in terms):
-        missing = sorted({s.name for _, k in terms for s in k.free_symbols})
-        raise StationaryError(f"Eq. 41 needs values for: {', '.join(missing)}")
+        missing = tuple(sorted({s.name for _, k in terms for s in k.free_symbols}))
+        if fold is not None:
+            raise StationaryError(needs_values(f"--fold {fold}: Eq. 41", missing))
+        return Stationary(sym, numeric, (), S0, missing=missing)
     roots = positive_roots([(p, float(k)) for p, k in terms])
     folds: tuple[Fold, ...] = ()
     chosen = None

@@ -18,17 +18,24 @@ VARIANTS = ("paper", "corrected", "1d")
 class Derivation:
     """Everything derived for one perturbation eps R(u, v), with the choices that produced it.
 
-    Equations are text in sympy's notation (``str``); :attr:`latex` has them in LaTeX. Integrals
-    of the solitary-wave profile appear as symbols (``f1`` ... ``f7``, ``g1_klmq``, ``g2_pr``) whose values are in
-    :attr:`constants`. Build one with :func:`pulsemap.derive`.
+    The equations are sympy objects (``sympy.Eq``) in the user's symbols: u, v, i and the parameters of
+    R; a parameter given no value stays a symbol (:attr:`free`). Integrals of the solitary-wave profile
+    appear as symbols (``f1`` ... ``f7``, ``g1_klmq``, ``g2_pr``) and eps as ``epsilon``; :attr:`values`
+    maps each of these symbols to its number, so ``d.law.subs(d.values)`` is the numeric law. ``str(d)``
+    is the report of ``pulsemap derive``, :attr:`latex` its LaTeX (shown by Jupyter), ``to_dict()`` its
+    JSON. Build one with :func:`pulsemap.derive`.
     """
 
-    R: str
-    """The perturbation as given."""
+    R: Any
+    """The perturbation R(u, v) as a sympy expression (symbols u, v, i and parameters)."""
+    expression: str
+    """R as given (text), or sympy's text of a sympy R."""
     eps: float
     """The small parameter in front of R."""
     params: Mapping[str, Any]
-    """Parameter values of R."""
+    """Parameter values of R (numbers, per-bead lists, expressions of i)."""
+    free: tuple[str, ...]
+    """Parameters of R given no value: symbols in every equation (a number is asked for where one is needed)."""
     n: float
     """Hertz exponent of the chain (1.5 for spheres)."""
     profile: str
@@ -38,29 +45,59 @@ class Derivation:
     S0: float
     """Peak S(0) of the unit solitary wave: a peak is A S(0)."""
     constants: Mapping[str, float]
-    """Values of the profile integrals that occur."""
-    map: tuple[str, ...]
-    """The amplitude map, Eq. 23, one ``0 = ...`` per equation."""
-    map_numeric: tuple[str, ...]
-    """The same with the constants substituted."""
-    ode: str | None
-    """The long-wave ODE, Eq. 30, in B = A^P (for a site-dependent R with coefficients C_p(i));
-    None when there is no law."""
-    law: str | None
-    """The long-wave law: ``A(i) = ...`` (closed form), ``i(A) = ...`` (implicit),
-    ``A(i) = A_0`` (no forcing), or None (by quadrature only, or no law: see :attr:`notes`)."""
+    """Values of the profile integrals that occur, by name."""
+    map: tuple[Any, ...]
+    """The amplitude map, Eq. 23: ``Eq(0, F_k)`` for each equation, in A_{i-1}, A_i, A_{i+1}."""
+    ode: Any
+    """The long-wave ODE, Eq. 30, ``Eq((f1 - f3) B'(i), epsilon sum C_p B(i)^p)`` with B = A^P (coefficients
+    C_p(i) for a site-dependent R); None when there is no law."""
+    law: Any
+    """The long-wave law: ``Eq(A(i), ...)`` (closed form in A_0, i, i_0, epsilon, the integrals and the
+    parameters), ``Eq(i, ...)`` (implicit i(A), numeric constants), or None (by quadrature only, or no law:
+    see :attr:`notes`)."""
     law_kind: str | None
     """"power law", "exponential", "implicit", "quadrature" or "constant"."""
-    rate: float | None
-    """lambda_L = eps C / (f1 - f3) of a uniform single-power law (the lambda_L in :attr:`law`)."""
-    stationary: str | None
-    """Eq. 41, ``0 = Phi(A)``; None for a site-dependent R."""
-    roots: tuple[float, ...]
-    """Positive roots A of Eq. 41 (stationary shocks)."""
+    stationary: Any
+    """Eq. 41, ``Eq(0, Phi(A))``; None for a site-dependent R."""
     notes: Mapping[str, str]
     """Why the law or Eq. 41 is not available, when it is not."""
     details: Any = field(default=None, repr=False, compare=False)
     """The internal derivation object (pulsemap.symbolic.derivation.Derivation); not a stable interface."""
+
+    @property
+    def values(self) -> dict:
+        """Numbers of the symbols in the equations: the profile integrals, epsilon and the scalar
+        parameters given a value (``expr.subs(d.values)``)."""
+        from pulsemap.symbolic.amplitude_map import EPS, integral_symbol
+
+        out = {integral_symbol(k): v for k, v in self.constants.items()}
+        out[EPS] = self.eps
+        out.update({k: float(v) for k, v in self.details.perturbation.scalar_values().items()})
+        return out
+
+    @property
+    def rate(self) -> float | None:
+        """lambda_L = eps C / (f1 - f3) of a uniform single-power law; None for other laws. ValueError
+        naming the parameter when it needs a value that was not given."""
+        from pulsemap.symbolic.longwave import LongwaveLaw
+
+        law = self.details.longwave
+        if not isinstance(law, LongwaveLaw) or len(law.powers) != 1:
+            return None
+        return law.rate()
+
+    @property
+    def roots(self) -> tuple[float, ...]:
+        """Positive roots A of Eq. 41 (stationary shocks); () without Eq. 41. ValueError naming the
+        parameters when Eq. 41 depends on one given no value."""
+        from pulsemap.symbolic.longwave import needs_values
+
+        st = self.details.stationary
+        if st is None:
+            return ()
+        if st.missing:
+            raise ValueError(needs_values("the roots of Eq. 41", st.missing))
+        return tuple(float(r) for r in st.roots)
 
     @property
     def stationary_peaks(self) -> tuple[float, ...]:
@@ -91,7 +128,7 @@ class Derivation:
 
 
 def derive(
-    R: str,
+    R: Any,
     *,
     eps: float = 0.1,
     n: float = 1.5,
@@ -100,16 +137,18 @@ def derive(
     params: Mapping[str, Any] | None = None,
     **parameters: Any,
 ) -> Derivation:
-    """Derive the map (Eq. 23), the long-wave law (Eq. 30) and Eq. 41 for eps R(u, v).
+    """Derive the map (Eq. 23), the long-wave law (Eq. 30) and Eq. 41 for eps R(u, v), as sympy equations.
 
-    ``R`` is a formula in the strain u, its rate v, the bead index i and parameters, e.g.
-    ``"-mu*v"`` (damping) or ``"-(u - mu*(1 - u^2)*v)"`` (Van der Pol); give each parameter as a
-    keyword (``mu=1``) or in ``params`` (for a name that clashes with an argument, e.g. ``n``).
-    Parameter values are numbers, lists of per-bead values or expressions of i (text).
+    ``R`` is a formula in the strain u, its rate v, the bead index i and parameters, as text
+    (``"-mu*v"`` for damping, ``"-(u - mu*(1 - u^2)*v)"`` for Van der Pol) or as a sympy expression in
+    symbols of those names. Give a parameter's value as a keyword (``mu=1``) or in ``params`` (for a
+    name that clashes with an argument, e.g. ``n``): a number, a list of per-bead values or an
+    expression of i (text). A parameter given no value stays a sympy symbol; what needs a number
+    (the roots of Eq. 41, the rate lambda_L) then raises ValueError naming it.
 
-    >>> d = derive("-mu*v", mu=1)
-    >>> print(d.law)  # doctest: +SKIP
-    A(i) = (A_0**(1/4) + lambda_L*(i - i_0)/5)**4
+    >>> d = derive("-mu*v")
+    >>> d.law  # doctest: +SKIP
+    Eq(A(i), (A_0**(1/4) - epsilon*g1_0010*mu*(i - i_0)/(5*(f1 - f3)))**4)
 
     Raises TypeError or ValueError naming the argument for bad input.
     """
@@ -120,58 +159,71 @@ def derive(
     from pulsemap.symbolic.profile import ProfileError
     from pulsemap.symbolic.stationary import StationaryError
 
-    if not isinstance(R, str):
-        raise TypeError(f"R must be a string formula in u, v, i and parameters (e.g. '-mu*v'), got {type(R).__name__}")
+    _check_R(R)
     eps = number(eps, "eps")
     n = number(n, "n")
     profile = choice(profile, "profile", PROFILES)
     variant = choice(variant, "variant", VARIANTS)
     values = merged_params(params, parameters)
     try:
-        pert = check_all_used(make_perturbation(R, eps, values))
+        pert = check_all_used(make_perturbation(R, eps, values, free=True))
         d = derive_all(pert, n=n, profile=profile, variant=variant)
     except (PerturbationError, ExpressionError, ProfileError, MapError, DerivationError, StationaryError) as exc:
         raise ValueError(api_hint(str(exc))) from None
-    return _public(R, d)
+    return _public(d)
 
 
-def _public(R: str, d: Any) -> Derivation:
-    from pulsemap.symbolic.longwave import LongwaveLaw
+def _check_R(R: Any) -> None:
+    """R must be text or a sympy expression (TypeError otherwise)."""
+    if isinstance(R, str):
+        return
+    import sympy
 
-    law = d.longwave  # a LongwaveLaw, or a SiteLaw (derive/site_law.py) for a site-dependent R
-    uniform = isinstance(law, LongwaveLaw)
-    if law is None:
-        law_text = None
-    elif law.kind == "constant":
-        law_text = "A(i) = A_0"
-    elif law.law is not None:
-        law_text = f"A(i) = {law.law}"
-    elif uniform and law.implicit is not None:
-        law_text = f"i(A) = {law.implicit}"
-    else:
-        law_text = None
-    ode = None if law is None else f"{law.ode().lhs} = {law.ode().rhs}"
-    st = d.stationary
-    notes = {key: text for key, text in (("law", d.longwave_note), ("stationary", d.stationary_note)) if text}
+    if not isinstance(R, sympy.Expr):
+        raise TypeError("R must be a string formula or a sympy expression in u, v, i and parameters "
+                        f"(e.g. '-mu*v'), got {type(R).__name__}")
+
+
+def _public(d: Any) -> Derivation:
+    import sympy
+
+    from pulsemap.symbolic.longwave import I, LAW_RATE, LongwaveLaw
+    from pulsemap.symbolic.amplitude_map import EPS, F_SYMBOLS
     from pulsemap.symbolic.perturbation import param_data
 
+    law = d.longwave  # a LongwaveLaw, or a SiteLaw (derive/site_law.py) for a site-dependent R
+    amplitude = sympy.Function("A")(I)
+    if law is None:
+        law_eq = None
+    elif law.law is not None:
+        expr = law.law
+        if isinstance(law, LongwaveLaw) and law.powers:  # lambda_L = eps C / (f1 - f3), Eq. 30
+            rate = EPS * law.symbolic_coefficients[0] / (F_SYMBOLS["f1"] - F_SYMBOLS["f3"])
+            expr = expr.xreplace({LAW_RATE: rate})
+        law_eq = sympy.Eq(amplitude, expr, evaluate=False)
+    elif isinstance(law, LongwaveLaw) and law.implicit is not None:
+        law_eq = sympy.Eq(I, law.implicit, evaluate=False)  # i(A), A the amplitude symbol
+    else:
+        law_eq = None
+    st = d.stationary
+    notes = {key: text for key, text in (("law", d.longwave_note), ("stationary", d.stationary_note)) if text}
+    pert = d.perturbation
     return Derivation(
-        R=R,
-        eps=float(d.perturbation.eps),
-        params={k: param_data(v) for k, v in d.perturbation.params.items()},
+        R=pert.R,
+        expression=pert.text,
+        eps=float(pert.eps),
+        params={k: param_data(v) for k, v in pert.params.items()},
+        free=pert.free_parameters,
         n=float(d.n),
         profile=d.profile,
         variant=d.variant,
         S0=float(d.S0),
         constants=dict(d.constants),
-        map=tuple(f"0 = {e}" for e in d.amap.equations()),
-        map_numeric=tuple(f"0 = {e}" for e in d.amap.equations(numeric=True)),
-        ode=ode,
-        law=law_text,
+        map=tuple(sympy.Eq(0, e, evaluate=False) for e in d.amap.equations()),
+        ode=None if law is None else law.ode(),
+        law=law_eq,
         law_kind=None if law is None else law.kind,
-        rate=(law.rate() if uniform and len(law.powers) == 1 else None),
-        stationary=None if st is None else f"0 = {st.equation}",
-        roots=() if st is None else tuple(float(r) for r in st.roots),
+        stationary=None if st is None else sympy.Eq(0, st.equation, evaluate=False),
         notes=notes,
         details=d,
     )
