@@ -227,3 +227,70 @@ def _public(d: Any) -> Derivation:
         notes=notes,
         details=d,
     )
+
+
+def quadrature_energy_law(pert: Any, n: float = 1.5) -> dict:
+    """The energy law of a uniform R that is not a polynomial in u, v, as JSON data: E_1 dB/di = W(A),
+    B = A^(n+1), with W(A) tabulated by quadrature over the wave exactly as ``run --methods energy-law``
+    evaluates it (solvers/models/energy_quadrature.py), each value with its quadrature error."""
+    from pulsemap.symbolic.balance import json_header, model_title
+    from pulsemap.symbolic.profile import check_exponent
+    from pulsemap.solvers.models.codeload import force_module
+    from pulsemap.solvers.models.energy_quadrature import bead_force, rate_table
+
+    if not pert.is_uniform:
+        raise ValueError(f"R = {pert.text} varies along the chain: the tabulated energy law needs a uniform R; "
+                         "pulsemap run --methods energy-law evaluates it bead by bead")
+    n = float(check_exponent(n))
+    values = {name: float(value) for name, value in pert.params.items()}
+    module = force_module(pert.text, pert.used_parameters)
+    force = bead_force(module, float(pert.eps), lambda bead: tuple(values[name] for name in module.PARAMS))
+    t = rate_table(lambda x, v: force(x, v, 1.0), n)
+    rows = [{"A": a, "peak": a * t.S0, "rate_dB_di": r, "dlnA_di": g, "error": e}
+            for a, r, g, e in zip(t.A, t.rate, t.dlnA_di(), t.error)]
+    return {
+        **json_header("energy", pert),
+        "title": model_title("energy"),
+        "method": "quadrature of R over the wave (R is not a polynomial in u, v)",
+        "n": n,
+        "profile": "exact",
+        "S0": t.S0,
+        "window_L": t.L,
+        "nodes_per_unit": t.nodes,
+        "wave": {"E1": t.E1, "K1": t.K1, "V1": t.V1, "kinetic_fraction": t.K1 / t.E1},
+        "Q": f"{n + 1:g}",
+        "law": {
+            "kind": "quadrature (tabulated)",
+            "ode": "Eq(E_1*Derivative(B(i), i), W(A))",
+            "ode_numeric": f"Eq({t.E1!r}*Derivative(B(i), i), W(A))",
+            "B": f"A**({n + 1:g})",
+            "W": "eps*int R(A X, A^(1+s) X') A X' dtau over |tau| <= L (Gauss-Legendre)",
+            "error": f"change of W/E_1 with {2 * t.nodes} instead of {t.nodes} nodes per unit interval",
+            "table": rows,
+            "max_error": max(t.error),
+            "max_rel_error": max((e / abs(r) for r, e in zip(t.rate, t.error) if r != 0), default=0.0),
+        },
+    }
+
+
+def quadrature_energy_text(doc: dict) -> str:
+    """The report of :func:`quadrature_energy_law` (``pulsemap derive --model energy`` for such an R)."""
+    law, wave = doc["law"], doc["wave"]
+    lines = [
+        f"Model: {doc['title']}",
+        f"R(u, v) = {doc['R']}    eps = {doc['eps']:g}    n = {doc['n']:g}    profile = exact",
+        f"R is not a polynomial in u, v: W(A) = {law['W']} (L = {doc['window_L']}, {doc['nodes_per_unit']} nodes "
+        "per unit interval), as pulsemap run computes energy-map and energy-law",
+        f"E_1 = K_1 + V_1 = {wave['K1']:.12g} + {wave['V1']:.12g} = {wave['E1']:.12g}",
+        "",
+        f"Law, B = {law['B']}:",
+        f"  {law['ode']}",
+        f"  {law['ode_numeric']}",
+        f"Amplitude law: by quadrature, rate tabulated (error: {law['error']}):",
+        f"  {'A':>12s} {'peak A S(0)':>14s} {'dB/di = W/E_1':>16s} {'d ln A/di':>14s} {'error':>10s}",
+    ]
+    for row in law["table"]:
+        lines.append(f"  {row['A']:12.6g} {row['peak']:14.6g} {row['rate_dB_di']:16.9g} {row['dlnA_di']:14.7g} "
+                     f"{row['error']:10.2g}")
+    lines.append(f"  largest relative error of the rate: {law['max_rel_error']:.2g}")
+    return "\n".join(lines)

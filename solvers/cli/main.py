@@ -113,6 +113,21 @@ def cmd_derive(args: argparse.Namespace) -> int:
         if args.json:
             write_json(args.json, dressed.to_json(dd))
         return 0
+    from pulsemap.symbolic.expression import is_polynomial_in_state
+
+    if args.model == "energy" and not is_polynomial_in_state(pert.R):  # W(A) by quadrature, as run does
+        from pulsemap.solvers.api.derivation import quadrature_energy_law, quadrature_energy_text
+
+        for option, given in (("--variant", args.variant), ("--fold", args.fold), ("--A0", args.A0), ("--latex", args.latex)):
+            if given:
+                raise UsageError(f"{option} does not apply to the tabulated energy law of a non-polynomial R: drop it")
+        if args.profile != "exact":
+            raise UsageError("the energy law by quadrature uses the exact profile: drop --profile")
+        doc = quadrature_energy_law(pert, args.n)
+        print(quadrature_energy_text(doc))
+        if args.json:
+            write_json(args.json, doc)
+        return 0
     d = derive_model(
         pert,
         args.model,
