@@ -45,13 +45,13 @@ def test_derive_is_a_plain_function_and_the_symbolic_layer_has_its_own_name():
 # --------------------------------------------------------------------------- derive
 
 
-def _law_residual(d) -> sympy.Expr:
-    """The law A(i) put back into its ODE (Eq. 30, B = A^P), written in the positive base w of the power
-    law (i solved for w), so that sympy may combine the powers."""
+def _law_residual(d, Q=None) -> sympy.Expr:
+    """The law A(i) put back into its ODE (B = A^Q; Q = (n+1)/2 for Eq. 30), written in the positive base
+    w of the power law (i solved for w), so that sympy may combine the powers."""
     (B,) = d.ode.atoms(sympy.core.function.AppliedUndef)
     i = B.args[0]
-    P = (sympy.Rational(d.n) + 1) / 2
-    residual = (d.ode.lhs - d.ode.rhs).subs(B, d.law.rhs**P).doit()
+    Q = (sympy.Rational(1.5) + 1) / 2 if Q is None else Q
+    residual = (d.ode.lhs - d.ode.rhs).subs(B, d.law.rhs**Q).doit()
     w = sympy.Symbol("w", positive=True)
     (i_of_w,) = sympy.solve(sympy.Eq(d.law.rhs.base, w), i)
     return sympy.simplify(residual.subs(i, i_of_w))
@@ -66,6 +66,32 @@ def test_symbolic_law_solves_its_long_wave_ode(R):
     assert _law_residual(d) == 0
     wrong = dataclasses.replace(d, law=sympy.Eq(d.law.lhs, d.law.rhs.func(d.law.rhs.base * 2, d.law.rhs.exp)))
     assert _law_residual(wrong) != 0
+
+
+@pytest.mark.parametrize("model, R, Q", [("energy", "-mu*v", sympy.Rational(5, 2)),
+                                         ("energy", "-k*u", sympy.Rational(5, 2)),
+                                         ("momentum", "-mu*v^3", sympy.Rational(5, 4))])
+def test_balance_laws_are_sympy_and_solve_their_ode(model, R, Q):
+    """The balance laws with the parameter free: sympy Eq objects, the law solves its ODE exactly, and with
+    the parameter's value substituted it is the numeric law of derive(..., value)."""
+    free = pulsemap.derive(R).balance(model)
+    assert free.model == model and isinstance(free.map, sympy.Eq) and free.law_kind == "power law"
+    name = R.split("*")[0].lstrip("-")
+    par = next(s for s in free.law.free_symbols if s.name == name)
+    assert _law_residual(free, Q) == 0
+    fixed = pulsemap.derive(R, **{name: 0.7}).balance(model)
+    (i,) = (s for s in free.law.free_symbols if s.name == "i")
+    at = {sympy.Symbol("A_0", positive=True): 0.8, sympy.Symbol("i_0", real=True): 15.0, i: 30.0}
+    a = float(free.law.rhs.subs(free.values).subs({par: 0.7, **at}))
+    b = float(fixed.details.law.numeric_law().subs(at))
+    assert a == pytest.approx(b, rel=1e-13) and abs(a - 0.8) > 1e-3
+
+
+def test_momentum_balance_of_a_foundation_is_refused():
+    with pytest.raises(ValueError, match="momentum"):
+        pulsemap.derive("-k*u", k=1).balance("momentum")
+    with pytest.raises(ValueError, match="did you mean 'energy'"):
+        pulsemap.derive("-k*u", k=1).balance("enrgy")
 
 
 def test_symbolic_parameter_substituted_is_the_numeric_derivation():
@@ -141,7 +167,7 @@ def test_derivation_is_frozen_and_renders():
     assert data["expression"] == "-mu*v" and data["variant"] == "paper" and "provenance" in data
     assert "Amplitude map" in str(d)
     latex = d._repr_latex_()
-    assert latex.startswith("$$") and r"\tag{41}" in latex and r"\tag{23.1}" in latex
+    assert latex.startswith("$$") and r"\tag{41}" in latex and r"\tag{23.1}" in latex and "A(i) = " in latex
     assert d.params == {"mu": 1.0} and d.profile == "exact" and d.n == 1.5
 
 

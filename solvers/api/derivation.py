@@ -8,7 +8,7 @@ from typing import Any, Mapping
 
 from pulsemap.solvers.api.checks import api_hint, choice, merged_params, number
 
-__all__ = ["Derivation", "derive"]
+__all__ = ["Balance", "Derivation", "derive"]
 
 PROFILES = ("exact", "pade")
 VARIANTS = ("paper", "corrected", "1d")
@@ -68,12 +68,9 @@ class Derivation:
     def values(self) -> dict:
         """Numbers of the symbols in the equations: the profile integrals, epsilon and the scalar
         parameters given a value (``expr.subs(d.values)``)."""
-        from pulsemap.symbolic.amplitude_map import EPS, integral_symbol
+        from pulsemap.symbolic.amplitude_map import integral_symbol
 
-        out = {integral_symbol(k): v for k, v in self.constants.items()}
-        out[EPS] = self.eps
-        out.update({k: float(v) for k, v in self.details.perturbation.scalar_values().items()})
-        return out
+        return {**{integral_symbol(k): v for k, v in self.constants.items()}, **_scalar_values(self)}
 
     @property
     def rate(self) -> float | None:
@@ -125,6 +122,88 @@ class Derivation:
         from pulsemap.symbolic.derivation import to_text
 
         return to_text(self.details)
+
+    def balance(self, model: str = "energy") -> "Balance":
+        """The energy- or momentum-balance model of the same R (beyond the paper; ``pulsemap derive
+        --model energy``): its map and law as sympy equations. ValueError when the model is undefined
+        for R (a momentum balance of a foundation term, whose impulse diverges)."""
+        import sympy
+
+        from pulsemap.symbolic.balance import K_SYMBOLS, BalanceError, derive_balance, map_equation
+
+        model = choice(model, "model", ("energy", "momentum"))
+        try:
+            b = derive_balance(self.details.perturbation, model, n=self.n, profile=self.profile)
+        except BalanceError as exc:
+            raise ValueError(api_hint(str(exc))) from None
+        law = b.law
+        return Balance(
+            model=model,
+            map=map_equation(b),
+            ode=None if law is None else law.ode(),
+            law=_law_equation(law, K_SYMBOLS[model]),
+            law_kind=None if law is None else law.kind,
+            constants={**b.constants, K_SYMBOLS[model].name: b.K},
+            values={**{sympy.Symbol(k, real=True): v for k, v in b.constants.items()}, K_SYMBOLS[model]: b.K,
+                    **_scalar_values(self)},
+            notes={"law": b.law_note} if b.law_note else {},
+            details=b,
+        )
+
+
+@dataclass(frozen=True)
+class Balance:
+    """The energy- or momentum-balance model of a perturbation as sympy equations (from
+    :meth:`Derivation.balance`): the wave's energy E_1 A^(n+1) (or momentum p_1 A^(1+s)) changes at
+    each bead by the work (impulse) of eps R on it."""
+
+    model: str
+    """"energy" or "momentum"."""
+    map: Any
+    """The balance map, ``Eq(K A_i^Q, K A_{i-1}^Q + epsilon W(A_{i-1}))`` (K = E_1 or p_1)."""
+    ode: Any
+    """The balance law's ODE, ``Eq(K B'(i), epsilon sum C_p B(i)^p)``, B = A^Q; None without a law."""
+    law: Any
+    """``Eq(A(i), ...)`` in closed form, ``Eq(i, ...)`` implicit, or None (by quadrature only)."""
+    law_kind: str | None
+    """"power law", "exponential", "implicit", "quadrature" or "constant"."""
+    constants: Mapping[str, float]
+    """Values of the wave's integrals (w_ab or j_ab, K1, V1, D, ...) and of K, by name."""
+    values: Mapping[Any, float]
+    """Numbers of the symbols in the equations (integrals, K, epsilon, parameters given a value)."""
+    notes: Mapping[str, str]
+    """Why the law is not available, when it is not."""
+    details: Any = field(default=None, repr=False, compare=False)
+    """The internal balance derivation (pulsemap.symbolic.balance.BalanceDerivation); not a stable interface."""
+
+
+def _scalar_values(d: Derivation) -> dict:
+    """epsilon and the scalar parameters given a value, as {symbol: number}."""
+    from pulsemap.symbolic.amplitude_map import EPS
+
+    out = {EPS: d.eps}
+    out.update({k: float(v) for k, v in d.details.perturbation.scalar_values().items()})
+    return out
+
+
+def _law_equation(law: Any, scale: Any) -> Any:
+    """A law as a sympy Eq: A(i) = closed form with lambda_L = epsilon C / scale written out (scale: f1 - f3
+    or E_1, p_1), i = i(A) for an implicit law, None when only a quadrature solves it."""
+    import sympy
+
+    from pulsemap.symbolic.amplitude_map import EPS
+    from pulsemap.symbolic.longwave import I, LAW_RATE
+
+    if law is None:
+        return None
+    if law.law is not None:
+        expr = law.law
+        if getattr(law, "symbolic_coefficients", ()) and law.powers:  # uniform: the rate in the user's symbols
+            expr = expr.xreplace({LAW_RATE: EPS * law.symbolic_coefficients[0] / scale})
+        return sympy.Eq(sympy.Function("A")(I), expr, evaluate=False)
+    if getattr(law, "implicit", None) is not None:
+        return sympy.Eq(I, law.implicit, evaluate=False)  # i(A), A the amplitude symbol
+    return None
 
 
 def derive(
@@ -187,24 +266,11 @@ def _check_R(R: Any) -> None:
 def _public(d: Any) -> Derivation:
     import sympy
 
-    from pulsemap.symbolic.longwave import I, LAW_RATE, LongwaveLaw
-    from pulsemap.symbolic.amplitude_map import EPS, F_SYMBOLS
+    from pulsemap.symbolic.amplitude_map import F_SYMBOLS
     from pulsemap.symbolic.perturbation import param_data
 
     law = d.longwave  # a LongwaveLaw, or a SiteLaw (derive/site_law.py) for a site-dependent R
-    amplitude = sympy.Function("A")(I)
-    if law is None:
-        law_eq = None
-    elif law.law is not None:
-        expr = law.law
-        if isinstance(law, LongwaveLaw) and law.powers:  # lambda_L = eps C / (f1 - f3), Eq. 30
-            rate = EPS * law.symbolic_coefficients[0] / (F_SYMBOLS["f1"] - F_SYMBOLS["f3"])
-            expr = expr.xreplace({LAW_RATE: rate})
-        law_eq = sympy.Eq(amplitude, expr, evaluate=False)
-    elif isinstance(law, LongwaveLaw) and law.implicit is not None:
-        law_eq = sympy.Eq(I, law.implicit, evaluate=False)  # i(A), A the amplitude symbol
-    else:
-        law_eq = None
+    law_eq = _law_equation(law, F_SYMBOLS["f1"] - F_SYMBOLS["f3"])
     st = d.stationary
     notes = {key: text for key, text in (("law", d.longwave_note), ("stationary", d.stationary_note)) if text}
     pert = d.perturbation
