@@ -53,6 +53,8 @@ def coefficient_of_i(coefficient: sympy.Expr, pert: Perturbation, law: str) -> s
     sub: dict = {I: I + shift}
     scalars = pert.scalar_values()
     for name in pert.used_parameters:
+        if name not in pert.params:
+            continue  # a free parameter (no value): stays a symbol
         value = pert.params[name]
         if name not in pert.site_dependent:
             sub[symbol(name)] = scalars[symbol(name)]

@@ -138,6 +138,13 @@ def test_sympy_expression_R_is_the_string_R():
     assert free.free == ("mu",) and free.law == pulsemap.derive("-mu*v").law
 
 
+def test_free_parameter_next_to_per_bead_values():
+    """A site-dependent R with a free parameter: the law's ODE keeps mu as a symbol, k(i) as a function."""
+    d = pulsemap.derive("-k*u - mu*v", k=[0.5] * 40)
+    assert d.free == ("mu",) and "mu" in {s.name for s in d.ode.free_symbols} and d.roots == ()
+    assert d.ode.has(sympy.Function("k")) and "stationary" in d.notes
+
+
 def test_van_der_pol_roots_solve_eq41():
     d = pulsemap.derive("-(u - mu*(1 - u^2)*v)", mu=3, eps=0.1)
     assert len(d.roots) == 2 and all(r > 0 for r in d.roots)
