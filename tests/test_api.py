@@ -113,6 +113,10 @@ def test_symbolic_parameter_substituted_is_the_numeric_derivation():
     with pytest.raises(ValueError, match="roots of Eq. 41 .* mu=VALUE"):
         free.roots
     assert "mu" in str(free) and "cannot be computed without a value for mu" in str(free)
+    data = json.loads(json.dumps(free.to_dict()))
+    assert data["free_parameters"] == ["mu"] and data["stationary"]["roots_need_values_for"] == ["mu"]
+    assert data["longwave"]["rate_k"] is None and "mu" in data["longwave"]["law_numeric"]
+    assert "free_parameters" not in fixed.to_dict()
 
 
 def test_free_parameter_stationary_equation_has_the_numeric_roots():

@@ -60,7 +60,7 @@ def test_text_report_and_refused_options(capsys):
     assert main(["derive", "-mu*sin(u)", "--param", "mu=1", "--model", "energy", "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "Amplitude law: by quadrature, rate tabulated" in out and "d ln A/di" in out
-    for extra in (["--A0", "1"], ["--profile", "pade"], ["--latex"]):
+    for extra in (["--A0", "1"], ["--profile", "pade"], ["--latex"], ["--dps", "30"]):
         assert main(["derive", "-mu*sin(u)", "--param", "mu=1", "--model", "energy", *extra]) == 2
         assert "pulsemap: error:" in capsys.readouterr().err
     assert main(["derive", "-k*sin(u)", "--param", "k=1,2,3", "--model", "energy"]) == 2
