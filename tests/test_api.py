@@ -85,6 +85,9 @@ def test_balance_laws_are_sympy_and_solve_their_ode(model, R, Q):
     a = float(free.law.rhs.subs(free.values).subs({par: 0.7, **at}))
     b = float(fixed.details.law.numeric_law().subs(at))
     assert a == pytest.approx(b, rel=1e-13) and abs(a - 0.8) > 1e-3
+    latex = free._repr_latex_()
+    assert latex.startswith("$$\\begin{align}") and "A(i) = " in latex and f"model: {model}" not in latex
+    assert json.loads(json.dumps(fixed.to_dict()))["model"] == model and "Law, B = A^" in str(fixed)
 
 
 def test_momentum_balance_of_a_foundation_is_refused():

@@ -176,6 +176,27 @@ class Balance:
     details: Any = field(default=None, repr=False, compare=False)
     """The internal balance derivation (pulsemap.symbolic.balance.BalanceDerivation); not a stable interface."""
 
+    @property
+    def latex(self) -> str:
+        """The balance map, ODE and law in LaTeX, one equation a line."""
+        from pulsemap.symbolic.balance import to_latex
+
+        return "\n".join(line for line in to_latex(self.details).splitlines() if not line.startswith("%"))
+
+    def _repr_latex_(self) -> str:
+        return "$$\\begin{align}" + " \\\\\n".join(self.latex.splitlines()) + "\\end{align}$$"
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable data: the document of ``pulsemap derive --model energy|momentum --json``."""
+        from pulsemap.symbolic.balance import to_json
+
+        return to_json(self.details)
+
+    def __str__(self) -> str:
+        from pulsemap.symbolic.balance import to_text
+
+        return to_text(self.details)
+
 
 def _scalar_values(d: Derivation) -> dict:
     """epsilon and the scalar parameters given a value, as {symbol: number}."""
