@@ -4,7 +4,10 @@ law (Eq. 30 and its solution A(i)) and the stationary-shock equation (Eq. 41) wi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
+
+if TYPE_CHECKING:  # pragma: no cover - sympy loads when a derivation is made, not on import
+    import sympy
 
 from pulsemap.solvers.api.checks import api_hint, choice, merged_params, number
 
@@ -26,7 +29,7 @@ class Derivation:
     JSON. Build one with :func:`pulsemap.derive`.
     """
 
-    R: Any
+    R: sympy.Expr
     """The perturbation R(u, v) as a sympy expression (symbols u, v, i and parameters)."""
     expression: str
     """R as given (text), or sympy's text of a sympy R."""
@@ -46,18 +49,18 @@ class Derivation:
     """Peak S(0) of the unit solitary wave: a peak is A S(0)."""
     constants: Mapping[str, float]
     """Values of the profile integrals that occur, by name."""
-    map: tuple[Any, ...]
+    map: tuple[sympy.Eq, ...]
     """The amplitude map, Eq. 23: ``Eq(0, F_k)`` for each equation, in A_{i-1}, A_i, A_{i+1}."""
-    ode: Any
+    ode: sympy.Eq | None
     """The long-wave ODE, Eq. 30, ``Eq((f1 - f3) B'(i), epsilon sum C_p B(i)^p)`` with B = A^P (coefficients
     C_p(i) for a site-dependent R); None when there is no law."""
-    law: Any
+    law: sympy.Eq | None
     """The long-wave law: ``Eq(A(i), ...)`` (closed form in A_0, i, i_0, epsilon, the integrals and the
     parameters), ``Eq(i, ...)`` (implicit i(A), numeric constants), or None (by quadrature only, or no law:
     see :attr:`notes`)."""
     law_kind: str | None
     """"power law", "exponential", "implicit", "quadrature" or "constant"."""
-    stationary: Any
+    stationary: sympy.Eq | None
     """Eq. 41, ``Eq(0, Phi(A))``; None for a site-dependent R."""
     notes: Mapping[str, str]
     """Why the law or Eq. 41 is not available, when it is not."""
@@ -65,7 +68,7 @@ class Derivation:
     """The internal derivation object (pulsemap.symbolic.derivation.Derivation); not a stable interface."""
 
     @property
-    def values(self) -> dict:
+    def values(self) -> dict[sympy.Symbol, float]:
         """Numbers of the symbols in the equations: the profile integrals, epsilon and the scalar
         parameters given a value (``expr.subs(d.values)``)."""
         from pulsemap.symbolic.amplitude_map import integral_symbol
@@ -159,17 +162,17 @@ class Balance:
 
     model: str
     """"energy" or "momentum"."""
-    map: Any
+    map: sympy.Eq
     """The balance map, ``Eq(K A_i^Q, K A_{i-1}^Q + epsilon W(A_{i-1}))`` (K = E_1 or p_1)."""
-    ode: Any
+    ode: sympy.Eq | None
     """The balance law's ODE, ``Eq(K B'(i), epsilon sum C_p B(i)^p)``, B = A^Q; None without a law."""
-    law: Any
+    law: sympy.Eq | None
     """``Eq(A(i), ...)`` in closed form, ``Eq(i, ...)`` implicit, or None (by quadrature only)."""
     law_kind: str | None
     """"power law", "exponential", "implicit", "quadrature" or "constant"."""
     constants: Mapping[str, float]
     """Values of the wave's integrals (w_ab or j_ab, K1, V1, D, ...) and of K, by name."""
-    values: Mapping[Any, float]
+    values: Mapping[sympy.Symbol, float]
     """Numbers of the symbols in the equations (integrals, K, epsilon, parameters given a value)."""
     notes: Mapping[str, str]
     """Why the law is not available, when it is not."""
