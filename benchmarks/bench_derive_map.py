@@ -1,7 +1,8 @@
-"""Benchmarks: cold derivation of a new cubic perturbation; 100 contacts of the generated map.
+"""Benchmarks: cold derivation of a new cubic perturbation; the ``pulsemap derive`` process cold and
+warm; 100 contacts of the generated map.
 
 Run: python benchmarks/bench_derive_map.py
-Prints times (best of several runs after a warm-up) and the ratio DNS / map for the same scene,
+Prints times (best of several runs after a warm-up) and the ratios cold / warm and DNS / map,
 measured in this run.
 """
 
@@ -36,7 +37,25 @@ def cold_derive(expr: str, params: dict, bound: float = 2.0) -> tuple[float, flo
     return float(imp), float(der), kind
 
 
+def cli_derive(args: list[str], repeat: int = 3) -> tuple[float, float]:
+    """(cold, best warm) wall time of the ``pulsemap derive`` process: first with an empty cache, then
+    again with the cache that run filled (the sympy time-outs are cached too, so warm skips them)."""
+    exe = os.path.join(os.path.dirname(sys.executable), "pulsemap")
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "PULSEMAP_CACHE_DIR": cache}
+        times = []
+        for _ in range(1 + repeat):
+            t0 = time.perf_counter()
+            subprocess.run([exe, "derive", *args, "--quiet"], capture_output=True, env=env, check=True)
+            times.append(time.perf_counter() - t0)
+    return times[0], min(times[1:])
+
+
 def main() -> None:
+    print("pulsemap derive, whole process (cold: empty cache; warm: best of 3 after it):")
+    for args in (["-mu*v", "--param", "mu=1"], ["-(u - mu*(1 - u^2)*v)", "--param", "mu=3"], ["(u+v+1)^8-1"]):
+        cold, warm = cli_derive(args)
+        print(f"  {' '.join(args):36s} cold {cold:6.2f} s   warm {warm:5.2f} s   cold/warm {cold / warm:5.1f}")
     print("cold derivation (empty cache, fresh process):")
     for expr, params in (("gamma*u^3", {"gamma": -0.5}), ("a*u^3 + b*u*v^2", {"a": -1, "b": 0.5})):
         imp, der, kind = cold_derive(expr, params)

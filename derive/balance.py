@@ -152,7 +152,7 @@ def map_equation(d: BalanceDerivation, numeric: bool = False) -> sympy.Eq:
 def json_header(model: str, pert: Perturbation) -> dict:
     """The first fields of every derivation's JSON (map or balance model): the model, provenance and
     the perturbation (expression, R, eps, parameters)."""
-    return {
+    header = {
         "model": model,
         "provenance": provenance(),
         "expression": pert.text,
@@ -160,6 +160,9 @@ def json_header(model: str, pert: Perturbation) -> dict:
         "eps": pert.eps,
         "params": {k: param_data(v) for k, v in pert.params.items()},
     }
+    if pert.free_parameters:  # parameters left symbolic (Python API only)
+        header["free_parameters"] = list(pert.free_parameters)
+    return header
 
 
 def to_json(d: BalanceDerivation) -> dict:

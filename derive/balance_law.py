@@ -11,10 +11,9 @@ import sympy
 
 from .balance_constants import BalanceError
 from .balance_expansion import A, BalanceExpansion
-from .longwave import LAW_RATE, A0, I, I0, integrate_reciprocal
+from .longwave import LAW_RATE, A0, I, I0, check_values, missing_values, numeric_coefficients, numeric_rate, reciprocal_integral
 from .perturbation import Perturbation
 from .site_law import SiteLaw, coefficient_of_i, site_law
-from .timebox import bounded
 
 __all__ = ["B", "EPS", "K_SYMBOLS", "BalanceLaw", "balance_law", "balance_site_law"]
 
@@ -40,11 +39,12 @@ class BalanceLaw:
     kind: str  # "power law", "exponential", "implicit", "quadrature", "constant"
     law: sympy.Expr | None  # A(i) in A_0, i, i_0 and k = eps C / K (one power)
     implicit: sympy.Expr | None  # i(A), numeric constants (several powers, closed form found)
+    numeric_coefficients: tuple[sympy.Expr, ...] = ()  # C_p with numbers for all but the free parameters
 
     def ode(self, symbolic: bool = True) -> sympy.Eq:
         """K dB/di = eps sum C_p B^p with B = A^Q."""
         Bf = sympy.Function("B")(I)
-        cs = self.symbolic_coefficients if symbolic else [sympy.Float(c, 15) for c in self.coefficients]
+        cs = self.symbolic_coefficients if symbolic else numeric_coefficients(self)
         K = K_SYMBOLS[self.model] if symbolic else sympy.Float(self.K, 15)
         e = EPS if symbolic else sympy.Float(self.eps, 15)
         return sympy.Eq(K * Bf.diff(I), e * sum((c * Bf**p for c, p in zip(cs, self.powers)), sympy.Integer(0)))
@@ -53,12 +53,16 @@ class BalanceLaw:
         """k = eps C / K for a single power (0 when R does no work / gives no impulse)."""
         if not self.coefficients:
             return 0.0
+        check_values(self, "the rate lambda_L", BalanceError)
         return self.eps * self.coefficients[0] / self.K
 
     def numeric_law(self) -> sympy.Expr | None:
+        """The closed-form A(i) with all constants numeric (A_0, i_0 and free parameters symbolic)."""
         if self.law is None:
             return None
-        return self.law.xreplace({K_RATE: sympy.Float(self.rate(), 17)})
+        if not missing_values(self):
+            return self.law.xreplace({K_RATE: sympy.Float(self.rate(), 17)})
+        return self.law.xreplace({K_RATE: numeric_rate(self, self.K)})
 
     def _rhs(self, b: float):
         """sum C_p B^p in mpmath (no overflow or underflow of B^p)."""
@@ -68,6 +72,7 @@ class BalanceLaw:
         """(index, what) where A(i) reaches 0 ("extinction") or infinity ("blow-up"), else None and why."""
         if self.kind == "constant":
             return None, "no work on the wave: A stays constant"
+        check_values(self, "the singular index of the law", BalanceError)
         if not a0 > 0:
             raise BalanceError(f"the initial amplitude A0 must be > 0, got {a0}")
         if len(self.powers) == 1:
@@ -111,7 +116,7 @@ def balance_law(ex: BalanceExpansion, constants: dict, params: dict, eps: float,
     groups: dict[sympy.Rational, sympy.Expr] = {}
     for t in ex.terms:
         groups[t.power] = groups.get(t.power, sympy.Integer(0)) + t.coefficient * sympy.Symbol(t.integral, real=True)
-    powers, coeffs, symb = [], [], []
+    powers, coeffs, symb, nums = [], [], [], []
     for power in sorted(groups):
         sym = sympy.expand(groups[power])
         num = sym.xreplace(params).xreplace({sympy.Symbol(k, real=True): sympy.Float(v, 17) for k, v in constants.items()})
@@ -121,7 +126,8 @@ def balance_law(ex: BalanceExpansion, constants: dict, params: dict, eps: float,
         powers.append(power / Q)
         coeffs.append(value)
         symb.append(sym)
-    powers, coeffs, symb = tuple(powers), tuple(coeffs), tuple(symb)
+        nums.append(sympy.expand(num))
+    powers, coeffs, symb, num = tuple(powers), tuple(coeffs), tuple(symb), tuple(nums)
     if not powers:
         return BalanceLaw(ex.model, Q, (), (), (), K, eps, "constant", A0 + 0 * I, None)
     if len(powers) == 1:
@@ -133,14 +139,14 @@ def balance_law(ex: BalanceExpansion, constants: dict, params: dict, eps: float,
             law_B = (B0 ** (1 - p) + (1 - p) * K_RATE * (I - I0)) ** (1 / (1 - p))
             kind = "power law"
         law_A = sympy.powsimp(sympy.powdenest(law_B.xreplace({B0: A0**Q}) ** (1 / Q), force=True), force=True)
-        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, kind, law_A, None)
+        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, kind, law_A, None, num)
     if any(c is None for c in coeffs):
-        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None)
-    G = bounded(integrate_reciprocal, (coeffs, powers, B), seconds) if seconds > 0 else None
+        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None, num)
+    G = reciprocal_integral(coeffs, powers, seconds)
     if G is not None and not G.has(sympy.Integral):
         implicit = sympy.Float(K / eps, 17) * (G.xreplace({B: A**Q}) - G.xreplace({B: A0**Q})) + I0
-        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "implicit", None, implicit)
-    return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None)
+        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "implicit", None, implicit, num)
+    return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None, num)
 
 
 def balance_site_law(ex: BalanceExpansion, pert: Perturbation, constants: dict, seconds: float = 2.0) -> SiteLaw:

@@ -21,7 +21,7 @@ from .expansion import Expansion, expand
 from .integrals import F_NAMES, constants
 from .budget import Budget, DeriveTimeout, check_max_seconds
 from .longwave import (LAW_RATE, A0, I, I0, LongwaveError, LongwaveLaw, check_law_inputs, law_data, law_lines,
-                       longwave_law, rate_latex, rate_symbol)
+                       longwave_law, needs_values, rate_latex, rate_symbol)
 from .perturbation import Perturbation
 from .profile import check_exponent, check_profile_kind, get_profile
 from .site_law import SiteLaw, coefficient_of_i, site_law
@@ -213,6 +213,8 @@ def to_json(d: Derivation) -> dict:
                       for r, m in zip(st.roots, _multipliers(d))],
             "multiplier": "dA_i/dA_(i-1) of the 1d map at the root (its fixed points are the roots of Eq. 41)",
         }
+        if st.missing:
+            stationary_data["roots_need_values_for"] = list(st.missing)
         if st.fold is not None:
             f = st.fold
             stationary_data["fold"] = {"param": f.param, "value": f.value, "A": f.A, "peak": f.peak, "kind": f.kind}
@@ -298,7 +300,9 @@ def to_text(d: Derivation) -> str:
         lines.append("Stationary shocks (Eq. 41):")
         lines.append(f"  0 = {st.equation}")
         lines.append(f"    = {st.numeric}")
-        if st.roots:
+        if st.missing:
+            lines.append("  roots: " + needs_values("the roots of Eq. 41", st.missing))
+        elif st.roots:
             lines.append(f"  multiplier: dA_i/dA_(i-1) of the 1d map (A_(i+1) -> A_i in Eq. 23, whose fixed points "
                          f"are exactly these roots) at eps = {d.perturbation.eps:g}; stable when |multiplier| < 1")
             for r, m in zip(st.roots, _multipliers(d)):

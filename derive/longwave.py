@@ -19,9 +19,9 @@ from dataclasses import dataclass
 import mpmath
 import sympy
 
-from .amplitude_map import EPS, F_SYMBOLS, AmplitudeMap
+from .amplitude_map import EPS, F_SYMBOLS, AmplitudeMap, integral_symbol
 from .expression import UserSymbol, symbol
-from .timebox import bounded
+from .sympy_cache import bounded_cached
 
 B = sympy.Symbol("B", positive=True)
 A = sympy.Symbol("A", positive=True)
@@ -93,12 +93,13 @@ class LongwaveLaw:
     kind: str  # "power law", "exponential", "implicit", "quadrature", "constant"
     law: sympy.Expr | None  # A(i) in A_0, i, i_0 (power law / exponential), symbolic constants
     implicit: sympy.Expr | None  # i(A) for the implicit kind (numeric constants)
+    numeric_coefficients: tuple[sympy.Expr, ...] = ()  # C_p with numbers for all but the free parameters
 
     # --------------------------------------------------------------- equations
     def ode(self, symbolic: bool = True) -> sympy.Eq:
         """(f1 - f3) dB/di = eps sum C_p B^p, B = A^P (Eq. 30)."""
         Bf = sympy.Function("B")(I)
-        cs = self.symbolic_coefficients if symbolic else [sympy.Float(c, 15) for c in self.coefficients]
+        cs = self.symbolic_coefficients if symbolic else numeric_coefficients(self)
         lhs = (F_SYMBOLS["f1"] - F_SYMBOLS["f3"]) if symbolic else sympy.Float(self.f1_minus_f3, 15)
         rhs = (EPS if symbolic else sympy.Float(self.eps, 15)) * sum(
             (c * Bf**p for c, p in zip(cs, self.powers)), sympy.Integer(0)
@@ -109,16 +110,16 @@ class LongwaveLaw:
         """lambda_L = eps C / (f1 - f3) for a single power (0 when no term forces the contact)."""
         if not self.coefficients:
             return 0.0
+        check_values(self, "the rate lambda_L", LongwaveError)
         return self.eps * self.coefficients[0] / self.f1_minus_f3
 
     def numeric_law(self) -> sympy.Expr | None:
-        """The closed-form A(i) with all constants numeric (A_0, i_0 symbolic)."""
+        """The closed-form A(i) with all constants numeric (A_0, i_0 and free parameters symbolic)."""
         if self.law is None:
             return None
-        return self.law.xreplace(self._numeric_subs())
-
-    def _numeric_subs(self) -> dict:
-        return {LAW_RATE: sympy.Float(self.rate(), 17)}
+        if not missing_values(self):
+            return self.law.xreplace({LAW_RATE: sympy.Float(self.rate(), 17)})
+        return self.law.xreplace({LAW_RATE: numeric_rate(self, self.f1_minus_f3)})
 
     # ------------------------------------------------------------ singular index
     def singular_index(self, a0: float, i0: float = 0.0) -> tuple[float | None, str]:
@@ -128,6 +129,7 @@ class LongwaveLaw:
         """
         if self.kind == "constant":
             return None, "no perturbation of contact i: A stays constant"
+        check_values(self, "the singular index of the law", LongwaveError)
         if a0 <= 0:
             raise LongwaveError(f"the initial amplitude A0 must be > 0, got {a0}")
         P = float(self.P)
@@ -193,6 +195,8 @@ def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> Longwa
     # C_p in the user's symbols (parameters not replaced by their values): the symbolic Eq. 30
     symbolic = {t.power: t.coefficient for t in amap.power_terms(1, numeric=False)}
     symb = tuple(symbolic[t.power] for t in terms)
+    ints = {integral_symbol(k): sympy.Float(v, 17) for k, v in amap.constants.items()}
+    num = tuple(sympy.Float(t.value, 17) if t.value is not None else t.coefficient.xreplace(ints) for t in terms)
     if not terms:
         return LongwaveLaw(P, (), (), (), f13, eps, "constant", A0 + 0 * I, None)
     if len(terms) == 1:
@@ -208,17 +212,56 @@ def longwave_law(amap: AmplitudeMap, eps: float, seconds: float = 2.0) -> Longwa
             law_B = (B0 ** (1 - p) + (1 - p) * k * (I - I0)) ** (1 / (1 - p))
             kind = "power law"
         law_A = sympy.powsimp(sympy.powdenest(law_B.xreplace({B0: A0**P}) ** (1 / P), force=True), force=True)
-        return LongwaveLaw(P, powers, coeffs, symb, f13, eps, kind, law_A, None)
+        return LongwaveLaw(P, powers, coeffs, symb, f13, eps, kind, law_A, None, num)
     # several powers: Eq. 31a, closed form if sympy finds one in time
     if any(c is None for c in coeffs):
-        return LongwaveLaw(P, powers, coeffs, symb, f13, eps, "quadrature", None, None)
-    G = bounded(integrate_reciprocal, (coeffs, powers, B), seconds) if seconds > 0 else None
+        return LongwaveLaw(P, powers, coeffs, symb, f13, eps, "quadrature", None, None, num)
+    G = reciprocal_integral(coeffs, powers, seconds)
     implicit = None
     kind = "quadrature"
     if G is not None and not G.has(sympy.Integral):
         implicit = sympy.Float(f13 / eps, 17) * (G.xreplace({B: A**P}) - G.xreplace({B: A0**P})) + I0
         kind = "implicit"
-    return LongwaveLaw(P, powers, coeffs, symb, f13, eps, kind, None, implicit)
+    return LongwaveLaw(P, powers, coeffs, symb, f13, eps, kind, None, implicit, num)
+
+
+def numeric_coefficients(law) -> tuple[sympy.Expr, ...]:
+    """C_p of a law (LongwaveLaw or BalanceLaw) as sympy numbers, or expressions in its free parameters."""
+    return tuple(sympy.Float(c, 15) if c is not None else nc
+                 for c, nc in zip(law.coefficients, law.numeric_coefficients or (None,) * len(law.coefficients)))
+
+
+def missing_values(law) -> tuple[str, ...]:
+    """The free parameters (no value given) in a law's coefficients, sorted."""
+    return tuple(sorted({s.name for c in numeric_coefficients(law) if c is not None for s in c.free_symbols}))
+
+
+def check_values(law, what: str, error: type[ValueError]) -> None:
+    """Raise ``error`` naming the parameters ``what`` needs a value for, if any is free."""
+    missing = missing_values(law)
+    if missing:
+        raise error(needs_values(what, missing))
+
+
+def needs_values(what: str, names) -> str:
+    """'<what> cannot be computed without a value for mu: give mu=VALUE ...' (one line, names the fix)."""
+    names = list(names)
+    return (f"{what} cannot be computed without a value for {', '.join(names)}: give "
+            + ", ".join(f"{n}=VALUE" for n in names) + " (a keyword of pulsemap.derive, or --param)")
+
+
+def numeric_rate(law, scale: float) -> sympy.Expr:
+    """lambda_L = eps C / scale as a sympy number, or an expression in the free parameters."""
+    if not law.coefficients:
+        return sympy.Integer(0)
+    return sympy.Float(law.eps, 17) * numeric_coefficients(law)[0] / sympy.Float(scale, 17)
+
+
+def reciprocal_integral(coeffs, powers, seconds: float) -> sympy.Expr | None:
+    """int dB / sum_p C_p B^p (Eq. 31a) if sympy finds it within ``seconds``, else None; the outcome,
+    found or not, is cached (derive/sympy_cache.py: a larger bound tries again)."""
+    key = f"{[repr(float(c)) for c in coeffs]}|{[str(p) for p in powers]}|{sympy.srepr(B)}"
+    return bounded_cached("integrate_reciprocal", key, integrate_reciprocal, (coeffs, powers, B), seconds)
 
 
 def integrate_reciprocal(coeffs, powers, B: sympy.Symbol) -> sympy.Expr:
@@ -257,11 +300,15 @@ def law_lines(law, heading: str, rate_name: str, a0: float | None, i0: float,
         rate = rate_symbol(law)
         lines.append(f"Amplitude law ({law.kind}):")
         lines.append(f"  A(i) = {law.law.xreplace({LAW_RATE: rate})}")
+        value = f"{law.rate():.12g}" if not missing_values(law) else str(numeric_rate(law, law_scale(law)))
         lines.append(f"  where {rate} = eps*C/{rate_name}, C = {law.symbolic_coefficients[0]}: "
-                     f"{rate} = {law.rate():.12g}")
+                     f"{rate} = {value}")
     elif law.implicit is not None:
         lines.append(f"Amplitude law ({cite}integrated in closed form, implicit):")
         lines.append(f"  i(A) = {law.implicit}")
+    elif missing_values(law):
+        lines.append(f"Amplitude law: {cite}by numerical quadrature, which needs numbers: "
+                     + needs_values("it", missing_values(law)))
     else:
         lines.append(f"Amplitude law: {cite}by numerical quadrature (no closed form within the time bound)")
     if a0 is not None:
@@ -288,7 +335,7 @@ def law_data(law, exponent, scale: tuple[str, float], a0: float | None, i0: floa
         "eps": law.eps,
         "law": str(law.law.xreplace({LAW_RATE: rate_symbol(law)})) if law.law is not None else None,
         "law_numeric": str(law.numeric_law()) if law.law is not None else None,
-        "rate_k": law.rate() if len(law.powers) == 1 else None,  # the value of lambda_L (key kept)
+        "rate_k": law.rate() if len(law.powers) == 1 and not missing_values(law) else None,  # lambda_L (key kept)
         "rate_symbol": str(rate_symbol(law)) if len(law.powers) == 1 else None,
         "rate_definition": (f"{rate_symbol(law)} = eps*({law.symbolic_coefficients[0]})/{scale[0]}"
                             if len(law.powers) == 1 else None),
@@ -298,6 +345,11 @@ def law_data(law, exponent, scale: tuple[str, float], a0: float | None, i0: floa
         index, what = law.singular_index(a0, i0)
         out.update(A0=a0, i0=i0, singular_index=index, singular_kind=what)
     return out
+
+
+def law_scale(law) -> float:
+    """The left-hand factor of a law: f1 - f3 (Eq. 30) or K (a balance law)."""
+    return law.f1_minus_f3 if hasattr(law, "f1_minus_f3") else law.K
 
 
 def rate_latex(law, denominator: sympy.Expr, lx) -> str:

@@ -25,7 +25,8 @@ import numpy as np
 import sympy
 
 from pulsemap.symbolic.bead_values import _bead_values, _check_beads, _evaluate, _frozen_bead_values, _numeric
-from pulsemap.symbolic.expression import SYMBOLS, ExpressionError, parse_expression, symbol
+from pulsemap.symbolic.expression import SYMBOLS, ExpressionError, check_parameter_name, parse_expression, symbol
+from pulsemap.symbolic.rtokens import _tokenize
 from pulsemap.symbolic.param_values import (DRAW_KEYS, IndexExpression, ParamMap, ParamValue, PerturbationError,
                                           RandomDraw, _check_name, _exact, _finite_float, _is_scalar, _kind,
                                           _to_float, param_data, parse_cli_param, parse_param_value)
@@ -68,16 +69,22 @@ class Perturbation:
         return tuple(name for name in self.params if name not in used)
 
     @property
+    def free_parameters(self) -> tuple[str, ...]:
+        """Parameters of R given no value: they stay sympy symbols (uniform along the chain), sorted."""
+        return tuple(name for name in self.used_parameters if name not in self.params)
+
+    @property
     def site_dependent(self) -> tuple[str, ...]:
         """Parameters of R whose values vary along the chain (lists, draws, expressions of i)."""
-        return tuple(name for name in self.used_parameters if not _is_scalar(self.params[name]))
+        return tuple(name for name in self.used_parameters
+                     if name in self.params and not _is_scalar(self.params[name]))
 
     @property
     def is_uniform(self) -> bool:
-        """True if R is free of i and every parameter used in R is a scalar."""
+        """True if R is free of i and every parameter used in R is a scalar (or a free symbol)."""
         if symbol("i") in self.R.free_symbols:
             return False
-        return all(_is_scalar(self.params[name]) for name in self.used_parameters)
+        return not self.site_dependent
 
     def scalar_params(self) -> dict[sympy.Symbol, sympy.Rational]:
         """Exact values of the scalar parameters, for substitution; only for uniform R."""
@@ -146,7 +153,7 @@ class Perturbation:
     def _why_not_uniform(self) -> str:
         if symbol("i") in self.R.free_symbols:
             return "R depends on i"
-        for name in self.used_parameters:
+        for name in self.site_dependent:
             value = self.params[name]
             if not _is_scalar(value):
                 return f"parameter '{name}' is {_kind(value)}"
@@ -154,9 +161,13 @@ class Perturbation:
 
 
 def make_perturbation(
-    R: str | sympy.Expr, eps: float, params: Mapping[str, object] | None = None
+    R: str | sympy.Expr, eps: float, params: Mapping[str, object] | None = None, *, free: bool = False
 ) -> Perturbation:
-    """Validate R (text or sympy), eps and the parameter values; return a Perturbation."""
+    """Validate R (text or sympy), eps and the parameter values; return a Perturbation.
+
+    ``free``: a name in R without a value is a free parameter (a sympy symbol in every derived
+    equation) instead of an error; scene files and the command line keep the error (typos).
+    """
     raw_params = dict(params or {})
     values: dict[str, ParamValue] = {}
     for name, raw in raw_params.items():
@@ -165,12 +176,12 @@ def make_perturbation(
     eps_value = _parse_eps(eps)
     if isinstance(R, str):
         try:
-            expr = parse_expression(R, values.keys())
+            expr = parse_expression(R, list(values) + (_free_names(R, values) if free else []))
         except ExpressionError as exc:
             raise PerturbationError(str(exc)) from exc
         text = R.strip()
     elif isinstance(R, sympy.Basic):
-        expr = _from_sympy(R, values.keys())
+        expr = _from_sympy(R, values.keys(), free)
         text = str(expr)
     elif isinstance(R, numbers.Real) and not isinstance(R, bool):
         expr = _exact(_finite_float("R", R))
@@ -221,7 +232,20 @@ def _check_eps_sign(eps: float) -> float:
     return eps
 
 
-def _from_sympy(R: sympy.Basic, parameters: Any) -> sympy.Expr:
+def _free_names(text: str, values: Mapping[str, object]) -> list[str]:
+    """Names in ``text`` that may name a parameter and have no value (the parser reports the others)."""
+    found = []
+    for token in _tokenize(text):
+        if token.kind == "name" and token.text not in values and token.text not in found:
+            try:
+                check_parameter_name(token.text)
+            except ExpressionError:
+                continue
+            found.append(token.text)
+    return found
+
+
+def _from_sympy(R: sympy.Basic, parameters: Any, free: bool = False) -> sympy.Expr:
     """Check a sympy R from Python and rebuild it with the parser's (real) symbols."""
     if not isinstance(R, sympy.Expr):
         raise PerturbationError(f"R must be a sympy expression, got {type(R).__name__}")
@@ -238,7 +262,12 @@ def _from_sympy(R: sympy.Basic, parameters: Any) -> sympy.Expr:
         if sym.name == "eps":
             raise PerturbationError("'eps' must not appear in R: eps is given separately and multiplies R")
         if sym.name not in known:
-            raise PerturbationError(_unknown_symbol(sym.name, str(R), parameters))
+            if not free:
+                raise PerturbationError(_unknown_symbol(sym.name, str(R), parameters))
+            try:
+                check_parameter_name(sym.name)
+            except ExpressionError as exc:
+                raise PerturbationError(f"R contains the symbol {sym.name!r}: {exc}") from None
         replacements[sym] = symbol(sym.name)
     expr = R.xreplace(replacements)
     if expr.has(sympy.zoo, sympy.oo, -sympy.oo, sympy.nan):
@@ -287,7 +316,8 @@ def _check_rest_symbolic(perturbation: Perturbation) -> None:
     at_rest = at_rest.xreplace({symbol("i"): bead_index})
     if at_rest == 0:
         return
-    if at_rest.free_symbols - {bead_index}:
+    free = {symbol(name) for name in perturbation.free_parameters}
+    if at_rest.free_symbols - {bead_index} - free:
         return  # depends on per-bead values: checked by Perturbation.check_at_rest(beads)
     if not at_rest.free_symbols:
         if abs(complex(sympy.N(at_rest, 30))) < 1e-20:

@@ -29,7 +29,7 @@ from sympy.core.function import AppliedUndef
 from .expansion import bead_symbol
 from .expression import symbol
 from .perturbation import IndexExpression, Perturbation
-from .timebox import bounded
+from .sympy_cache import bounded_cached
 
 A0 = sympy.Symbol("A_0", positive=True)
 I = symbol("i")  # noqa: E741  (the continuous contact index; the same symbol as R's i)
@@ -53,6 +53,8 @@ def coefficient_of_i(coefficient: sympy.Expr, pert: Perturbation, law: str) -> s
     sub: dict = {I: I + shift}
     scalars = pert.scalar_values()
     for name in pert.used_parameters:
+        if name not in pert.params:
+            continue  # a free parameter (no value): stays a symbol
         value = pert.params[name]
         if name not in pert.site_dependent:
             sub[symbol(name)] = scalars[symbol(name)]
@@ -143,7 +145,9 @@ def site_law(model: str, Q: sympy.Rational, scale_name: str, scale: float, eps: 
     if C.atoms(AppliedUndef):
         return SiteLaw(model, Q, scale_name, scale, eps, powers, coeffs, "quadrature", None,
                        "parameters given bead by bead: piecewise-constant coefficients")
-    G = bounded(sympy.integrate, (C.xreplace({I: IVAR}), (IVAR, I0, I)), seconds)
+    integrand = C.xreplace({I: IVAR})
+    G = bounded_cached("integrate", f"{sympy.srepr(integrand)}|{sympy.srepr((IVAR, I0, I))}", sympy.integrate,
+                       (integrand, (IVAR, I0, I)), seconds)
     if G is None or G.has(sympy.Integral):
         return SiteLaw(model, Q, scale_name, scale, eps, powers, coeffs, "quadrature", None,
                        "sympy found no antiderivative of the coefficient within the time bound")

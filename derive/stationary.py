@@ -21,7 +21,8 @@ import sympy
 
 from .amplitude_map import AmplitudeMap, integral_symbol
 from .expression import symbol
-from .timebox import bounded
+from .longwave import needs_values
+from .sympy_cache import bounded_cached
 
 A = sympy.Symbol("A", positive=True)
 
@@ -51,6 +52,7 @@ class Stationary:
     S0: float
     fold: Fold | None = None
     folds: tuple[Fold, ...] = ()
+    missing: tuple[str, ...] = ()  # free parameters (no value): no roots without them
 
     def peaks(self) -> tuple[float, ...]:
         return tuple(r * self.S0 for r in self.roots)
@@ -137,7 +139,7 @@ def find_folds(amap: AmplitudeMap, name: str, params: dict, S0: float, seconds: 
     phi = sum((k * A**p for p, k in _power_terms(amap, others)), sympy.Integer(0))
     if par not in phi.free_symbols:
         raise StationaryError(f"--fold {name}: Eq. 41 does not depend on '{name}'")
-    sols = bounded(_solve_for_param, (phi, par), seconds)
+    sols = bounded_cached("solve", f"{sympy.srepr(phi)}|{sympy.srepr(par)}", _solve_for_param, (phi, par), seconds)
     if not sols:
         raise StationaryError(f"--fold {name}: could not solve Eq. 41 for {name} within {seconds:g} s")
     folds: list[Fold] = []
@@ -176,8 +178,10 @@ def stationary(amap: AmplitudeMap, params: dict, S0: float, fold: str | None = N
     terms = _power_terms(amap, params)
     numeric = sum((k * A**p for p, k in terms), sympy.Integer(0))
     if any(k.free_symbols for _, k in terms):
-        missing = sorted({s.name for _, k in terms for s in k.free_symbols})
-        raise StationaryError(f"Eq. 41 needs values for: {', '.join(missing)}")
+        missing = tuple(sorted({s.name for _, k in terms for s in k.free_symbols}))
+        if fold is not None:
+            raise StationaryError(needs_values(f"--fold {fold}: Eq. 41", missing))
+        return Stationary(sym, numeric, (), S0, missing=missing)
     roots = positive_roots([(p, float(k)) for p, k in terms])
     folds: tuple[Fold, ...] = ()
     chosen = None

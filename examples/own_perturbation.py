@@ -23,7 +23,7 @@ import pulsemap
 
 R = "alpha*u + beta*u^3 - c*v^2"
 d = pulsemap.derive(R, alpha=-1, beta=-0.5, c=0.2, eps=0.1)
-print(d.map[0])
+print("0 =", d.map[0].rhs)  # d.map[0] is a sympy Eq(0, F1)
 print(d.ode)
 print("long-wave law:", d.law_kind, d.law or "(evaluated numerically)")
 

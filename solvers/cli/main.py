@@ -113,6 +113,22 @@ def cmd_derive(args: argparse.Namespace) -> int:
         if args.json:
             write_json(args.json, dressed.to_json(dd))
         return 0
+    from pulsemap.symbolic.expression import is_polynomial_in_state
+
+    if args.model == "energy" and not is_polynomial_in_state(pert.R):  # W(A) by quadrature, as run does
+        from pulsemap.solvers.api.derivation import quadrature_energy_law, quadrature_energy_text
+
+        for option, given in (("--variant", args.variant), ("--fold", args.fold), ("--A0", args.A0),
+                              ("--latex", args.latex), ("--dps", args.dps is not None)):
+            if given:
+                raise UsageError(f"{option} does not apply to the tabulated energy law of a non-polynomial R: drop it")
+        if args.profile != "exact":
+            raise UsageError("the energy law by quadrature uses the exact profile: drop --profile")
+        doc = quadrature_energy_law(pert, args.n)
+        print(quadrature_energy_text(doc))
+        if args.json:
+            write_json(args.json, doc)
+        return 0
     d = derive_model(
         pert,
         args.model,
@@ -280,7 +296,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--i0", type=number, default=0.0, help="contact index of A0 (default 0)")
     p.add_argument("--dps", type=int, default=None, help="mpmath working precision (digits)")
     p.add_argument("--sympy-seconds", type=number, default=2.0,
-                   help="time bound for sympy's closed-form integration (default 2 s)")
+                   help="time bound for sympy's closed-form integration (default 2 s; a time-out is "
+                        "remembered in the cache, a larger bound tries again)")
     p.add_argument("--max-seconds", type=number, default=None, metavar="S",
                    help="stop the derivation after S seconds with a message (integrals done so far stay cached)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")

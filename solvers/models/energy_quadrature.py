@@ -55,11 +55,12 @@ class WaveTable:
 
 
 @lru_cache(maxsize=8)
-def wave_table(n: float = 1.5) -> WaveTable:
-    """X, X' and weights on the Gauss-Legendre nodes of [-L, L] for exponent n (exact profile)."""
+def wave_table(n: float = 1.5, nodes: int = NODES) -> WaveTable:
+    """X, X' and weights on the Gauss-Legendre nodes (``nodes`` per unit interval) of [-L, L] for
+    exponent n (exact profile)."""
     prof = exact_profile(float(n))
     L = int(math.ceil(prof.tail)) + 1
-    g, w = np.polynomial.legendre.leggauss(NODES)
+    g, w = np.polynomial.legendre.leggauss(nodes)
     starts = np.arange(-L, L, dtype=float)
     tau = (starts[:, None] + 0.5 * (g[None, :] + 1.0)).ravel()
     weights = np.tile(0.5 * w, starts.size)
@@ -135,3 +136,42 @@ def evaluate_energy_law(F: Callable, n: float, A0: float, i0: float, contacts) -
     msg = f"{status} at contact index {ended_at:.6g}" if ended_at is not None else "ODE solved (LSODA, rtol 1e-11)"
     return BalanceRun("energy", "law", contacts.astype(int), vals, [v * table.S0 if v is not None else None for v in vals],
                       status, msg, ended_at, "quadrature of R over the wave", "exact")
+
+
+#: Amplitudes at which ``pulsemap derive --model energy`` tabulates the law of a non-polynomial R.
+TABLE_AMPLITUDES = tuple(10.0 ** (k / 4) for k in range(-12, 5))
+
+
+@dataclass(frozen=True)
+class RateTable:
+    """The energy law E_1 dB/di = W(A), B = A^(n+1), of one uniform R tabulated at amplitudes A: the rate
+    dB/di = W(A)/E_1 and its quadrature error (the change with twice the nodes per unit interval)."""
+
+    n: float
+    nodes: int
+    E1: float
+    K1: float
+    V1: float
+    S0: float
+    L: int
+    A: tuple[float, ...]
+    rate: tuple[float, ...]
+    error: tuple[float, ...]
+
+    def dlnA_di(self) -> tuple[float, ...]:
+        """d ln A/di = W(A) / ((n + 1) E_1 A^(n+1)) at each amplitude."""
+        return tuple(r / ((self.n + 1) * a ** (self.n + 1)) for a, r in zip(self.A, self.rate))
+
+
+def rate_table(F: Callable[[np.ndarray, np.ndarray], np.ndarray], n: float,
+               amplitudes=TABLE_AMPLITUDES) -> RateTable:
+    """The energy law's rate W(A)/E_1 at ``amplitudes`` for the force F(x, v) = eps R (one bead), with
+    NODES and 2 NODES points per unit interval: the first is the rate ``run`` uses, the difference its error."""
+    table, fine = wave_table(n), wave_table(n, 2 * NODES)
+    rate, error = [], []
+    for a in amplitudes:
+        r = work(F, float(a), table) / table.E1
+        rate.append(r)
+        error.append(abs(r - work(F, float(a), fine) / fine.E1))
+    return RateTable(float(n), NODES, table.E1, table.K1, table.V1, table.S0, table.L,
+                     tuple(float(a) for a in amplitudes), tuple(rate), tuple(error))

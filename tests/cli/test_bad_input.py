@@ -112,7 +112,7 @@ CLI = [
     # non-smooth R: the DNS runs it, derive's map and balances refuse it with the reason (issue 14)
     ("Coulomb friction, map", ["derive", "-mu*sign(v)", "--param", "mu=1"],
      ["not a polynomial in u, v", "sign(v) has a kink or a jump at 0", "DNS runs it"]),
-    ("Heaviside, energy balance", ["derive", "mu*Heaviside(u)*u", "--param", "mu=1", "--model", "energy"],
+    ("Heaviside, momentum balance", ["derive", "mu*Heaviside(u)*u", "--param", "mu=1", "--model", "momentum"],
      ["not a polynomial", "Heaviside(u)", "DNS runs it"]),
     ("dps not an integer", ["profile", "--dps", "many"], ["--dps", "invalid int value"]),
     # choices
