@@ -5,11 +5,12 @@ sweep workers (solvers/studies/forcing.py) must agree bit for bit, so there is o
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Mapping
-
-import numpy as np
+from typing import TYPE_CHECKING, Mapping
 
 from pulsemap.symbolic.frozenmap import FrozenMap
+
+if TYPE_CHECKING:  # pragma: no cover
+    import numpy as np
 
 
 @dataclass(frozen=True)
@@ -29,7 +30,19 @@ class RandomDraw:
 def uniform_draw(low: float, high: float, seed: int, beads: int) -> np.ndarray:
     """``numpy.random.default_rng(seed).uniform(low, high, size=beads)`` as float64: the per-bead random
     draw of a parameter (paper Eqs. 43-44's random foundation)."""
+    import numpy as np  # here: importing pulsemap stays free of numpy
+
     return np.random.default_rng(int(seed)).uniform(float(low), float(high), size=int(beads)).astype(np.float64)
+
+
+def param_data(value: object) -> object:
+    """A parameter value back in the form a scene file gives it (the inverse of param_values.parse_param_value):
+    a number, a list, ``{"uniform": [low, high], "seed": s}``, or an expression of i as its text."""
+    if isinstance(value, RandomDraw):
+        return {value.distribution: [value.low, value.high], "seed": value.seed}
+    if isinstance(value, tuple):
+        return list(value)
+    return getattr(value, "text", value)  # an IndexExpression: its text
 
 
 @dataclass(frozen=True)

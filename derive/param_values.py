@@ -14,7 +14,7 @@ import numpy as np
 import sympy
 
 from pulsemap.symbolic.expression import ExpressionError, check_parameter_name, parse_expression
-from pulsemap.symbolic.param_forms import ParamMap, RandomDraw  # noqa: F401 (their home; names kept here)
+from pulsemap.symbolic.param_forms import ParamMap, RandomDraw, param_data  # noqa: F401 (their home; names kept here)
 
 class PerturbationError(ValueError):
     """A perturbation or one of its parameter values was rejected; the message says why."""
@@ -64,17 +64,6 @@ def parse_param_value(name: str, raw: object) -> ParamValue:
     raise PerturbationError(
         f"parameter '{name}' has a value of unsupported type {type(raw).__name__}: give {_VALUE_FORMS}"
     )
-
-
-def param_data(value: ParamValue) -> object:
-    """A ParamValue back in the form a scene file gives it (the inverse of ``parse_param_value``)."""
-    if isinstance(value, RandomDraw):
-        return {value.distribution: [value.low, value.high], "seed": value.seed}
-    if isinstance(value, IndexExpression):
-        return value.text
-    if isinstance(value, tuple):
-        return list(value)
-    return value
 
 
 def parse_cli_param(text: str) -> tuple[str, ParamValue]:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Mapping
 
 from pulsemap.symbolic.frozenmap import FrozenMap
+from pulsemap.symbolic.param_forms import param_data
 from pulsemap.solvers.data.scene_checks import _check_consistency, _check_dns_table, _check_fields
 from pulsemap.solvers.data.scene_params import _build_perturbation
 from pulsemap.solvers.data.scene_schema import DNS_DEFAULTS, SceneError, _as_table, _prefix, _Problem, _unknown
@@ -44,8 +45,6 @@ class Scene:
         default is filled in; ``beads`` is null when unset. ``parse_scene(d, source)`` of the
         result gives back an equal scene (``source`` in the dict is informational).
         """
-        from pulsemap.symbolic.perturbation import param_data  # lazily: pulsemap.symbolic.perturbation imports sympy
-
         pert = self.perturbation
         return {
             "name": self.name,

@@ -126,7 +126,7 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
     eps = scene.perturbation.eps
     if eps > EPS_WARN and any(m in MODELS for m in methods):
         out["warnings"].append(f"eps = {eps:g} is not small: the reduced models assume eps << 1")
-    if (scene.perturbation.R == 0 or eps == 0) and "map" in methods and choice.variant == "paper":
+    if "map" in methods and choice.variant == "paper" and (eps == 0 or scene.perturbation.is_zero):
         out["warnings"].append("map: the paper's Eq. 23 drifts even without perturbation (A shrinks by "
                                "(1 + f7/(2 f1))^(-1/P) per contact, docs/errata.rst item 5); --variant corrected "
                                "or 1d keeps A constant")
@@ -147,7 +147,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     t0 = time.perf_counter()
     pert = scene.perturbation
     # R = 0 (or eps = 0): the bare chain of Eq. 1, which conserves energy: its drift checks the run
-    force = None if (pert.R == 0 or pert.eps == 0) else make_force(scene, beads)
+    force = None if (pert.is_zero or pert.eps == 0) else make_force(scene, beads)
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     res = simulate(
