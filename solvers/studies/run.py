@@ -40,7 +40,6 @@ from pulsemap.solvers.studies.methods import (
     RunError,
 )
 from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
-from pulsemap.solvers.studies.run_models import run_models
 from pulsemap.solvers.studies.run_report import plot, to_csv, to_text
 
 __all__ = [
@@ -266,6 +265,9 @@ def run_scene(
         run_dns(state, progress, dns_window)
     if reuse_dns is not None and "dns" not in state.methods:
         reuse_dns_run(state, reuse_dns)
-    run_models(state)
+    if any(m != "dns" for m in state.methods):
+        from pulsemap.solvers.studies.run_models import run_models  # the models' modules load when a model runs
+
+        run_models(state)
     compare_with_dns(state)
     return state.out
