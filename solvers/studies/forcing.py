@@ -5,8 +5,8 @@ A scene's force goes one way down: its parameter values per bead (:func:`paramet
 (:mod:`~pulsemap.solvers.models.codeload`), then :func:`chain_force`, the OnSiteForce the DNS takes
 with its monomial table or generated numba force (:mod:`~pulsemap.solvers.chain.force_table`).
 :func:`make_force` keeps what it built for a scene in-process (keyed by the resolved force: R, eps,
-parameter values, first_perturbed, beads), so a second run of a scene neither loads the generated
-module again nor rebuilds the table.
+parameter values, first_perturbed, beads, and where generated modules are read), so a second run of
+a scene neither loads the generated module again nor rebuilds the table.
 
 Per-bead data stays O(window) when R is uniform (no i, scalar parameters): every bead from
 first_perturbed on then has the same force, so tables and checks are built on beads
@@ -23,10 +23,12 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from pulsemap.symbolic.cache import cache_root
 from pulsemap.symbolic.param_forms import uniform_draw
 from pulsemap.solvers.chain.dns import OnSiteForce
 from pulsemap.solvers.chain.force_table import jit_force, table_from_module
 from pulsemap.solvers.data.scene import Scene
+from pulsemap.solvers.models import codeload
 from pulsemap.solvers.models.codeload import force_module
 from pulsemap.solvers.studies.methods import RunError
 from pulsemap.solvers.studies.sweep import SweepError
@@ -81,7 +83,8 @@ def make_force(scene: Scene, beads: int) -> OnSiteForce:
     :func:`chain_force`, refused unless R(0, 0) = 0 on every bead (the chain starts at rest); kept
     in-process for the next run of the same resolved force."""
     pert = scene.perturbation
-    key = (pert.text, float(pert.eps), pert.params, int(scene.first_perturbed), int(beads))
+    key = (pert.text, float(pert.eps), pert.params, int(scene.first_perturbed), int(beads),
+           str(codeload.PACKAGE_DIR), str(cache_root()))  # and where its generated module comes from
     force = _FORCES.pop(key, None)
     if force is None:
         force = _build_force(scene, beads)
