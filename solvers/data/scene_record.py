@@ -111,7 +111,10 @@ def _param_value(data: Any) -> Any:
 
 def load_record(text: bytes, source: str) -> Scene | None:
     """The Scene recorded for this scene file text, or None (no record yet, or an unreadable one)."""
-    value = load(NAMESPACE, record_key(text, source), _check, quiet=True)
+    try:
+        value = load(NAMESPACE, record_key(text, source), _check, quiet=True)
+    except OSError:  # no usable cache directory: parse the scene as without one
+        value = None
     if value is None:
         return None
     d, facts = value["scene"], value["facts"]

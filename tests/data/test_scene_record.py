@@ -63,3 +63,11 @@ def test_a_recorded_scene_and_its_force_load_no_sympy(tmp_path):
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
             for _ in range(2)]
     assert [r.stdout.strip() for r in runs] == ["True", "False"]
+
+
+def test_without_a_usable_cache_the_scene_still_loads(tmp_path, monkeypatch):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(blocker / "cache"))
+    scene = load_scene("fig8-eps0.1")
+    assert scene.perturbation.eps == 0.1 and not isinstance(scene.perturbation, CachedPerturbation)
