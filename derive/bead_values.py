@@ -30,8 +30,7 @@ def _bead_values(name: str, value: ParamValue, beads: int) -> np.ndarray:
             )
         return np.asarray(value, dtype=np.float64)
     if isinstance(value, RandomDraw):
-        rng = np.random.default_rng(value.seed)
-        return rng.uniform(value.low, value.high, size=beads).astype(np.float64)
+        return value.values(beads)
     if isinstance(value, IndexExpression):
         return _evaluate(value.expr, {}, beads, f"parameter '{name}' = {value.text!r}")
     raise PerturbationError(f"parameter '{name}' has an unsupported value {value!r}")

@@ -14,7 +14,7 @@ import numpy as np
 import sympy
 
 from pulsemap.symbolic.expression import ExpressionError, check_parameter_name, parse_expression
-from pulsemap.symbolic.frozenmap import FrozenMap
+from pulsemap.symbolic.param_forms import ParamMap, RandomDraw, param_data  # noqa: F401 (their home; names kept here)
 
 class PerturbationError(ValueError):
     """A perturbation or one of its parameter values was rejected; the message says why."""
@@ -32,16 +32,6 @@ _VALUE_FORMS = (
 
 
 @dataclass(frozen=True)
-class RandomDraw:
-    """Per-bead values drawn from ``default_rng(seed).uniform(low, high, size=beads)``."""
-
-    low: float
-    high: float
-    seed: int
-    distribution: str = "uniform"
-
-
-@dataclass(frozen=True)
 class IndexExpression:
     """Per-bead values given by a formula of the bead index ``i`` (1-based)."""
 
@@ -50,18 +40,6 @@ class IndexExpression:
 
 
 ParamValue = Union[float, tuple[float, ...], RandomDraw, IndexExpression]
-
-
-@dataclass(frozen=True)
-class ParamMap(FrozenMap):
-    """An immutable, hashable mapping from parameter names to values (sorted by name)."""
-
-    @classmethod
-    def of(cls, mapping: Mapping[str, ParamValue]) -> "ParamMap":
-        return cls(tuple(sorted(mapping.items())))
-
-    def __repr__(self) -> str:
-        return "ParamMap(" + repr(dict(self.items_)) + ")"
 
 
 def parse_param_value(name: str, raw: object) -> ParamValue:
@@ -86,17 +64,6 @@ def parse_param_value(name: str, raw: object) -> ParamValue:
     raise PerturbationError(
         f"parameter '{name}' has a value of unsupported type {type(raw).__name__}: give {_VALUE_FORMS}"
     )
-
-
-def param_data(value: ParamValue) -> object:
-    """A ParamValue back in the form a scene file gives it (the inverse of ``parse_param_value``)."""
-    if isinstance(value, RandomDraw):
-        return {value.distribution: [value.low, value.high], "seed": value.seed}
-    if isinstance(value, IndexExpression):
-        return value.text
-    if isinstance(value, tuple):
-        return list(value)
-    return value
 
 
 def parse_cli_param(text: str) -> tuple[str, ParamValue]:

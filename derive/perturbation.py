@@ -63,6 +63,11 @@ class Perturbation:
         return tuple(sorted(names))
 
     @property
+    def is_zero(self) -> bool:
+        """R = 0: the bare chain of Eq. 1 (no on-site force)."""
+        return self.R == 0
+
+    @property
     def unused_parameters(self) -> tuple[str, ...]:
         """Parameters given a value but absent from R, sorted."""
         used = set(self.used_parameters)

@@ -7,13 +7,12 @@ Overrides name a key of the scene file, dotted (``**{"perturbation.eps": 0.2}``,
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 from typing import Any, Mapping
 
 from pulsemap.solvers.api.checks import closest
-from pulsemap.solvers.data.overrides import set_key
-from pulsemap.solvers.data.scene import Scene, builtin_scenes, load_scene, parse_scene
+from pulsemap.solvers.data.overrides import apply_overrides
+from pulsemap.solvers.data.scene import Scene, SceneError, builtin_scenes, load_scene, parse_scene
 from pulsemap.solvers.data.scene_files import suite_scene_names
 from pulsemap.solvers.data.scene_schema import _SCHEMA, _TABLES
 
@@ -53,15 +52,8 @@ def scene(name_or_path: "str | Path | Mapping[str, Any] | Scene", **overrides: A
                         f"got {type(name_or_path).__name__}")
     if not overrides:
         return base
-    data = base.as_dict()
-    params = data["perturbation"]["params"]
-    dotted = {_resolve(key, params): value for key, value in overrides.items()}
-    for key, value in dotted.items():
-        set_key(data, key, list(value) if isinstance(value, tuple) else value)
-    if "perturbation.R" in dotted and "perturbation.params" not in dotted:
-        given = {key.rsplit(".", 1)[-1] for key in dotted if key.startswith("perturbation.params.")}
-        _drop_unused(data, given)
-    return parse_scene(data, data.get("source") or "<dict>")
+    params = base.perturbation.params
+    return apply_overrides(base, [(_resolve(key, params), value) for key, value in overrides.items()])
 
 
 def _resolve(key: str, params: Mapping[str, Any]) -> str:
@@ -75,14 +67,5 @@ def _resolve(key: str, params: Mapping[str, Any]) -> str:
     if key in params:
         return f"perturbation.params.{key}"
     known = list(KEYS) + list(SHORT) + [f"perturbation.params.{p}" for p in params] + list(params)
-    raise ValueError(f"unknown scene key {key!r}{closest(key, known)}: give a key of the scene file, dotted "
+    raise SceneError(f"unknown scene key {key!r}{closest(key, known)}: give a key of the scene file, dotted "
                      "(e.g. 'perturbation.eps', 'perturbation.params.mu') or its last part (eps, mu)")
-
-
-def _drop_unused(data: dict, given: set[str]) -> None:
-    """A new R keeps the old parameters whose names it still contains and the ones given with it
-    (as Scene.with_overrides); parse_scene then checks that R uses every parameter left."""
-    pert = data["perturbation"]
-    R = pert.get("R")
-    names = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", R)) if isinstance(R, str) else set()
-    pert["params"] = {k: v for k, v in pert["params"].items() if k in names or k in given}

@@ -27,6 +27,11 @@ PARAMS_PREFIX = "perturbation.params."
 FIXED = ("source",)
 #: Keys a scene may set that have no default value in it (absent: the documented default applies).
 OPTIONAL = ("dns.engine", "dns.mode")
+#: Fields of a Scene (Scene.with_overrides) by their dotted key in the scene file.
+FIELD_KEYS = {"beads": "chain.beads", "exponent": "chain.exponent", "first_perturbed": "chain.first_perturbed",
+              "velocity": "excitation.velocity", "contacts": "output.contacts", "methods": "output.methods",
+              "profile": "model.profile", "variant": "model.variant", "R": "perturbation.R",
+              "eps": "perturbation.eps", "params": "perturbation.params", "name": "name"}
 
 
 def _flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
@@ -64,7 +69,7 @@ def parse_assignment(text: str) -> tuple[str, Any]:
 def check_key(key: str, scene: Scene) -> None:
     """A one-line SceneError for a key the scene file does not have, naming the closest one."""
     known = scene_keys(scene)
-    if key in known:
+    if key in known or key == "perturbation.params":  # a parameter, or the whole table of them
         return
     name = key[len(PARAMS_PREFIX):] if key.startswith(PARAMS_PREFIX) else ""
     if name and "." not in name and name.isidentifier():
@@ -72,7 +77,7 @@ def check_key(key: str, scene: Scene) -> None:
     close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
     hint = f" (did you mean '{close[0]}'?)" if close else ""
     tables = sorted({k.split(".")[0] for k in known if "." in k})
-    raise SceneError(f"--set {key}: unknown scene key{hint}; keys are dotted paths of the scene file "
+    raise SceneError(f"unknown scene key {key!r}{hint}; keys are dotted paths of the scene file "
                      f"({', '.join(tables)}), e.g. perturbation.eps, excitation.velocity, perturbation.params.mu")
 
 
@@ -88,33 +93,44 @@ def set_key(data: dict, key: str, value: Any) -> None:
     node[parts[-1]] = value
 
 
-def with_sets(scene: Scene, assignments: Iterable[str | tuple[str, Any]]) -> Scene:
-    """``scene`` with each 'key=value' (or (key, value)) applied in order, validated like a scene file."""
-    items = [parse_assignment(a) if isinstance(a, str) else tuple(a) for a in assignments]
+def apply_overrides(scene: Scene, changes: Iterable[tuple[str, Any]]) -> Scene:
+    """``scene`` with each (dotted key, value) applied in order, validated like a scene file: the one
+    override mechanism behind ``--set``, ``pulsemap.scene(name, **kw)`` and ``Scene.with_overrides``.
+
+    Keys are checked against the scene file's (:func:`check_key`); a text key given a number keeps it as
+    written (R = 0); tuples are arrays; a new R keeps the parameters it names and those given with it
+    and drops the others; the result is rebuilt by ``parse_scene``. SceneError names the problem.
+    """
+    items = [(key, list(value) if isinstance(value, tuple) else value) for key, value in changes]
     if not items:
         return scene
-    data = scene.as_dict()
-    if data["chain"].get("beads") is None:
-        del data["chain"]["beads"]
     current = _flat(scene.as_dict())
+    data = scene.as_dict()
     for key, value in items:
         check_key(key, scene)
         if isinstance(current.get(key), str) and isinstance(value, (int, float)) and not isinstance(value, bool):
             value = _text(value)  # a text key given a number: R = 0, a name 2 (as written, not as parsed)
         set_key(data, key, value)
     new_r = data["perturbation"].get("R")
-    if new_r != current.get("perturbation.R") and isinstance(new_r, str):
-        # a new R keeps the parameters it names (and those set here) and drops the others, as with_overrides
+    if new_r != current.get("perturbation.R") and isinstance(new_r, str) and "perturbation.params" not in dict(items):
         named = set(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", new_r))
         given = {k[len(PARAMS_PREFIX):] for k, _ in items if k.startswith(PARAMS_PREFIX)}
         data["perturbation"]["params"] = {k: v for k, v in data["perturbation"].get("params", {}).items()
                                           if k in named or k in given}
+    data.pop("source", None)
+    return parse_scene(data, scene.source or scene.name)
+
+
+def with_sets(scene: Scene, assignments: Iterable[str | tuple[str, Any]]) -> Scene:
+    """``scene`` with each 'key=value' (or (key, value)) of ``--set`` applied (:func:`apply_overrides`);
+    unless the name is set, the name says what was changed (the report shows it)."""
+    items = [parse_assignment(a) if isinstance(a, str) else tuple(a) for a in assignments]
+    if not items:
+        return scene
     shown = ", ".join(f"{k}={v}" for k, v in items)
-    if not any(k == "name" for k, _ in items):  # the name says the scene was changed (the source still names its file)
-        data["name"] = f"{scene.name} [{shown}]"
-    source = data.pop("source", scene.source) or scene.name
+    named = [] if any(k == "name" for k, _ in items) else [("name", f"{scene.name} [{shown}]")]
     try:
-        return parse_scene(data, source)
+        return apply_overrides(scene, items + named)
     except SceneError as exc:
         raise SceneError(f"--set {shown}: {exc}") from None
 

@@ -215,8 +215,9 @@ def _check_consistency(scene: Scene) -> None:
                 )
         return
     try:
-        for pname in pert.params:
-            pert.bead_values(pname, scene.beads)
-        pert.check_at_rest(scene.beads)
+        for pname, value in pert.params.items():
+            if not isinstance(value, float):  # a scalar has a value on every bead
+                pert.bead_values(pname, scene.beads)
+        pert.check_at_rest(1 if pert.is_uniform else scene.beads)  # uniform R: every bead alike, O(1)
     except PerturbationError as exc:
         raise _Problem("[perturbation] " + _scene_hint(str(exc))) from None

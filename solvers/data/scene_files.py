@@ -35,6 +35,7 @@ from pulsemap.solvers.data.scene_schema import (
     _type_name,
     _unknown,
 )
+from pulsemap.solvers.data.scene_record import load_record, save_record
 from pulsemap.solvers.data.scene_spec import Scene
 from pulsemap.solvers.data.toml_bounds import TomlBoundsError, check_size, check_toml_bounds
 
@@ -82,11 +83,11 @@ def load_scene(ref: str | Path) -> Scene:
     if not looks_like_path and (text in ALIASES or text in builtin_scenes()):
         resolved = ALIASES.get(text, text)
         source = f"builtin:{resolved}"
-        return parse_scene(_decode(builtin_scene_path(resolved).read_bytes(), source), source)
+        return _parse_file(builtin_scene_path(resolved).read_bytes(), source)
     if not looks_like_path and text in suite_scene_names():  # every named scene runs by its name
         source = f"suite:{text}"
         entry = resources.files("pulsemap.solvers.data").joinpath("scenes", "suite", f"{text}.toml")
-        return parse_scene(_decode(entry.read_bytes(), source), source)
+        return _parse_file(entry.read_bytes(), source)
     path = Path(text).expanduser()
     if path.is_dir():
         raise SceneError(f"{text}: is a directory, not a scene file: give the path of a .toml file in it")
@@ -107,7 +108,17 @@ def load_scene(ref: str | Path) -> Scene:
         raise SceneError(f"{text}: {exc}") from None
     except OSError as exc:
         raise SceneError(f"{text}: cannot read the scene file ({exc.strerror or exc}): check its permissions") from None
-    return parse_scene(_decode(data, text), text)
+    return _parse_file(data, text)
+
+
+def _parse_file(data: bytes, source: str) -> Scene:
+    """The Scene of a scene file's bytes: its record when this text was parsed before (no sympy,
+    data/scene_record.py), else parsed, validated and recorded."""
+    scene = load_record(data, source)
+    if scene is None:
+        scene = parse_scene(_decode(data, source), source)
+        save_record(data, source, scene)
+    return scene
 
 
 def _decode(data: bytes, source: str) -> dict:

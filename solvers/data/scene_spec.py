@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Mapping
 
 from pulsemap.symbolic.frozenmap import FrozenMap
-from pulsemap.solvers.data.scene_checks import _check_consistency, _check_dns_table, _check_fields
-from pulsemap.solvers.data.scene_params import _build_perturbation
+from pulsemap.symbolic.param_forms import param_data
+from pulsemap.solvers.data.scene_params import _check_perturbation_object
 from pulsemap.solvers.data.scene_schema import DNS_DEFAULTS, SceneError, _as_table, _prefix, _Problem, _unknown
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -44,8 +44,6 @@ class Scene:
         default is filled in; ``beads`` is null when unset. ``parse_scene(d, source)`` of the
         result gives back an equal scene (``source`` in the dict is informational).
         """
-        from pulsemap.symbolic.perturbation import param_data  # lazily: pulsemap.symbolic.perturbation imports sympy
-
         pert = self.perturbation
         return {
             "name": self.name,
@@ -67,31 +65,30 @@ class Scene:
         }
 
     def with_overrides(self, **kw: Any) -> "Scene":
-        """A copy with some fields replaced, validated like a scene file.
+        """A copy with some fields replaced, validated like a scene file (data/overrides.apply_overrides).
 
         Keys are the field names; also ``R``, ``eps`` and ``params`` (raw values, as in a scene
         file) to rebuild the perturbation (a new ``R`` without ``params`` keeps the current
         parameters it uses and drops the others). ``dns`` is merged over the current DNS options.
         """
-        fields = {f.name for f in dataclasses.fields(self)}
-        allowed = sorted(fields | {"R", "eps", "params"})
-        for key in kw:
-            if key not in allowed:
-                raise SceneError(_prefix(self.source, self.name) + _unknown(key, allowed, "in with_overrides()"))
-        values = {name: getattr(self, name) for name in fields}
+        from pulsemap.solvers.data.overrides import FIELD_KEYS, apply_overrides  # it rebuilds Scenes: imported here
+
+        allowed = sorted(FIELD_KEYS.keys() | {"dns", "perturbation"})
+        changes: list[tuple[str, Any]] = []
         try:
-            raw = {key: value for key, value in kw.items() if key in fields}
-            if "dns" in raw:
-                raw["dns"] = _check_dns_table({**dict(self.dns), **_as_table(raw["dns"], "dns")})
-            if {"R", "eps", "params"} & kw.keys():
-                if "perturbation" in kw:
-                    raise _Problem("give either perturbation or R/eps/params, not both")
-                data = self.as_dict()["perturbation"]
-                data.update({key: kw[key] for key in ("R", "eps", "params") if key in kw})
-                raw["perturbation"] = _build_perturbation(data, self.name, drop_unused="params" not in kw)
-            values.update(_check_fields(raw))
-            scene = Scene(**values)
-            _check_consistency(scene)
+            for key, value in kw.items():
+                if key not in allowed:
+                    raise _Problem(_unknown(key, allowed, "in with_overrides()"))
+                if key == "dns":
+                    changes += [(f"dns.{k}", v) for k, v in _as_table(value, "dns").items()]
+                elif key == "perturbation":
+                    if {"R", "eps", "params"} & kw.keys():
+                        raise _Problem("give either perturbation or R/eps/params, not both")
+                    pert = _check_perturbation_object(value)
+                    changes += [("perturbation.R", pert.text), ("perturbation.eps", pert.eps),
+                                ("perturbation.params", {k: param_data(v) for k, v in pert.params.items()})]
+                else:
+                    changes.append((FIELD_KEYS[key], value))
         except _Problem as exc:
-            raise SceneError(_prefix(self.source, values.get("name", self.name)) + str(exc)) from None
-        return scene
+            raise SceneError(_prefix(self.source, self.name) + str(exc)) from None
+        return apply_overrides(self, changes)

@@ -39,7 +39,6 @@ from pulsemap.solvers.studies.methods import (
     RunError,
 )
 from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
-from pulsemap.solvers.studies.run_models import run_models
 from pulsemap.solvers.studies.run_report import plot, to_csv, to_text
 
 __all__ = [
@@ -124,7 +123,7 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
     eps = scene.perturbation.eps
     if eps > EPS_WARN and any(m in MODELS for m in methods):
         out["warnings"].append(f"eps = {eps:g} is not small: the reduced models assume eps << 1")
-    if (scene.perturbation.R == 0 or eps == 0) and "map" in methods and choice.variant == "paper":
+    if "map" in methods and choice.variant == "paper" and (eps == 0 or scene.perturbation.is_zero):
         out["warnings"].append("map: the paper's Eq. 23 drifts even without perturbation (A shrinks by "
                                "(1 + f7/(2 f1))^(-1/P) per contact, docs/errata.rst item 5); --variant corrected "
                                "or 1d keeps A constant")
@@ -145,7 +144,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     t0 = time.perf_counter()
     pert = scene.perturbation
     # R = 0 (or eps = 0): the bare chain of Eq. 1, which conserves energy: its drift checks the run
-    force = None if (pert.R == 0 or pert.eps == 0) else make_force(scene, beads)
+    force = None if (pert.is_zero or pert.eps == 0) else make_force(scene, beads)
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     res = simulate(
@@ -262,6 +261,9 @@ def run_scene(
         run_dns(state, progress, dns_window)
     if reuse_dns is not None and "dns" not in state.methods:
         reuse_dns_run(state, reuse_dns)
-    run_models(state)
+    if any(m != "dns" for m in state.methods):
+        from pulsemap.solvers.studies.run_models import run_models  # the models' modules load when a model runs
+
+        run_models(state)
     compare_with_dns(state)
     return state.out

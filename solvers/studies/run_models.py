@@ -57,7 +57,9 @@ def derive_models(state: "RunState") -> tuple[ModuleType | None, dict[str, Modul
     site = pert.site_dependent
     mod = None
     balance: dict[str, ModuleType] = {}
-    from pulsemap.symbolic.expression import is_polynomial_in_state  # sympy, already loaded with the scene
+    if not any(m in ("map", "longwave") or m in BALANCE_METHODS for m in methods):
+        return mod, balance  # no generated model module needed (R is not parsed for a DNS alone)
+    from pulsemap.symbolic.expression import is_polynomial_in_state  # sympy: the models derive from R
 
     polynomial = is_polynomial_in_state(pert.R)
     if "map" in methods or "longwave" in methods:

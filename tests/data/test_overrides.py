@@ -73,3 +73,49 @@ def test_every_scene_command_refuses_an_unknown_key_before_running(capsys, comma
     assert main(command + ["--set", "perturbation.esp=0.2"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "did you mean 'perturbation.eps'" in err
+
+
+def _five_ways(tmp_path, dotted: dict, fields: dict, toml_edit):
+    """The same change through --set, pulsemap.scene(**kw), Scene.with_overrides, a TOML file and a dict."""
+    import pulsemap
+    from pulsemap.solvers.data.scene import parse_scene
+
+    base = load_scene("fig8-eps0.3")
+    data = base.as_dict()
+    toml_edit(data)
+    lines = [f"{k}={json.dumps(v)}" for k, v in dotted.items()] + ["name=x"]
+    return {
+        "set": with_sets(base, lines),
+        "api": pulsemap.scene("fig8-eps0.3", name="x", **dotted),
+        "fields": base.with_overrides(name="x", **fields),
+        "dict": pulsemap.scene({**data, "name": "x"}),
+        "toml": parse_scene({**data, "name": "x"}, base.source),
+    }
+
+
+@pytest.mark.parametrize("dotted, fields, edit", [
+    ({"perturbation.eps": 0.2, "output.contacts": [16, 40]}, {"eps": 0.2, "contacts": (16, 40)},
+     lambda d: (d["perturbation"].update(eps=0.2), d["output"].update(contacts=[16, 40]))),
+    ({"perturbation.R": "-mu*v - k*u^3", "perturbation.params.k": 0.5}, {"R": "-mu*v - k*u^3", "params": {"mu": 1.0, "k": 0.5}},
+     lambda d: d["perturbation"].update(R="-mu*v - k*u^3", params={"mu": 1.0, "k": 0.5})),
+    ({"perturbation.R": "-v"}, {"R": "-v"}, lambda d: d["perturbation"].update(R="-v", params={})),  # mu dropped
+    ({"dns.rtol": 1e-8, "chain.beads": 200}, {"dns": {"rtol": 1e-8}, "beads": 200},
+     lambda d: (d["dns"].update(rtol=1e-8), d["chain"].update(beads=200))),
+])
+def test_one_override_gives_one_scene_through_every_entry_point(tmp_path, dotted, fields, edit):
+    got = _five_ways(tmp_path, dotted, fields, edit)
+    want = got["toml"]
+    for way, scene in got.items():
+        assert scene == want, way
+        assert scene.as_dict() == want.as_dict(), way
+    assert got["set"].perturbation.params == got["api"].perturbation.params
+
+
+def test_an_unknown_key_is_refused_the_same_way_everywhere():
+    import pulsemap
+
+    base = load_scene("default")
+    for call in (lambda: with_sets(base, ["perturbation.esp=0.2"]),
+                 lambda: pulsemap.scene("default", **{"perturbation.esp": 0.2})):
+        with pytest.raises(SceneError, match="perturbation.eps"):
+            call()

@@ -1,0 +1,161 @@
+"""A scene file's resolved form on disk, read back without sympy.
+
+Parsing R goes through sympy (:mod:`pulsemap.symbolic.expression`), whose import and parse cost a
+few tenths of a second per process. Once a scene file has been parsed and validated, its resolved
+form (:meth:`Scene.as_dict`) and the facts a run needs about R (which parameters it uses, whether
+it contains i or is zero) are kept in the pulsemap cache, keyed by a hash of the file's text and
+where it came from. Loading the same text again builds the Scene from that record: its perturbation
+is a :class:`CachedPerturbation`, which answers what a run asks from those facts and parses R with
+sympy only when something needs the expression itself.
+
+Scenes with a parameter given as an expression of i are not recorded (their per-bead values are
+evaluated through sympy anyway).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
+
+from pulsemap.symbolic import __version__
+from pulsemap.symbolic.cache import load, store
+from pulsemap.symbolic.frozenmap import FrozenMap
+from pulsemap.symbolic.param_forms import ParamMap, RandomDraw, param_data
+from pulsemap.solvers.data.scene_spec import Scene
+
+if TYPE_CHECKING:  # pragma: no cover
+    import numpy as np
+
+NAMESPACE = "scenes"
+FORMAT = 1  # the record's layout; a new one ignores older records
+
+
+def record_key(text: bytes, source: str) -> str:
+    """What a record depends on: the scene file's bytes, its source and the pulsemap version."""
+    return f"scene-record {FORMAT} {__version__} {source!r} {hashlib.sha256(text).hexdigest()}"
+
+
+@dataclass(frozen=True, eq=False)
+class CachedPerturbation:
+    """eps * R_i(u, v) of paper Eq. 1 from a scene record: what a run reads (text, eps, parameter
+    values, used parameters, per-bead values) without sympy; anything else (the expression ``R``,
+    derivations) from the Perturbation that :attr:`parsed` builds on first use."""
+
+    text: str
+    eps: float
+    params: ParamMap  # floats, per-bead tuples, RandomDraws (no expressions of i)
+    used_parameters: tuple[str, ...]
+    uses_i: bool
+    is_zero: bool
+
+    @cached_property
+    def parsed(self):
+        """The full Perturbation (sympy), parsed once."""
+        from pulsemap.symbolic.perturbation import make_perturbation
+
+        return make_perturbation(self.text, self.eps, {k: param_data(v) for k, v in self.params.items()})
+
+    @property
+    def R(self):
+        return self.parsed.R
+
+    @property
+    def unused_parameters(self) -> tuple[str, ...]:
+        return tuple(name for name in self.params if name not in self.used_parameters)
+
+    @property
+    def site_dependent(self) -> tuple[str, ...]:
+        return tuple(name for name in self.used_parameters if not isinstance(self.params[name], float))
+
+    @property
+    def is_uniform(self) -> bool:
+        return not self.uses_i and not self.site_dependent
+
+    def bead_values(self, name: str, beads: int) -> np.ndarray:
+        """Values of parameter ``name`` for beads 1..beads, float64 (as Perturbation.bead_values)."""
+        import numpy as np
+
+        value = self.params.get(name)
+        if isinstance(value, float):
+            return np.full(beads, value, dtype=np.float64)
+        if isinstance(value, RandomDraw):
+            return value.values(beads)
+        if isinstance(value, tuple) and len(value) == beads:
+            return np.asarray(value, dtype=np.float64)
+        return self.parsed.bead_values(name, beads)  # the error, worded by the symbolic side
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__") or name == "parsed":
+            raise AttributeError(name)
+        return getattr(self.parsed, name)
+
+    def __eq__(self, other: object) -> bool:
+        if not all(hasattr(other, a) for a in ("text", "eps", "params")):
+            return NotImplemented
+        return (self.text, self.eps, self.params) == (other.text, other.eps, other.params)
+
+    def __hash__(self) -> int:
+        return hash((self.text, self.eps, self.params))
+
+
+def _param_value(data: Any) -> Any:
+    if isinstance(data, dict):
+        return RandomDraw(float(data["uniform"][0]), float(data["uniform"][1]), int(data["seed"]))
+    if isinstance(data, list):
+        return tuple(float(x) for x in data)
+    return float(data)
+
+
+def load_record(text: bytes, source: str) -> Scene | None:
+    """The Scene recorded for this scene file text, or None (no record yet, or an unreadable one)."""
+    try:
+        value = load(NAMESPACE, record_key(text, source), _check, quiet=True)
+    except OSError:  # no usable cache directory: parse the scene as without one
+        value = None
+    if value is None:
+        return None
+    d, facts = value["scene"], value["facts"]
+    pert = d["perturbation"]
+    return Scene(
+        name=d["name"], beads=d["chain"]["beads"], exponent=float(d["chain"]["exponent"]),
+        first_perturbed=int(d["chain"]["first_perturbed"]), velocity=float(d["excitation"]["velocity"]),
+        perturbation=CachedPerturbation(
+            text=pert["R"], eps=float(pert["eps"]),
+            params=ParamMap.of({k: _param_value(v) for k, v in pert["params"].items()}),
+            used_parameters=tuple(facts["used_parameters"]), uses_i=bool(facts["uses_i"]),
+            is_zero=bool(facts["is_zero"])),
+        contacts=(int(d["output"]["contacts"][0]), int(d["output"]["contacts"][1])),
+        methods=tuple(d["output"]["methods"]), profile=d["model"]["profile"], variant=d["model"]["variant"],
+        dns=FrozenMap(tuple(d["dns"].items())), source=d["source"],
+    )
+
+
+def save_record(text: bytes, source: str, scene: Scene) -> None:
+    """Record a parsed, validated scene (not one with an expression of i; a cache that cannot be
+    written is skipped: the record only saves time)."""
+    from pulsemap.symbolic.expression import symbol
+
+    pert = scene.perturbation
+    if not all(isinstance(v, (float, tuple, RandomDraw)) for v in pert.params.values()):
+        return
+    facts = {"used_parameters": list(pert.used_parameters), "uses_i": symbol("i") in pert.R.free_symbols,
+             "is_zero": bool(pert.is_zero)}
+    try:
+        store(NAMESPACE, record_key(text, source), {"scene": scene.as_dict(), "facts": facts})
+    except OSError:
+        pass
+
+
+def _check(value: Any) -> str | None:
+    """What is wrong with a record read back (None: nothing)."""
+    try:
+        d, facts = value["scene"], value["facts"]
+        numbers = [d["chain"]["exponent"], d["excitation"]["velocity"], d["perturbation"]["eps"]]
+        ok = (all(isinstance(x, (int, float)) and math.isfinite(x) for x in numbers)
+              and isinstance(d["perturbation"]["R"], str) and isinstance(facts["used_parameters"], list))
+    except (KeyError, TypeError, IndexError):
+        return "not a scene record"
+    return None if ok else "not a scene record"

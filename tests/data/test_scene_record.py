@@ -1,0 +1,73 @@
+"""A scene file's record (solvers/data/scene_record.py): read back without sympy, the same scene and run."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+from conftest import scene_toml, write_scene
+from pulsemap.solvers.data.scene import load_scene, parse_scene
+from pulsemap.solvers.data.scene_record import CachedPerturbation
+from pulsemap.solvers.studies.run import run_scene
+
+
+def test_second_load_is_the_record_and_the_same_scene(tmp_path):
+    path = write_scene(tmp_path, scene_toml("rec", beads=60, contacts=(16, 30)).replace("mu = 1.0", "mu = 0.7"))
+    first, second = load_scene(path), load_scene(path)
+    assert not isinstance(first.perturbation, CachedPerturbation)
+    assert isinstance(second.perturbation, CachedPerturbation)
+    assert second == first and first == second
+    assert second.as_dict() == first.as_dict()
+    pf, ps = first.perturbation, second.perturbation
+    assert (ps.used_parameters, ps.site_dependent, ps.is_uniform, ps.is_zero) == \
+           (pf.used_parameters, pf.site_dependent, pf.is_uniform, pf.is_zero)
+    assert ps.R == pf.R  # parsed on demand, the same expression
+    a = run_scene(first, methods=["dns", "map"])
+    b = run_scene(second, methods=["dns", "map"])
+    assert a["peaks"] == b["peaks"]  # bit for bit
+
+
+def test_an_edited_file_is_parsed_again(tmp_path):
+    path = write_scene(tmp_path, scene_toml("rec2", contacts=(16, 30)))
+    load_scene(path)
+    path.write_text(path.read_text().replace("eps = 0.1", "eps = 0.2"))
+    scene = load_scene(path)
+    assert scene.perturbation.eps == 0.2
+    assert not isinstance(scene.perturbation, CachedPerturbation)
+
+
+def test_random_draw_and_list_values_read_back_alike(tmp_path):
+    text = scene_toml("rec3", beads=40, contacts=(16, 30)).replace("mu = 1.0", "mu = {uniform = [0.5, 1.5], seed = 4}")
+    path = write_scene(tmp_path, text)
+    first, second = load_scene(path), load_scene(path)
+    assert isinstance(second.perturbation, CachedPerturbation)
+    assert second.perturbation.site_dependent == ("mu",)
+    np.testing.assert_array_equal(second.perturbation.bead_values("mu", 40), first.perturbation.bead_values("mu", 40))
+
+
+def test_expressions_of_i_are_not_recorded(tmp_path):
+    path = write_scene(tmp_path, scene_toml("rec4", contacts=(16, 30)).replace("mu = 1.0", 'mu = "1 + 0.01*i"'))
+    load_scene(path)
+    assert not isinstance(load_scene(path).perturbation, CachedPerturbation)
+
+
+def test_a_recorded_scene_and_its_force_load_no_sympy(tmp_path):
+    path = write_scene(tmp_path, scene_toml("rec5", contacts=(16, 30)))
+    code = ("import sys; from pulsemap.solvers.data.scene import load_scene; "
+            "from pulsemap.solvers.studies.forcing import make_force; "
+            f"s = load_scene({str(path)!r}); make_force(s, 40); print('sympy' in sys.modules)")
+    env = dict(os.environ)
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+            for _ in range(2)]
+    assert [r.stdout.strip() for r in runs] == ["True", "False"]
+
+
+def test_without_a_usable_cache_the_scene_still_loads(tmp_path, monkeypatch):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(blocker / "cache"))
+    scene = load_scene("fig8-eps0.1")
+    assert scene.perturbation.eps == 0.1 and not isinstance(scene.perturbation, CachedPerturbation)

@@ -1,0 +1,67 @@
+"""A scene's force (solvers/studies/forcing.py): O(window) per-bead data for a uniform R, the same
+force as on the whole chain, kept in-process, and one random draw on both sides."""
+
+from __future__ import annotations
+
+import tracemalloc
+
+import numpy as np
+import pulsemap
+
+from pulsemap.symbolic.perturbation import make_perturbation
+from pulsemap.solvers.studies.forcing import bead_params, chain_force, make_force
+from pulsemap.solvers.models.codeload import force_module
+
+
+def _full_force(module, beads, fp, eps, values, x, v):
+    """The force evaluated directly on the whole chain (the reference)."""
+    i = np.arange(1, beads + 1, dtype=float)
+    e = np.where(i >= fp, eps, 0.0)
+    return module.force(x, v, i, e, *(values[p] for p in module.PARAMS))
+
+
+def test_window_slices_match_the_whole_chain():
+    mod = force_module("-(u - mu*(1 - u^2)*v)", ("mu",))
+    beads, fp = 200, 16
+    force = chain_force(mod, {"beads": beads, "first_perturbed": fp, "eps": 0.1}, {"mu": 3.0})
+    rng = np.random.default_rng(1)
+    x, v = rng.normal(size=beads), rng.normal(size=beads)
+    ref = _full_force(mod, beads, fp, 0.1, {"mu": 3.0}, x, v)
+    np.testing.assert_array_equal(force.force(x, v), ref)
+    for lo, hi in ((0, 21), (10, 31), (150, 200)):
+        np.testing.assert_array_equal(force.restrict(lo, hi).force(x[lo:hi], v[lo:hi]), ref[lo:hi])
+
+
+def test_a_uniform_million_bead_chain_builds_no_array_over_beads():
+    mod = force_module("-(u - mu*(1 - u^2)*v)", ("mu",))
+    tracemalloc.start()
+    force = chain_force(mod, {"beads": 1_000_000, "first_perturbed": 16, "eps": 0.1}, {"mu": 3.0})
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 1_000_000  # bytes; one float array over the beads alone is 8 MB
+    small = chain_force(mod, {"beads": 200, "first_perturbed": 16, "eps": 0.1}, {"mu": 3.0})
+    np.testing.assert_array_equal(force.monomials.coefficients, small.monomials.coefficients)
+    assert force.monomials.coefficients.shape[1] == 16
+    assert force.stiffness_hint == small.stiffness_hint
+
+
+def test_site_dependent_values_span_the_chain():
+    mod = force_module("-mu*v", ("mu",))
+    mu = np.linspace(0.5, 1.5, 60)
+    force = chain_force(mod, {"beads": 60, "first_perturbed": 16, "eps": 0.1}, {"mu": mu})
+    assert force.monomials.coefficients.shape[1] == 60
+    np.testing.assert_array_equal(force.monomials.coefficients[0, 15:], -0.1 * mu[15:])
+
+
+def test_make_force_is_kept_for_the_same_resolved_scene():
+    a = pulsemap.scene("fig8-eps0.1")
+    b = pulsemap.scene("fig8-eps0.1")
+    assert make_force(a, 131) is make_force(b, 131)
+    assert make_force(pulsemap.scene("fig8-eps0.1", eps=0.2), 131) is not make_force(a, 131)
+
+
+def test_one_random_draw_on_both_sides():
+    pert = make_perturbation("-mu*v", 0.1, {"mu": {"uniform": [0.2, 0.9], "seed": 11}})
+    worker = bead_params({"beads": 50, "params": {"mu": {"uniform": [0.2, 0.9], "seed": 11}}})["mu"]
+    np.testing.assert_array_equal(pert.bead_values("mu", 50), worker)
+    assert worker.min() >= 0.2 and worker.max() < 0.9 and np.unique(worker).size == 50
