@@ -1,4 +1,4 @@
-"""Reproducibility (issue 8): every output says what produced it, and the same input gives the
+"""Reproducibility: every output says what produced it, and the same input gives the
 same numbers bit for bit -- in the same process, and in a fresh process with an empty cache.
 
 Compared: the whole JSON output (run, derive, profile) after one json round trip (floats are

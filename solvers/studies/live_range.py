@@ -1,4 +1,4 @@
-"""The live range over which reduced models are scored against the DNS (issue 17).
+"""The live range over which reduced models are scored against the DNS.
 
 Contacts first_perturbed .. the last contact whose DNS peak is still >= LIVE_FRACTION of the
 seed peak (the DNS peak at contact first_perturbed - 1, which seeds every model). Past it the

@@ -30,7 +30,7 @@ MODEL_TITLES = {
     "energy-law": "energy-balance law: E_1 dA^(n+1)/di = W(A)",
     "momentum-map": "momentum-balance map: p_1 A_i^(1+s) = p_1 A_(i-1)^(1+s) + J(A_(i-1))",
     "momentum-law": "momentum-balance law: p_1 dA^(1+s)/di = J(A)",
-    "relaxed": "relaxed transfer map P_(k+1) = F(P_k) from segment runs, with the tabulated onset (issue 17)",
+    "relaxed": "relaxed transfer map P_(k+1) = F(P_k) from segment runs, with the tabulated onset",
     "dressed-law": "dressed law: d ln A/di = -sum k1 x/(1 - (k2/k1) x) - sum k2_jl x_j x_l (k1, k2/k1, onset lag, cross terms derived)",
 }
 

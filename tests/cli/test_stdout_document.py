@@ -1,4 +1,4 @@
-"""``--json -`` and ``--csv -`` (issue 14, part 4): stdout holds the document and nothing else.
+"""``--json -`` and ``--csv -``: stdout holds the document and nothing else.
 
 Every command with a --json option is run with ``--json -`` on a small input; stdout must parse
 with json.loads (strict: no NaN), and the text report must have gone to stderr. ``--csv -`` must

@@ -1,4 +1,4 @@
-"""Generated solver code (issue: generated code, map/law/stationary solvers)."""
+"""Generated solver code: generated modules and the map, law and stationary solvers."""
 
 import math
 import subprocess

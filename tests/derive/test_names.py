@@ -1,4 +1,4 @@
-"""User names and internal names live apart (issue 14, part 1): renaming a parameter never
+"""User names and internal names live apart: renaming a parameter never
 changes a number of the derivation, of the generated map/balance/force modules or of the CLI."""
 
 import json

@@ -1,4 +1,4 @@
-"""The relaxed map against the DNS on the paper's scenes with eps <= 0.3 (issue 17's target).
+"""The relaxed map against the DNS on the paper's scenes with eps <= 0.3.
 
 Through ``run_scene(methods=["dns", "relaxed"])``: seeded at contact 15 from the DNS peak (as the
 paper's map), scored over the live range (solvers/studies/live_range.py). The tables are built
@@ -23,4 +23,4 @@ def test_relaxed_within_2_percent_rms_of_the_dns(name):
     live = res["errors"]["relaxed"]["live"]
     assert live["contacts"][0] == 16 and live["compared"] >= 8
     assert live["missing"] == 0
-    assert live["rms_rel_all"] <= 0.02  # the issue's stretch target (target: 0.05)
+    assert live["rms_rel_all"] <= 0.02  # stretch target (required: 0.05)
