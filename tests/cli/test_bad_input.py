@@ -171,6 +171,7 @@ SUBPROCESS = [
 ]
 
 
+@pytest.mark.process
 @pytest.mark.parametrize("argv, needles", [c[1:] for c in SUBPROCESS], ids=[c[0] for c in SUBPROCESS])
 def test_subprocess(argv, needles, tmp_path):
     """A real process: exit status 2, one line on stderr, nothing executed, no traceback."""
