@@ -1,4 +1,4 @@
-"""Issue 19's DNS ratios for the compiled engine (solvers/chain/compiled.py), measured in one run.
+"""The DNS ratios of the compiled engine (solvers/chain/compiled.py), measured in one run.
 
 Run: PULSEMAP_CACHE_DIR=... python benchmarks/bench_compiled.py [--quick] [--skip-process]
      [--only accuracy,scaling,million,batch,process]

@@ -4,7 +4,7 @@ Run: python benchmarks/bench_map.py
 Prints, measured in this run (best of several after a warm-up): microseconds per contact for one
 chain with the Python reference and with the compiled kernel, per chain-contact for 1024 chains in
 one call (on one numba thread and on all of them, same contacts as the single chain), and the
-ratios. Targets (issue 19): one chain <= 1 us per contact, 1024 chains <= 0.2 us. The threaded
+ratios. Targets: one chain <= 1 us per contact, 1024 chains <= 0.2 us. The threaded
 figure needs idle cores: the load average is printed beside it.
 """
 

@@ -4,7 +4,7 @@ Run: python benchmarks/bench_relaxed.py [SCENE ...]
 Prints, measured in this run: per scene the time to build the tables from an empty cache (the
 segment runs, DNS with the moving window), the number of segment runs, the time to build them
 again from the cache, and the time per contact of the iteration (best of 5), next to the scene's
-DNS time. Target (issue 17): building <= 30 s on 2 cores, cached afterwards.
+DNS time. Target: building <= 30 s on 2 cores, cached afterwards.
 """
 
 from __future__ import annotations

@@ -116,7 +116,7 @@ def suite_times(repeats: int) -> None:
         _, t_exp = best_of(lambda: dns_time(scene, "DOP853"), repeats)
         print(f"  {name:9s}: {t:.4f} s  {out['dns']['method']:6s} ratio to nonstiff {t / base:5.2f}  "
               f"(DOP853 forced: {t_exp:.4f} s)  {out['dns']['stop_reason']}")
-    print("  target (issue 6): damp-100 within 5x of nonstiff")
+    print("  target: damp-100 within 5x of nonstiff")
 
 
 def main(argv: list[str]) -> None:

@@ -1,4 +1,4 @@
-"""The time bound and the progress report of one derivation (``derive --max-seconds``, issue 14).
+"""The time bound and the progress report of one derivation (``derive --max-seconds``).
 
 A :class:`Budget` is checked between the steps of a derivation (the expansion, each profile
 integral, the law, Eq. 41); past its bound the derivation stops with :class:`DeriveTimeout`

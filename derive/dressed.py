@@ -1,4 +1,4 @@
-"""The second-order ("dressed") amplitude law (issue 18): the energy law plus its next order.
+"""The second-order ("dressed") amplitude law: the energy law plus its next order.
 
 Per monomial j of eps R = sum_j c_j u^a_j v^b_j, with x_j = c_j A^e_j, e_j = a_j + (1 + s) b_j - 1 - 2 s
 (s = (n - 1)/2; n = 3/2: a + 5b/4 - 3/2):

@@ -174,7 +174,7 @@ def expand(
     r_ip1 = _at_bead(R, 1, site)
     # g_i = R_i(delta_i + delta_ip1, v_i + v_ip1) - R_{i+1}(delta_ip1, v_ip1) term by term: c u^a v^b gives
     # c C(a, k) C(b, m) delta_i^k delta_ip1^(a-k) v_i^m v_ip1^(b-m) (binomial theorem; no sympy expand of
-    # the substituted powers, which took minutes for (u+v+1)^16, issue 14)
+    # the substituted powers, which took minutes for (u+v+1)^16)
     g1_coeffs: dict[tuple[int, ...], sympy.Expr] = {}
     for (a, b), c in _state_terms(r_i, u, v):
         for k in range(a + 1):

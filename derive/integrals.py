@@ -87,7 +87,7 @@ _FUNCS: dict[tuple[str, float], tuple[Callable, Callable, Callable]] = {}
 def _memo(f: Callable) -> Callable:
     """``f`` remembering its values by (argument, working precision): mpmath.quad evaluates every
     integral of one profile at the same nodes, so a derivation with hundreds of integrals computes
-    S, S', S'' there once (bit-identical values; issue 14)."""
+    S, S', S'' there once (bit-identical values)."""
     table: dict = {}
 
     def memo(t):

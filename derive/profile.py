@@ -32,7 +32,7 @@ N_MIN, N_MAX = 1.01, 20.0
 #: Relative size below which the tails count as zero when sizing the domain.
 TAIL = 1e-15
 #: Profile values below this count as zero inside the iteration: the super-exponential tails
-#: otherwise become subnormal floats, on which numpy's power is ~100x slower (issue 14).
+#: otherwise become subnormal floats, on which numpy's power is ~100x slower.
 FLUSH = 1e-250
 
 

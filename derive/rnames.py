@@ -1,5 +1,5 @@
 """The names a perturbation R may use: state symbols, whitelisted functions, limits, and the
-symbol class that keeps the user's names apart from the derivation's own (issue 14)."""
+symbol class that keeps the user's names apart from the derivation's own."""
 
 from __future__ import annotations
 

@@ -18,6 +18,7 @@ from pulsemap.solvers.data.scene import builtin_scenes
 SMALL = {"output.contacts": (16, 30)}
 
 
+@pytest.mark.process
 def test_import_is_cheap_and_the_surface_is_small():
     """``import pulsemap`` loads neither sympy nor scipy nor numpy (a fresh interpreter)."""
     code = ("import sys, pulsemap; heavy = [m for m in ('sympy', 'scipy', 'numpy', 'mpmath') if m in sys.modules];"

@@ -1,4 +1,4 @@
-"""Public functions called with wrong types (issue 14): a TypeError or ValueError naming the argument,
+"""Public functions called with wrong types: a TypeError or ValueError naming the argument,
 raised before any work -- never an AttributeError or MemoryError from deep inside."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Damaged caches and record files (issue 14): what is read back is checked (schema, finiteness);
+"""Damaged caches and record files: what is read back is checked (schema, finiteness);
 a bad cache entry is computed again, a bad record is ignored with a note naming its file and line.
 Never a traceback, never a NaN passed on."""
 

@@ -1,4 +1,4 @@
-"""Runtime guards (issue 8): the map says at which contact it cannot go on, and results outside
+"""Runtime guards: the map says at which contact it cannot go on, and results outside
 the map's assumptions carry warnings in the output of ``pulsemap run``.
 
 (The DNS blow-up guard is tested with the DNS.)

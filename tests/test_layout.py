@@ -60,6 +60,7 @@ def test_imports_run_one_way(path):
             assert module.split(".")[0] != "sympy", f"{path.relative_to(ROOT)} imports sympy at module level"
 
 
+@pytest.mark.process
 def test_the_command_and_a_run_load_no_sympy():
     code = ("import sys, pulsemap.solvers.cli.main, pulsemap.solvers.studies.run, pulsemap.solvers.studies.table; "
             "print('sympy' in sys.modules)")
@@ -67,6 +68,7 @@ def test_the_command_and_a_run_load_no_sympy():
     assert out.stdout.strip() == "False"
 
 
+@pytest.mark.process
 def test_the_compiled_dns_and_a_run_load_no_scipy_solvers():
     """scipy's integrators and root finders (~0.3 s per process) load only where a scipy engine, a law
     or a root search runs: importing the DNS front end and `run` leaves them out."""

@@ -1,4 +1,4 @@
-"""Normal runs print no raw numpy/scipy RuntimeWarnings (issue 14): every such source is handled where it
+"""Normal runs print no raw numpy/scipy RuntimeWarnings: every such source is handled where it
 arises. Each run here turns RuntimeWarning into an error; the step-budget advice fits the method used."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Property-based tests (hypothesis) of the user-facing parsers and of the derivation (issue 8).
+"""Property-based tests (hypothesis) of the user-facing parsers and of the derivation.
 
 * Arbitrary strings -- random text and a token soup laced with Python payloads -- given as R, as
   a parameter value, as eps, or inside a scene, never execute code (eval/exec/compile, os.system,
@@ -12,7 +12,7 @@
   (long-wave law, Eq. 30) equal an independent count: binomial expansion of Eq. 12 done here
   with integers and fractions, not with sympy.
 
-Settings (stated in the issue report): text/token properties max_examples=150, grammar 150,
+Settings: text/token properties max_examples=150, grammar 150,
 derivation 10; all deadline=None; derivation with sympy_seconds=0 (quadrature law, no forked
 closed-form attempt), so the whole file runs in ~15 s on a cold cache.
 """

@@ -1,4 +1,4 @@
-"""Reproducibility (issue 8): every output says what produced it, and the same input gives the
+"""Reproducibility: every output says what produced it, and the same input gives the
 same numbers bit for bit -- in the same process, and in a fresh process with an empty cache.
 
 Compared: the whole JSON output (run, derive, profile) after one json round trip (floats are
@@ -153,6 +153,7 @@ def test_derive_and_profile_outputs_record_what_produced_them():
 # --------------------------------------------------------------------------- bit for bit
 
 
+@pytest.mark.process
 def test_same_scene_and_seed_give_the_same_numbers_bit_for_bit(scene_file, tmp_path, capsys):
     """Two runs in this process and one in a fresh process with an empty cache."""
     argv = ["run", str(scene_file), "--quiet"]
@@ -166,6 +167,7 @@ def test_same_scene_and_seed_give_the_same_numbers_bit_for_bit(scene_file, tmp_p
     assert sum(p is not None for p in first["peaks"]["map"]) > 20
 
 
+@pytest.mark.process
 def test_derive_json_is_reproducible_across_processes(tmp_path, capsys):
     argv = ["derive", "-(u - mu*(1-u^2)*v)", "--param", "mu=3", "--fold", "mu", "--A0", "0.5",
             "--sympy-seconds", "0"]
@@ -176,6 +178,7 @@ def test_derive_json_is_reproducible_across_processes(tmp_path, capsys):
     assert first["longwave"]["kind"] == "quadrature" and len(first["stationary"]["roots"]) == 2
 
 
+@pytest.mark.process
 def test_profile_json_is_reproducible_across_processes(tmp_path, capsys):
     argv = ["profile", "--n", "1.5"]
     first = in_process(argv, tmp_path, capsys)

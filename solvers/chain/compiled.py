@@ -39,13 +39,8 @@ EXPLICIT_METHODS = (METHOD, HIGH_ORDER_METHOD)
 ENERGY_EVERY = 4  # blow-up guard and energy drift every this many steps (as solvers/window.py)
 DELAY_FACTOR = 2.0  # peaks.primary_pulse_lost's default
 ROOM = 96  # initial buffer beyond ``behind`` (grown on demand)
-# Method 'auto' on the compiled engine runs Rodas4 when the force's stiffness hint exceeds this x
-# the contact rate (the scipy engine's LSODA/DOP853 crossover, equations.STIFFNESS_RATIO = 30, does
-# not hold here). Measured, damped chain (R = -mu v) contacts 1..36, time of the compiled
-# Dormand-Prince 5(4) / Rodas4 at equal accuracy, rtol 1e-6 / 1e-8 / 1e-10: hint 100: 0.32 / 0.17 /
-# 0.11; 300: 0.57 / 0.26 / 0.14; 500: 0.8 / 0.35 / 0.17; 1000: 1.5 / 0.59 / 0.24; 3000: 4.1 / 1.5 /
-# 0.52; 1e5: 76 / 26 / 8 (the explicit kernel stability-bound). Below 300 the explicit kernel is
-# the cheaper at every rtol.
+# Method 'auto' on the compiled engine runs Rodas4 when the force's stiffness hint exceeds this x the
+# contact rate; below it the explicit kernel is the cheaper at every rtol (measured: docs/dns.rst).
 COMPILED_STIFFNESS_RATIO = 300.0
 PAUSE_STEPS = 20_000  # accepted steps between progress checks (~2-20 ms of kernel time)
 

@@ -41,15 +41,8 @@ from pulsemap.solvers.chain.peaks import PeakTracker, scan_step, velocity_scale
 Array = np.ndarray
 BOUNDARIES = ("coast", "free")
 
-# Measured max relative peak error the window costs against the full chain, by the number of
-# beads kept behind the front (boundary "coast", compiled engine, rtol 1e-12 in both runs so the
-# integrator's own error is ~1e-11): worst case over all 31 built-in and suite scenes but
-# chain10000 (2026-11-25). The worst are decaying pulses' last contacts before they die
-# (fig8-eps0.1 and nonstiff: a long compressed tail behind the front) and a self-excited wake
-# that decides where the pulse dies (vdp-mu1-v2.3: 13 behind moved the death contact; 12 gave
-# 1.8e-4). Most scenes are at the integrator floor from 5 behind (vdp-mu3-v2.3 from 4).
-# "free" is 3-30x worse than "coast". The ahead threshold changes the peaks by at most ~5x
-# itself (n1.1: 1e-6 -> 6e-6, 1e-8 -> 2.5e-8, 1e-10 -> as 1e-30), hence accuracy / 100.
+# Worst max relative peak error the window costs against the full chain, by beads kept behind the
+# front, over the built-in and suite scenes (how it was measured: docs/dns.rst).
 CALIBRATION: dict[int, float] = {12: 2.6e-6, 13: 2.4e-4, 14: 4.4e-7, 15: 3.3e-8, 16: 2.9e-8, 18: 7.4e-10,
                                  20: 2.6e-10, 22: 9.5e-11, 24: 8.9e-11}
 #: (accuracy floor, behind) of rule_for_accuracy: the fewest beads behind whose measured worst

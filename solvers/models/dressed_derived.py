@@ -1,4 +1,4 @@
-"""k2/k1 and the onset lag of one monomial, derived from the expansion about the solitary wave (issue 18).
+"""k2/k1 and the onset lag of one monomial, derived from the expansion about the solitary wave.
 
 dressed_expansion.py integrates the first- and second-order equations of Eq. 1 expanded in c about the
 exact wave and returns, per step k, k1_k, rho_k = k2_k/k1_k (A at the step's mid-point) and the lag

@@ -1,4 +1,4 @@
-"""The dressed coefficients derived by expanding the chain about the exact solitary wave (issue 18).
+"""The dressed coefficients derived by expanding the chain about the exact solitary wave.
 
 Eq. 1 with eps R = c u^a v^b on beads i >= ``first`` is expanded in c about the exact travelling wave
 x0 (profile of Eq. 4, scale A = 1, contact ``centre`` at its peak at t = 0; derive/profile.py):
@@ -11,7 +11,7 @@ zeta = z_i - z_{i+1} and m_i the mask of the perturbed beads:
 
 x0 is the profile itself (no integration: d0_j(t) = S(t + centre - j), the contacts' shared offset
 on the profile grid makes one quintic Hermite weight vector serve them all; ``WaveBase``); y and z are
-integrated with DOP853 from rest. These are the multiple-scales equations of the issue in the time domain (L S1 = ...
+integrated with DOP853 from rest. These are the multiple-scales equations in the time domain (L S1 = ...
 at first order, its solvability being the energy balance; the O(x^2) problem at second order): no
 DNS of the nonlinear chain, no fit, no extrapolation in c. The peak of contact k (at t_k = k - centre)
 to O(c^2), with the peak-time shift, is

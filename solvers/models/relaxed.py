@@ -1,4 +1,4 @@
-"""The relaxed transfer map with its onset (issue 17): a reduced model built from the DNS itself.
+"""The relaxed transfer map with its onset: a reduced model built from the DNS itself.
 
 In the bulk of a uniformly perturbed chain the primary pulse has no memory beyond its amplitude:
 a few contacts after it enters the perturbed region its shape is slaved to its peak P, so the

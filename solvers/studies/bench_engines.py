@@ -1,5 +1,5 @@
 """The two DNS engines and the careful user's script on one work-precision plot: the lines, the cold
-runs and the ratios of ``pulsemap bench`` (issue 19, item 6).
+runs and the ratios of ``pulsemap bench``.
 
 Lines (warm: one warm-up, then best of K, as every other line of the benchmark):
 

@@ -1,4 +1,4 @@
-"""Stationary shocks from the relaxed map (issue 17): its fixed points, their stability, the fold,
+"""Stationary shocks from the relaxed map: its fixed points, their stability, the fold,
 and the survival threshold it predicts for an entry peak, beside Eq. 41 and the DNS threshold.
 
 A fixed point of the relaxed map P_{k+1} = F(P_k) = P_k r(P_k) is a zero of log r (a stationary

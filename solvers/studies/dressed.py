@@ -228,7 +228,7 @@ def to_json(d: DressedDerivation) -> dict:
 
 
 def to_text(d: DressedDerivation) -> str:
-    head = ["Model: dressed law (energy balance + second order, issue 18)",
+    head = ["Model: dressed law (energy balance + second order)",
             f"R(u, v) = {d.perturbation.R}    eps = {d.perturbation.eps:g}    n = {d.n:g}    profile = exact", ""]
     return "\n".join(head + d.law.lines(d.A0, d.i0))
 

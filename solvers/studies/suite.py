@@ -27,7 +27,7 @@ from pulsemap.solvers.studies.progress import Progress
 STIFF_SCENE, YARDSTICK = "damp-100", "nonstiff"
 STIFF_RATIO_TARGET = 5.0
 RATIO_REPEATS = 3  # the stiff ratio's two DNS times: best of at least this many (a process's first call of
-#                    a kernel loads it from numba's cache: 15 ms on an 8 ms Rodas4 run)
+#                    a kernel loads it from numba's cache, which can take longer than the run itself)
 SILENT_ERROR = 0.5  # a model this far off the DNS (max relative error) must have been warned about
 CHECK_CONTACTS = 200  # contacts the check run covers at most (from the scene's first)
 

@@ -208,6 +208,7 @@ def test_batch_of_chains_equals_single_runs():
     assert len({float(r.peaks[-1]) for r in many}) == 4  # the chains really differ
 
 
+@pytest.mark.slow
 def test_batch_runs_each_chain_on_simulates_kernel():
     """A batch mixing a stiff chain (damp-1000: Rodas4 under 'auto') with a moderately stiff one
     (eps mu = 100: Dormand-Prince, cheaper there) runs each on the kernel simulate chooses, with

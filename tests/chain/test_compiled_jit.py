@@ -51,6 +51,7 @@ def test_non_polynomial_R_agrees_with_the_scipy_engine(R):
     assert np.max(np.abs(fast.peaks[fast.alive] / ref.peaks[ref.alive] - 1.0)) < PEAK_TOL
 
 
+@pytest.mark.slow
 def test_stiff_non_polynomial_R_runs_rosenbrock_with_the_numba_jacobian():
     """-mu v/(1 + v^2) with eps mu = 1000: Rodas4 takes dF/dv from the generated dF/dv function."""
     scene, beads, _, force = scene_with("-mu*v/(1+v^2)", mu=10000.0)

@@ -43,7 +43,7 @@ def stiff_run(name: str, stiffer: bool = False, **kw):
                     **kw)
 
 
-@pytest.mark.parametrize("stiffer", [False, True], ids=["suite", "stiffer"])
+@pytest.mark.parametrize("stiffer", [False, pytest.param(True, marks=pytest.mark.slow)], ids=["suite", "stiffer"])
 @pytest.mark.parametrize("name", STIFF_SCENES)
 def test_stiff_suite_scenes_agree_with_radau(name, stiffer):
     """'auto' takes Rodas4 above COMPILED_STIFFNESS_RATIO x the contact rate (the suite's damp-1000, and

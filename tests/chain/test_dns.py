@@ -347,7 +347,7 @@ def test_long_chain_methods_agree(method):
     assert res.energy_drift < 1e-6
 
 
-# ----------------------------------------------------------------------------- blow-up guard (issue 8)
+# ----------------------------------------------------------------------------- blow-up guard
 
 
 def unstable(k: float, beads: int, velocity_term: bool = False, first: int = FIRST_PERTURBED) -> OnSiteForce:

@@ -1,4 +1,4 @@
-"""Progress of long DNS runs (issue 14): k of N contacts, elapsed and ETA on stderr; silent when disabled."""
+"""Progress of long DNS runs: k of N contacts, elapsed and ETA on stderr; silent when disabled."""
 
 from __future__ import annotations
 

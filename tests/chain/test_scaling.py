@@ -1,4 +1,4 @@
-"""The scaling symmetry of Eq. 1 (solvers/chain/scaling.py): extreme impact velocities (issue 14)."""
+"""The scaling symmetry of Eq. 1 (solvers/chain/scaling.py): extreme impact velocities."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The moving window's accuracy rule checked scene by scene (issue 19 item 1): on every built-in
+"""The moving window's accuracy rule checked scene by scene: on every built-in
 and suite scene, the window sized by rule_for_accuracy(a) gives the full chain's peaks to within a,
 for `run`'s default a = 1e-8 and for 1e-6 (what rtol 1e-6 asks for), with both integrated far
 tighter (rtol 1e-12), so the difference is the window's truncation."""

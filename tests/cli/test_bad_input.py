@@ -1,4 +1,4 @@
-"""The bad-input catalogue (issue 8): every row is one mistake a user can make.
+"""The bad-input catalogue: every row is one mistake a user can make.
 
 Three surfaces, one rule: a one-line message that names the problem (asserted on key words),
 and no traceback.
@@ -11,7 +11,7 @@ and no traceback.
 
 Nothing here runs a DNS or a map: every error is found before any computation starts.
 
-Cases that need state or a run live next to the code that catches them (issue 14): damaged
+Cases that need state or a run live next to the code that catches them: damaged
 generated modules in tests/models/test_codeload.py, damaged cache entries and record files in
 tests/test_damaged_state.py, wrong argument types in tests/test_api_types.py, scene-file bounds in
 tests/data/test_toml_bounds.py, extreme velocities and tolerances in tests/chain/test_scaling.py,
@@ -89,7 +89,7 @@ CLI = [
     ("n = 1", ["derive", "-mu*v", "--param", "mu=1", "--n", "1"], ["exponent n", "> 1"]),
     ("n = inf", ["profile", "--n", "inf"], ["exponent n", "finite"]),
     ("A0 negative", ["derive", "-mu*v", "--param", "mu=1", "--A0", "-1"], ["A0", "1e-12 <= A0 <= 1e+12"]),
-    # derive's numeric options: never a nan/inf law with exit 0 (issue 14)
+    # derive's numeric options: never a nan/inf law with exit 0
     ("A0 nan", ["derive", "-mu*v", "--param", "mu=1", "--A0", "nan"], ["A0 = nan", "1e-12 <= A0 <= 1e+12"]),
     ("A0 inf", ["derive", "-mu*v", "--param", "mu=1", "--A0", "inf"], ["A0 = inf", "1e-12 <= A0 <= 1e+12"]),
     ("A0 too large", ["derive", "-mu*v+u^3", "--param", "mu=1", "--A0", "1e300"], ["A0 = 1e+300", "outside"]),
@@ -109,7 +109,7 @@ CLI = [
     ("max-seconds nan", ["derive", "-mu*v", "--param", "mu=1", "--max-seconds", "nan"], ["max_seconds = nan"]),
     ("max-seconds exceeded", ["derive", "u^12*v^12", "--max-seconds", "0.001", "--quiet"],
      ["derive stopped after", "max_seconds = 0.001", "resumes"]),
-    # non-smooth R: the DNS runs it, derive's map and balances refuse it with the reason (issue 14)
+    # non-smooth R: the DNS runs it, derive's map and balances refuse it with the reason
     ("Coulomb friction, map", ["derive", "-mu*sign(v)", "--param", "mu=1"],
      ["not a polynomial in u, v", "sign(v) has a kink or a jump at 0", "DNS runs it"]),
     ("Heaviside, momentum balance", ["derive", "mu*Heaviside(u)*u", "--param", "mu=1", "--model", "momentum"],
@@ -129,7 +129,7 @@ CLI = [
     ("run: a directory", ["run", str(ROOT / "tests")], ["is a directory", ".toml"]),
     ("run: --json into a missing directory", ["run", "fig8-eps0.1", "--json", "/no/such/dir/out.json"],
      ["--json", "/no/such/dir", "does not exist"]),
-    # every command that takes a name refuses an unknown one (issue 14, part 4)
+    # every command that takes a name refuses an unknown one
     ("suite: unknown scene", ["suite", "nosuch"], ["unknown scene 'nosuch'", "pulsemap suite --list"]),
     ("suite: misspelt suite scene", ["suite", "damp-1O"], ["'damp-1O'", "did you mean 'damp-10'"]),
     ("bench: unknown scene", ["bench", "nosuch"], ["'nosuch' not found"]),
@@ -171,6 +171,7 @@ SUBPROCESS = [
 ]
 
 
+@pytest.mark.process
 @pytest.mark.parametrize("argv, needles", [c[1:] for c in SUBPROCESS], ids=[c[0] for c in SUBPROCESS])
 def test_subprocess(argv, needles, tmp_path):
     """A real process: exit status 2, one line on stderr, nothing executed, no traceback."""
@@ -235,7 +236,7 @@ SCENES = [
     ("lambda in R", edit('R = "-mu*v"', 'R = "(lambda: v)()"'), ["'lambda'", "not allowed"]),
     ("R a number", edit('R = "-mu*v"', "R = 0.5"), ["R must be a string"]),
     ("empty file", "", ["missing table [excitation]"]),
-    # bounds checked before parsing (issue 14): recursion and memory
+    # bounds checked before parsing: recursion and memory
     ("arrays nested 500 deep", BASE + "x = " + "[" * 500 + "]" * 500 + "\n", ["nested more than 16 deep"]),
     ("inline tables nested 500 deep", BASE + "x = " + "{a=" * 500 + "1" + "}" * 500 + "\n", ["nested more than 16 deep"]),
     ("dotted key of 20000 parts", BASE + ".".join(["a"] * 20000) + " = 1\n", ["dotted key", "more than 8 parts"]),
@@ -402,7 +403,7 @@ def test_api(call, error, needles):
 
 
 def test_catalogue_size():
-    """The count the issue asks for (>= 30 cases across the three surfaces)."""
+    """The catalogue's size: >= 30 cases across the three surfaces."""
     total = len(CLI) + len(SUBPROCESS) + len(SCENES) + len(API)
     assert total >= 30 and len(CLI) >= 10 and len(SCENES) >= 10 and len(API) >= 10
     for rows in (CLI, SUBPROCESS, SCENES, API):

@@ -1,4 +1,4 @@
-"""``--json -`` and ``--csv -`` (issue 14, part 4): stdout holds the document and nothing else.
+"""``--json -`` and ``--csv -``: stdout holds the document and nothing else.
 
 Every command with a --json option is run with ``--json -`` on a small input; stdout must parse
 with json.loads (strict: no NaN), and the text report must have gone to stderr. ``--csv -`` must
@@ -35,7 +35,8 @@ COMMANDS = [
     ("derive", ["-mu*v", "--param", "mu=1", "--sympy-seconds", "0"], "R(u, v)"),
     ("run", ["TINY", "--quiet"], "scene tiny"),
     ("table", ["TINY", "--rows", "ROWS", "--quiet"], "Scenes won"),
-    ("bench", ["TINY", "--quick", "--no-baselines", "--no-models", "--no-cold", "--repeats", "1"], "tiny"),
+    pytest.param("bench", ["TINY", "--quick", "--no-baselines", "--no-models", "--no-cold", "--repeats", "1"], "tiny",
+                 marks=pytest.mark.bench),
     ("suite", ["TINY", "--no-check"], "tiny"),
     ("bifurcation", ["vdp-mu3-v2.3", "--param", "mu", "--range", "2", "4", "--no-dns", "--predict-points", "5",
                      "--workers", "1", "--quiet"], "fold"),
@@ -46,7 +47,7 @@ COMMANDS = [
 ]
 
 
-@pytest.mark.parametrize("command, argv, word", COMMANDS, ids=[c[0] for c in COMMANDS])
+@pytest.mark.parametrize("command, argv, word", COMMANDS, ids=[c.values[0] if hasattr(c, "values") else c[0] for c in COMMANDS])
 def test_json_dash_is_the_only_thing_on_stdout(command, argv, word, tiny, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     argv = [tiny if a == "TINY" else str(tmp_path / "rows.jsonl") if a == "ROWS" else a for a in argv]
@@ -61,7 +62,8 @@ def test_json_dash_is_the_only_thing_on_stdout(command, argv, word, tiny, tmp_pa
 
 @pytest.mark.parametrize("command, argv, head", [
     ("run", ["TINY", "--quiet"], "contact,dns,map,longwave"),
-    ("bench", ["TINY", "--quick", "--no-baselines", "--no-models", "--no-cold", "--repeats", "1"], "scene,kind,line"),
+    pytest.param("bench", ["TINY", "--quick", "--no-baselines", "--no-models", "--no-cold", "--repeats", "1"],
+                 "scene,kind,line", marks=pytest.mark.bench),
 ], ids=["run", "bench"])
 def test_csv_dash_writes_csv_to_stdout(command, argv, head, tiny, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
@@ -80,6 +82,7 @@ def test_json_and_csv_both_on_stdout_is_a_usage_error(tiny, capsys):
     assert captured.out == "" and "both ask for stdout" in captured.err and captured.err.count("\n") == 1
 
 
+@pytest.mark.process
 def test_a_real_process_keeps_stdout_clean(tiny, tmp_path):
     """File-descriptor level: also what C code or workers would print goes to stderr."""
     out = subprocess.run([sys.executable, "-m", "pulsemap.solvers.cli.main", "run", tiny, "--json", "-"],

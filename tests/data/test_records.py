@@ -46,7 +46,7 @@ def test_a_line_cut_by_a_kill_is_skipped_and_the_next_record_starts_a_new_line(t
 
 
 def test_a_damaged_line_is_noted_with_file_and_line_and_skipped(tmp_path, capsys):
-    """Issue 14: a non-UTF-8 line named no file; NaN records gave NaN reports. Both are noted and skipped."""
+    """A non-UTF-8 line must name its file and NaN records must not give NaN reports: both are noted and skipped."""
     from pulsemap.solvers.data.records import non_finite_path
 
     path = tmp_path / "r.jsonl"

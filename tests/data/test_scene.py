@@ -239,6 +239,7 @@ def test_scene_is_never_executed(tmp_path):
     assert not marker.exists()
 
 
+@pytest.mark.process
 def test_import_is_light():
     code = "import sys, pulsemap.solvers.data.scene; print('sympy' in sys.modules, 'scipy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -1,4 +1,4 @@
-"""Bounds on scene files checked before parsing (solvers/data/toml_bounds.py, issue 14)."""
+"""Bounds on scene files checked before parsing (solvers/data/toml_bounds.py)."""
 
 from __future__ import annotations
 

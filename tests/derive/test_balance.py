@@ -1,4 +1,4 @@
-"""Energy- and momentum-balance models (issue 9): constants, laws, maps, runs and the ranking table."""
+"""Energy- and momentum-balance models: constants, laws, maps, runs and the ranking table."""
 
 import json
 import math

@@ -76,7 +76,7 @@ def test_symbols_are_real_and_shared() -> None:
     assert expr.free_symbols == {u, v, i, mu}
     assert all(s.is_real for s in expr.free_symbols)
     assert symbol("u") == symbol("u") and symbol("u").is_real
-    # a user's name never equals a symbol the derivation makes for itself (issue 14)
+    # a user's name never equals a symbol the derivation makes for itself
     assert symbol("u") != sympy.Symbol("u", real=True)
     assert symbol("f1") != sympy.Symbol("f1", real=True)
 

@@ -1,4 +1,4 @@
-"""Generated solver code (issue: generated code, map/law/stationary solvers)."""
+"""Generated solver code: generated modules and the map, law and stationary solvers."""
 
 import math
 import subprocess
@@ -51,6 +51,7 @@ def test_hand_edited_module_is_refused(tmp_path):
         verify_generated(edited.read_text())
 
 
+@pytest.mark.process
 def test_lookup_of_existing_code_does_not_import_sympy():
     code = (
         "import sys; from pulsemap.solvers.models.codeload import map_module, force_module; "

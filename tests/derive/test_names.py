@@ -1,4 +1,4 @@
-"""User names and internal names live apart (issue 14, part 1): renaming a parameter never
+"""User names and internal names live apart: renaming a parameter never
 changes a number of the derivation, of the generated map/balance/force modules or of the CLI."""
 
 import json
@@ -182,6 +182,7 @@ def test_renaming_a_parameter_never_changes_a_number(template, names, values):
         assert np.allclose(getattr(fa, fn)(x, v, i, eps, *va), getattr(fb, fn)(x, v, i, eps, *vb), rtol=1e-13, atol=0)
 
 
+@pytest.mark.process
 def test_the_cli_json_is_the_same_for_a_dangerous_name():
     def run(name: str) -> dict:
         out = subprocess.run(

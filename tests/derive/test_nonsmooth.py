@@ -1,4 +1,4 @@
-"""Non-smooth R (issue 14): sign, Heaviside, abs run in the DNS; map, law and balances refuse them."""
+"""Non-smooth R: sign, Heaviside, abs run in the DNS; map, law and balances refuse them."""
 
 import numpy as np
 import pytest

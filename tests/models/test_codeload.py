@@ -1,4 +1,4 @@
-"""Damaged generated modules (issue 14): the cache's copy is regenerated with a note on stderr,
+"""Damaged generated modules: the cache's copy is regenerated with a note on stderr,
 the package's copy is refused with a message naming the file; nothing escapes as a traceback."""
 
 from __future__ import annotations

@@ -46,6 +46,7 @@ def _launched_peaks(a: int, b: int, c: float, first: int, last: int, more=()) ->
     return np.array(res.peaks, dtype=float)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("a, b, cs, first_ratio, second_ratio", [
     (0, 1, (0.02, 0.01), (3.5, 4.5), (5.0, 11.0)),  # damping: analytic, the remainder is O(c^3)
     (1, 0, (-0.004, -0.002), (3.5, 4.5), (5.0, 7.0)),  # foundation: O(|c|^(5/2)), the |x|^(3/2) term
@@ -67,6 +68,7 @@ def test_expansion_peaks_match_the_nonlinear_chain(a, b, cs, first_ratio, second
     assert second_ratio[0] < two[0] / two[1] < second_ratio[1]
 
 
+@pytest.mark.slow
 def test_mixed_second_order_matches_the_nonlinear_chain():
     """R = c_1 u + c_2 v: the expansion with both first orders, both squares and the mixed term (the cross
     coefficient's source) against the DNS; halving both c divides the remainder by ~2^(5/2) (the foundation)."""

@@ -1,4 +1,4 @@
-"""The relaxed map against the DNS on the paper's scenes with eps <= 0.3 (issue 17's target).
+"""The relaxed map against the DNS on the paper's scenes with eps <= 0.3.
 
 Through ``run_scene(methods=["dns", "relaxed"])``: seeded at contact 15 from the DNS peak (as the
 paper's map), scored over the live range (solvers/studies/errors.py). The tables are built

@@ -52,6 +52,7 @@ def tiny_report(tmp_path_factory):
     return bench_scene(load_scene(str(path)), ladder)
 
 
+@pytest.mark.bench
 def test_reference_is_converged_and_errors_fall_with_tolerance(tiny_report):
     r = tiny_report
     assert r["reference"]["convergence"] < 1e-8 and r["reference"]["missing"] == 0
@@ -62,6 +63,7 @@ def test_reference_is_converged_and_errors_fall_with_tolerance(tiny_report):
     assert len(a) == 1 and 1e-9 < a[0]["error"] < 1e-2  # grid sampling limits the script's accuracy
 
 
+@pytest.mark.bench
 def test_every_model_run_offers_is_measured(tiny_report):
     from pulsemap.solvers.studies import run
     from pulsemap.solvers.data.scene import PROFILES, VARIANTS
@@ -76,6 +78,7 @@ def test_every_model_run_offers_is_measured(tiny_report):
             assert p["error"] is not None and math.isfinite(p["error"]) and p["time_s"] > 0
 
 
+@pytest.mark.bench
 def test_ratios_and_reports(tiny_report):
     rat = tiny_report["ratios"]
     assert rat["dns"]["time_s"] > 0 and rat["baseline_b"]["time_s"] > 0
@@ -91,6 +94,7 @@ def test_ratios_and_reports(tiny_report):
     assert len(csv) == 1 + len(tiny_report["points"]) and csv[0].startswith("scene,kind,line")
 
 
+@pytest.mark.process
 @pytest.mark.parametrize("argv, pattern", [
     (["bench", "--repeats", "0"], "--repeats"),
     (["bench", "no-such-scene"], "no-such-scene"),
@@ -103,6 +107,7 @@ def test_cli_errors_are_one_line(argv, pattern):
     assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.bench
 def test_plot_writes_a_png(tiny_report, tmp_path):
     pytest.importorskip("matplotlib")
     from pulsemap.solvers.studies.bench import plot

@@ -19,6 +19,8 @@ from pulsemap.solvers.studies.forcing import make_force
 from pulsemap.solvers.studies.points import dns_span, on_contacts
 from pulsemap.solvers.studies.reference_script import script_peaks
 
+pytestmark = pytest.mark.bench  # runs and times the benchmark harness (CI: -m bench)
+
 KINDS = {"compiled", "dns", "script"}
 
 

@@ -1,5 +1,5 @@
 """bifurcation: a fold outside the scanned range is said so (and where Eq. 41 puts it); undecided grid
-points are run again on longer chains, as the README says."""
+points are run again on longer chains, as docs/commands.rst says."""
 
 from __future__ import annotations
 

@@ -118,7 +118,7 @@ def test_reusing_a_dns_run_gives_the_same_errors_as_running_it():
 
 
 def test_run_uses_the_moving_window_unless_the_scene_asks_for_the_full_chain():
-    """Issue 19 item 4: a run's DNS is windowed by default ([dns] mode = "window"); mode "full"
+    """A run's DNS is windowed by default ([dns] mode = "window"); mode "full"
     integrates every bead; both give the same peaks to the window's accuracy rule (1e-8) plus the
     integrator's tolerance."""
     import numpy as np

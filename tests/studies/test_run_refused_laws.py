@@ -1,4 +1,4 @@
-"""Laws for what was refused before (issue 18 item 4): site-dependent R and non-polynomial R in a run."""
+"""Laws for what was refused before: site-dependent R and non-polynomial R in a run."""
 
 import numpy as np
 

@@ -150,6 +150,7 @@ def _running(pid):
     return stat.rsplit(")", 1)[1].split()[0] != "Z"
 
 
+@pytest.mark.process
 def test_sweep_killed_and_restarted_does_not_recompute_finished_points(tmp_path):
     out = tmp_path / "kill.jsonl"
     args = [sys.executable, "-m", "pulsemap.solvers.cli.main", "bifurcation", VDP, "--param", "mu", "--range", "2", "3",
@@ -193,6 +194,7 @@ def test_sweep_killed_and_restarted_does_not_recompute_finished_points(tmp_path)
     assert got == want
 
 
+@pytest.mark.process
 def test_a_worker_runs_a_point_without_importing_sympy(tmp_path):
     point = tmp_path / "p.json"
     point.write_text(json.dumps(_vdp_points([3.0], last=20)[0]))

@@ -67,7 +67,7 @@ def test_the_corrected_maps_are_constant_at_r0(r0_scene, r0_run, variant):
 
 
 def test_the_paper_map_drifts_at_r0_as_errata_item_5_says(r0_run):
-    """(1 + f7/(2 f1))^(-1/P) per contact (README; erratum 5, docs/errata.rst): a small steady decay."""
+    """(1 + f7/(2 f1))^(-1/P) per contact (docs/models.rst; erratum 5, docs/errata.rst): a small steady decay."""
     peaks = np.array(r0_run["peaks"]["map"])
     ratios = peaks[1:] / peaks[:-1]
     assert np.all(ratios < 1) and np.ptp(ratios) < 1e-9
