@@ -76,9 +76,9 @@ def test_every_rms_a_user_sees_is_the_same_number(name, contacts, models):
 
 
 def test_bench_reports_the_models_with_the_same_error():
-    from pulsemap.solvers.studies.bench_lines import model_points
-    from pulsemap.solvers.studies.bench_measure import quick_ladder
-    from pulsemap.solvers.studies.bench_report import to_csv as bench_csv
+    from pulsemap.solvers.studies.bench.lines import model_points
+    from pulsemap.solvers.studies.bench.measure import quick_ladder
+    from pulsemap.solvers.studies.bench.report import to_csv as bench_csv
 
     name, contacts, models = CASES[0]
     scene = with_sets(load_scene(name), [f"output.contacts={contacts}"])
