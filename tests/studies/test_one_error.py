@@ -16,7 +16,7 @@ from pulsemap.solvers.data.overrides import with_sets
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.ranking import add_ranking, label
 from pulsemap.solvers.studies.run import run_scene
-from pulsemap.solvers.studies.run_report import to_csv, to_text
+from pulsemap.solvers.studies.run.report import to_csv, to_text
 from pulsemap.solvers.studies.scene_sweep import scene_task, sweep_points
 from pulsemap.solvers.studies.table import Column, scene_row
 
