@@ -10,7 +10,7 @@ error over the reference's live contacts (studies.bench.peak_error); the cost of
 is interpolated log-log between the runs that bracket it (studies.bench.cost_at). Printed:
 
 1. compiled (window, warm, best of K; its two kernels, RK45 = Dormand-Prince 5(4) and DOP853, each
-   a line) vs a careful user's script (solvers/studies/reference_script.py,
+   a line) vs a careful user's script (solvers/studies/bench/reference_script.py,
    also run by `pulsemap bench`): vectorised numpy RHS on the full chain, solve_ivp(DOP853,
    t_eval=grid of 0.05, dense_output=True), peaks as the first grid maximum of delta_k refined by
    brentq on delta_k' of the dense output, at equal 1e-6 max relative peak error (a warm-up, then one
@@ -41,7 +41,7 @@ from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bench import Point, cost_at, peak_error
 from pulsemap.solvers.studies.points import dns_span, on_contacts
-from pulsemap.solvers.studies.reference_script import script_peaks
+from pulsemap.solvers.studies.bench.reference_script import script_peaks
 from pulsemap.solvers.studies.run import make_force
 
 TARGET = 1e-6

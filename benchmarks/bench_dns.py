@@ -10,7 +10,7 @@ interpolated log-log between the two runs that bracket it (pulsemap.solvers.stud
 
 * pulsemap: simulate(window="auto"), DOP853 and RK45 (Hairer's Fortran codes);
 * baseline (b): simulate(window=None), the full-chain vectorised DNS, DOP853 and RK45;
-* baseline (a): pulsemap.solvers.studies.baselines.baseline_script (loop RHS, solve_ivp RK45, peaks off a
+* baseline (a): pulsemap.solvers.studies.bench.baselines.baseline_script (loop RHS, solve_ivp RK45, peaks off a
   t_eval grid) at N = 1000 itself, integrated in grid segments so its 2N x samples grid fits in
   memory (same grid and peaks as one call). It is slow (minutes per run): one run per setting.
   If no setting reaches 1e-6, the ratio printed is a lower bound: (a)'s measured time (which
@@ -23,7 +23,7 @@ import sys
 
 import numpy as np
 
-from pulsemap.solvers.studies.baselines import baseline_script
+from pulsemap.solvers.studies.bench.baselines import baseline_script
 from pulsemap.solvers.studies.bench import Point, best_of, cost_at
 from pulsemap.solvers.studies.bench import peak_error as _peak_error
 from pulsemap.solvers.chain.dns import OnSiteForce, simulate

@@ -8,7 +8,7 @@ On vdp-mu3-v2.3 and fig8-eps0.1 (paper Eq. 1 with R = -(u - mu (1 - u^2) v) and 
 1. in-process, warm: ``pulsemap.run(scene, methods=("dns",))`` against the DNS integration it contains
    (``Result.timings["dns"]``, the same calls), best of K and the median of the per-call ratios;
 2. whole processes, warm: ``pulsemap run SCENE --methods dns`` against the careful user's scipy script
-   as its own process (solvers/studies/reference_script.py written out with numpy and scipy only:
+   as its own process (solvers/studies/bench/reference_script.py written out with numpy and scipy only:
    vectorised full-chain DOP853, grid peaks refined by brentq on the dense output) at the loosest rtol
    of 1e-6, 1e-7, 1e-8 whose peaks are within 1e-6 of the DNS's; best of P, wall and CPU time
    (the CPU time is what to read on a shared machine), with the share of imports and of sympy/scipy;
@@ -32,10 +32,10 @@ import time
 from pathlib import Path
 
 import pulsemap
-from pulsemap.solvers.studies.bench_lines import script_span
-from pulsemap.solvers.studies.bench_measure import peak_error
+from pulsemap.solvers.studies.bench.lines import script_span
+from pulsemap.solvers.studies.bench.measure import peak_error
 from pulsemap.solvers.studies.points import dns_span, on_contacts
-from pulsemap.solvers.studies import reference_script
+from pulsemap.solvers.studies.bench import reference_script
 
 SCENES = ("vdp-mu3-v2.3", "fig8-eps0.1")
 SCRIPT_RTOLS = (1e-6, 1e-7, 1e-8)

@@ -37,3 +37,19 @@ def test_every_data_file_is_package_data():
             if not covered:
                 missing.append(path.relative_to(ROOT).as_posix())
     assert not missing, f"not installed by `pip install .` (add to [tool.setuptools.package-data]): {missing}"
+
+
+def _folder(package: str, package_dir: dict[str, str]) -> Path:
+    """The source folder of an installed package name under [tool.setuptools] package-dir."""
+    prefix = max((p for p in package_dir if package == p or package.startswith(p + ".")), key=len)
+    return ROOT.joinpath(package_dir[prefix], *package[len(prefix):].split(".")[1:]).resolve()
+
+
+def test_every_source_package_is_installed():
+    """A sub-package missing from [tool.setuptools] packages is missing from the wheel."""
+    setup = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"]
+    listed = {_folder(name, setup["package-dir"]) for name in setup["packages"]}
+    found = {p.parent.resolve() for top in SOURCES for p in (ROOT / top).rglob("__init__.py")}
+    missing = sorted(p.relative_to(ROOT).as_posix() for p in found - listed)
+    assert not missing, f"not installed by `pip install .` (add to [tool.setuptools] packages): {missing}"
+    assert all((folder / "__init__.py").is_file() for folder in listed), "a listed package has no __init__.py"

@@ -111,7 +111,7 @@ class Result:
         return fig
 
     def __str__(self) -> str:
-        from pulsemap.solvers.studies.run_report import to_text
+        from pulsemap.solvers.studies.run.report import to_text
 
         return to_text(self.data)
 

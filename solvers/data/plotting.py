@@ -80,7 +80,7 @@ def _series(contacts: list, values: list | None) -> tuple[list, list]:
 
 
 def peaks_figure(result: dict, plt, log_y: bool = False):
-    """Figure of a run result (solvers/studies/run.py): one line per method with a legend entry,
+    """Figure of a run result (solvers/studies/run/): one line per method with a legend entry,
     the DNS's last live contact marked with the reason it stopped; ``log_y`` for decaying peaks."""
     contacts = result["contacts"]
     fig, ax = plt.subplots(figsize=(6.4, 4.2))

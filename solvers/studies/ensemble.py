@@ -116,7 +116,7 @@ def ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = N
 
 
 def to_text(report: dict) -> str:
-    from pulsemap.solvers.studies.bifurcation_report import _f  # a number in a fixed-width column, '-' for None
+    from pulsemap.solvers.studies.bifurcation.report import fixed_column
 
     sc = report["scene"]
     st = report["statistics"]
@@ -139,8 +139,8 @@ def to_text(report: dict) -> str:
         for c, d, m, e in zip(st["contacts"], st["dns"], st["map"], st["rel_error"]):
             if d["n"] == 0:
                 continue
-            lines.append(f"  {c:7d} {d['n']:5d} {_f(d['mean'], 9, 5)} {_f(d['std'], 8, 5)} {_f(m['mean'], 9, 5)} "
-                         f"{_f(m['std'], 8, 5)} {_pct(e['mean'])} {_pct(e['std'])}")
+            lines.append(f"  {c:7d} {d['n']:5d} {fixed_column(d['mean'], 9, 5)} {fixed_column(d['std'], 8, 5)} "
+                         f"{fixed_column(m['mean'], 9, 5)} {fixed_column(m['std'], 8, 5)} {_pct(e['mean'])} {_pct(e['std'])}")
     return "\n".join(lines)
 
 

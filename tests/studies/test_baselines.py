@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pulsemap.solvers.studies.baselines import baseline_script, grid_peaks, script_rhs
+from pulsemap.solvers.studies.bench.baselines import baseline_script, grid_peaks, script_rhs
 from pulsemap.solvers.chain.dns import make_rhs, simulate
 
 

@@ -1,5 +1,5 @@
-"""pulsemap bench's engines (studies/bench_engines.py): the compiled engine, the scipy engine and the
-careful user's script (studies/reference_script.py) on one work-precision plot, warm and cold, with ratios."""
+"""pulsemap bench's engines (studies/bench/engines.py): the compiled engine, the scipy engine and the
+careful user's script (studies/bench/reference_script.py) on one work-precision plot, warm and cold, with ratios."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bench import peak_error
 from pulsemap.solvers.studies.forcing import make_force
 from pulsemap.solvers.studies.points import dns_span, on_contacts
-from pulsemap.solvers.studies.reference_script import script_peaks
+from pulsemap.solvers.studies.bench.reference_script import script_peaks
 
 pytestmark = pytest.mark.bench  # runs and times the benchmark harness (CI: -m bench)
 

@@ -1,4 +1,4 @@
-"""Fixed points and fold of the relaxed map (studies/bifurcation_relaxed.py) on maps with known answers."""
+"""Fixed points and fold of the relaxed map (studies/bifurcation/relaxed.py) on maps with known answers."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from pulsemap.solvers.studies import bifurcation_relaxed as br
+from pulsemap.solvers.studies.bifurcation import relaxed as br
 
 
 class FakeModel:

@@ -7,7 +7,7 @@ import pytest
 
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bifurcation import predict, to_text
-from pulsemap.solvers.studies.bifurcation_dns import bracket, resolve_undecided
+from pulsemap.solvers.studies.bifurcation.dns import bracket, resolve_undecided
 
 
 @pytest.fixture(scope="module")

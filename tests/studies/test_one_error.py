@@ -16,7 +16,7 @@ from pulsemap.solvers.data.overrides import with_sets
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.ranking import add_ranking, label
 from pulsemap.solvers.studies.run import run_scene
-from pulsemap.solvers.studies.run_report import to_csv, to_text
+from pulsemap.solvers.studies.run.report import to_csv, to_text
 from pulsemap.solvers.studies.scene_sweep import scene_task, sweep_points
 from pulsemap.solvers.studies.table import Column, scene_row
 
@@ -76,9 +76,9 @@ def test_every_rms_a_user_sees_is_the_same_number(name, contacts, models):
 
 
 def test_bench_reports_the_models_with_the_same_error():
-    from pulsemap.solvers.studies.bench_lines import model_points
-    from pulsemap.solvers.studies.bench_measure import quick_ladder
-    from pulsemap.solvers.studies.bench_report import to_csv as bench_csv
+    from pulsemap.solvers.studies.bench.lines import model_points
+    from pulsemap.solvers.studies.bench.measure import quick_ladder
+    from pulsemap.solvers.studies.bench.report import to_csv as bench_csv
 
     name, contacts, models = CASES[0]
     scene = with_sets(load_scene(name), [f"output.contacts={contacts}"])

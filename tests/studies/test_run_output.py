@@ -13,7 +13,7 @@ from pulsemap.solvers.data.overrides import with_sets
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.ranking import add_ranking, rank_models
 from pulsemap.solvers.studies.run import run_scene
-from pulsemap.solvers.studies.run_report import LEGEND, MAX_ROWS, to_csv, to_text
+from pulsemap.solvers.studies.run.report import LEGEND, MAX_ROWS, to_csv, to_text
 
 
 @pytest.fixture(scope="module")

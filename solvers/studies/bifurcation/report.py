@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from pulsemap.solvers.studies.bifurcation_dns import BifurcationError
+from pulsemap.solvers.studies.bifurcation.dns import BifurcationError
 
-__all__ = ["plot", "to_text"]
+__all__ = ["fixed_column", "plot", "to_text"]
 
 
 def to_text(report: dict) -> str:
@@ -49,8 +49,8 @@ def to_text(report: dict) -> str:
             sp = r.get("predicted_stable_peak_exact")
             diff = r.get("rel_diff_exact")
             lines.append(
-                f"  {r['value']:8.4g} {r['v0']:6.3g} {_f(r.get('entry_peak'), 8, 4)} {r['outcome']:>9s} "
-                f"{_f(amp, 9, 5)} {_f(sp, 12, 5)} {'' if diff is None else f'{100 * diff:6.2f}%':>7s}")
+                f"  {r['value']:8.4g} {r['v0']:6.3g} {fixed_column(r.get('entry_peak'), 8, 4)} {r['outcome']:>9s} "
+                f"{fixed_column(amp, 9, 5)} {fixed_column(sp, 12, 5)} {'' if diff is None else f'{100 * diff:6.2f}%':>7s}")
         for t in dns["thresholds"]:
             a, b = t["bracket"]
             if t["threshold"] is not None:
@@ -69,7 +69,8 @@ def to_text(report: dict) -> str:
     return "\n".join(lines)
 
 
-def _f(x, width: int, prec: int) -> str:
+def fixed_column(x, width: int, prec: int) -> str:
+    """A number in a fixed-width column, '-' for None."""
     return f"{'-':>{width}s}" if x is None else f"{x:{width}.{prec}f}"
 
 

@@ -8,7 +8,7 @@ from typing import Callable
 
 import numpy as np
 
-from pulsemap.solvers.studies.bench_measure import Ladder, Point, best_of, fmt, peak_error, tolerances
+from pulsemap.solvers.studies.bench.measure import Ladder, Point, best_of, fmt, peak_error, tolerances
 
 __all__ = ["dns_points", "model_points", "reference_run", "script_points", "script_span"]
 
@@ -75,7 +75,7 @@ def script_points(scene, contacts: list[int], ref: list, ladder: Ladder,
     user who knows when the pulse gets there would make it) and samples every ``dt`` contact
     times (dt scaled by the contact time v0^(-(n-1)/(n+1)), so extreme v0 get the same grid).
     """
-    from pulsemap.solvers.studies.baselines import baseline_script, script_force
+    from pulsemap.solvers.studies.bench.baselines import baseline_script, script_force
     from pulsemap.solvers.studies.points import dns_span, on_contacts
 
     beads, span = dns_span(scene)

@@ -5,8 +5,8 @@ Lines (warm: one warm-up, then best of K, as every other line of the benchmark):
 
 * ``compiled``: ``simulate(engine="compiled", window="auto", method="RK45")``, the numba
   Dormand-Prince 5(4) moving-window engine, over ``ladder.compiled_rtols``;
-* ``dns``: the scipy engine on the moving window (studies/bench.py's DNS lines, every method);
-* ``script``: studies/reference_script.py (vectorised full-chain DOP853, dense-output peaks) over
+* ``dns``: the scipy engine on the moving window (studies/bench/__init__.py's DNS lines, every method);
+* ``script``: studies/bench/reference_script.py (vectorised full-chain DOP853, dense-output peaks) over
   ``ladder.script_rtols``.
 
 Cold: for each of the three, the cheapest ladder run of its line that reaches the target is run
@@ -31,21 +31,24 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from pulsemap.solvers.studies.bench_measure import (BenchError, Ladder, Point, best_line, best_of, fmt, peak_error,
+from pulsemap.solvers.studies.bench.measure import (BenchError, Ladder, Point, best_line, best_of, fmt, peak_error,
                                                     tolerances)
 
 __all__ = ["cold_runs", "engine_ratios", "reference_points"]
 
 KINDS = ("compiled", "dns", "script")  # compiled engine, scipy engine, the careful user's script
+#: The cold child's program (argv: SCENE.pickle JOB); not ``-m``, since the bench package imports this module.
+CHILD = (f"import json, sys; from {__name__} import _first_call; "
+         "print(json.dumps(_first_call(sys.argv[1], json.loads(sys.argv[2]))))")
 
 
 def reference_points(scene, contacts: list[int], ref: list, ladder: Ladder,
                      log: Callable[[str], None]) -> list[Point]:
     """The careful user's script over ``ladder.script_rtols`` (warm-up, then one timed run each)."""
-    from pulsemap.solvers.studies.bench_lines import script_span
+    from pulsemap.solvers.studies.bench.lines import script_span
     from pulsemap.solvers.studies.forcing import make_force
     from pulsemap.solvers.studies.points import dns_span, on_contacts
-    from pulsemap.solvers.studies.reference_script import GRID_STEP, script_peaks
+    from pulsemap.solvers.studies.bench.reference_script import GRID_STEP, script_peaks
 
     beads, span = dns_span(scene)
     force = make_force(scene, beads)
@@ -74,7 +77,7 @@ def _cheapest_at(points: list[dict], kind: str, target: float) -> dict | None:
 def cold_runs(scene, ref: list, points: list[dict], target: float, log: Callable[[str], None]) -> dict:
     """For each kind, its cheapest run reaching ``target`` again as the first call of a fresh process
     with an empty numba cache (module docstring); {kind: measurement} (a kind without such a run: absent)."""
-    from pulsemap.solvers.studies.bench_lines import script_span
+    from pulsemap.solvers.studies.bench.lines import script_span
 
     out = {}
     t_end = None
@@ -105,7 +108,7 @@ def _child(scene, job: dict) -> dict:
         env = {**os.environ, "NUMBA_CACHE_DIR": str(Path(tmp) / "numba")}
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
-        proc = subprocess.run([sys.executable, "-m", __name__, str(path), json.dumps(job)], env=env,
+        proc = subprocess.run([sys.executable, "-c", CHILD, str(path), json.dumps(job)], env=env,
                               capture_output=True, text=True)
         wall = time.perf_counter() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -122,7 +125,7 @@ def _first_call(scene_path: str, job: dict) -> dict:
     from pulsemap.solvers.chain.dns import simulate
     from pulsemap.solvers.studies.forcing import make_force
     from pulsemap.solvers.studies.points import dns_span, on_contacts
-    from pulsemap.solvers.studies.reference_script import GRID_STEP, script_peaks
+    from pulsemap.solvers.studies.bench.reference_script import GRID_STEP, script_peaks
 
     scene = pickle.loads(Path(scene_path).read_bytes())
     beads, span = dns_span(scene)
@@ -157,7 +160,3 @@ def engine_ratios(costs: dict, cold: dict) -> dict:
             out["cold"][name + "_cpu"] = ratio(other["first_call_cpu_s"], comp["first_call_cpu_s"])
             out["cold"][name + "_process_cpu"] = ratio(other["process_cpu_s"], comp["process_cpu_s"])
     return out
-
-
-if __name__ == "__main__":  # the cold child: python -m pulsemap.solvers.studies.bench_engines SCENE.pickle JOB
-    print(json.dumps(_first_call(sys.argv[1], json.loads(sys.argv[2]))))

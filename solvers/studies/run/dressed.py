@@ -4,15 +4,12 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
 from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.models.dressed_eval import evaluate_dressed_law
 from pulsemap.solvers.studies.methods import MODEL_TITLES
 from pulsemap.solvers.studies.points import on_contacts
-
-if TYPE_CHECKING:  # pragma: no cover
-    from pulsemap.solvers.studies.run import RunState
+from pulsemap.solvers.studies.run.state import RunState
 
 METHOD = "dressed-law"
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pulsemap.solvers.studies.bench_measure import BenchError, fmt
+from pulsemap.solvers.studies.bench.measure import BenchError, fmt
 from pulsemap.solvers.studies.errors import DEFINITION
 
 __all__ = ["engine_lines", "plot", "to_csv", "to_text"]

@@ -7,8 +7,8 @@ For one scene (``bench_scene``):
 * the DNS on the scipy engine (moving window, solvers/window.py) over a ladder of tolerances with
   explicit (DOP853, RK45) and implicit (Radau, BDF, LSODA) methods;
 * the compiled engine (numba RK45 and DOP853, moving window) and the careful user's vectorised script
-  (studies/reference_script.py) over their ladders, and each of the three engines once more cold
-  (first call of a fresh process, empty numba cache): :mod:`~pulsemap.solvers.studies.bench_engines`;
+  (studies/bench/reference_script.py) over their ladders, and each of the three engines once more cold
+  (first call of a fresh process, empty numba cache): :mod:`~pulsemap.solvers.studies.bench.engines`;
 * baseline (b): the full-chain vectorised DNS (``simulate(window=None)``), same ladder;
 * baseline (a): the script a user writes today (solvers/baselines.py: loop RHS, solve_ivp RK45,
   peaks off a sampled grid) over a ladder of tolerances and sampling steps;
@@ -29,8 +29,8 @@ is interpolated log-log between the two consecutive ladder runs whose errors bra
 (1e-6); if every run is below the target the cheapest run's time is used (an upper bound on the
 cost); if none reaches it the line has no cost at the target (no extrapolation).
 
-The measurements are :mod:`~pulsemap.solvers.studies.bench_measure`, the lines measured
-:mod:`~pulsemap.solvers.studies.bench_lines`, the reports :mod:`~pulsemap.solvers.studies.bench_report`.
+The measurements are :mod:`~pulsemap.solvers.studies.bench.measure`, the lines measured
+:mod:`~pulsemap.solvers.studies.bench.lines`, the reports :mod:`~pulsemap.solvers.studies.bench.report`.
 """
 
 from __future__ import annotations
@@ -41,8 +41,8 @@ import time
 from dataclasses import asdict
 from typing import Callable, Sequence
 
-from pulsemap.solvers.studies.bench_lines import dns_points, model_points, reference_run, script_points
-from pulsemap.solvers.studies.bench_measure import (
+from pulsemap.solvers.studies.bench.lines import dns_points, model_points, reference_run, script_points
+from pulsemap.solvers.studies.bench.measure import (
     DNS_METHODS,
     QUICK_METHODS,
     TARGET,
@@ -57,8 +57,8 @@ from pulsemap.solvers.studies.bench_measure import (
     quick_ladder,
     tolerances,
 )
-from pulsemap.solvers.studies.bench_engines import cold_runs, engine_ratios, reference_points
-from pulsemap.solvers.studies.bench_report import plot, to_csv, to_text
+from pulsemap.solvers.studies.bench.engines import cold_runs, engine_ratios, reference_points
+from pulsemap.solvers.studies.bench.report import plot, to_csv, to_text
 
 def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = lambda s: None) -> dict:
     """Work-precision report of one scene (JSON-able; see the module docstring)."""

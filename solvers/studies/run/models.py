@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import time
 from types import ModuleType
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,7 +16,7 @@ from pulsemap.solvers.models.balance_eval import BalanceRun, evaluate_balance_la
 from pulsemap.solvers.models.codeload import balance_module, force_module, map_module
 from pulsemap.solvers.models.energy_quadrature import bead_force, evaluate_energy_law, iterate_energy_map
 from pulsemap.solvers.models.site_law_eval import evaluate_site_law
-from pulsemap.solvers.studies.run_dressed import prepare_dressed, run_dressed
+from pulsemap.solvers.studies.run.dressed import prepare_dressed, run_dressed
 from pulsemap.solvers.models.longwave_eval import evaluate_law
 from pulsemap.solvers.models.map_iteration import contact_params, eps0_ratio, iterate_map
 from pulsemap.solvers.studies.forcing import parameter_values
@@ -29,9 +28,7 @@ from pulsemap.solvers.studies.methods import (
     WIDTH_WARN,
 )
 from pulsemap.solvers.studies.points import on_contacts
-
-if TYPE_CHECKING:  # pragma: no cover
-    from pulsemap.solvers.studies.run import RunState
+from pulsemap.solvers.studies.run.state import RunState
 
 
 def _eps0_drift(mod, seed_contact: int, last: int, prm: dict) -> float | None:

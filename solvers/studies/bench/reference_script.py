@@ -9,7 +9,7 @@ and each contact's leading-edge peak taken as the first grid maximum of delta_k 
 above 1e-2 of the previous contact's peak (the first one above 1e-2 v0^(2/(n+1))), then refined
 by brentq on delta_k' of the dense output. No moving window, no step-by-step peak tracking:
 pulsemap's own DNS must beat this at equal accuracy (``pulsemap bench``, benchmarks/bench_compiled.py).
-Unlike baseline (a) of studies/baselines.py (a loop RHS, peaks read off the grid) it is accurate
+Unlike baseline (a) of studies/bench/baselines.py (a loop RHS, peaks read off the grid) it is accurate
 to its tolerance.
 """
 

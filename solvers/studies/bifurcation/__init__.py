@@ -24,9 +24,9 @@ The predicted threshold of an impulse is the smallest parameter value at which t
 (the DNS peak at contact first_perturbed - 1, which seeds the map, Eq. 32) lies above the lowest
 root of Eq. 41: the fold when the entry peak is above the fold's amplitude, later otherwise.
 
-The prediction is :mod:`~pulsemap.solvers.studies.bifurcation_predict`, the DNS probes and the
-bisection :mod:`~pulsemap.solvers.studies.bifurcation_dns`, the outputs
-:mod:`~pulsemap.solvers.studies.bifurcation_report`; :func:`bifurcation` runs them in order.
+The prediction is :mod:`~pulsemap.solvers.studies.bifurcation.predict`, the DNS probes and the
+bisection :mod:`~pulsemap.solvers.studies.bifurcation.dns`, the outputs
+:mod:`~pulsemap.solvers.studies.bifurcation.report`; :func:`bifurcation` runs them in order.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from pulsemap.solvers.data.scene import PROFILES
-from pulsemap.solvers.studies.bifurcation_dns import (
+from pulsemap.solvers.studies.bifurcation.dns import (
     BifurcationError,
     Outcome,
     ProbeRunner,
@@ -50,9 +50,9 @@ from pulsemap.solvers.studies.bifurcation_dns import (
     probe,
     resolve_undecided,
 )
-from pulsemap.solvers.studies.bifurcation_predict import predict, predicted_threshold, stable_peak
-from pulsemap.solvers.studies.bifurcation_relaxed import predict_relaxed, relaxed_threshold
-from pulsemap.solvers.studies.bifurcation_report import plot, to_text
+from pulsemap.solvers.studies.bifurcation.predict import predict, predicted_threshold, stable_peak
+from pulsemap.solvers.studies.bifurcation.relaxed import predict_relaxed, relaxed_threshold
+from pulsemap.solvers.studies.bifurcation.report import plot, to_text
 from pulsemap.solvers.studies.sweep import SweepError
 
 __all__ = ["BifurcationError", "Outcome", "bifurcation", "bracket", "classify", "entry_peak", "predict",

@@ -7,10 +7,10 @@ the DNS peak at the last unperturbed contact (first_perturbed - 1), converted by
 
 :func:`run_scene` is four steps: check the choices (:func:`start_run`), the DNS or a reused one
 (:func:`run_dns`, :func:`reuse_dns_run`), the reduced models
-(:func:`pulsemap.solvers.studies.run_models.run_models`) and the errors against the DNS
+(:func:`pulsemap.solvers.studies.run.models.run_models`) and the errors against the DNS
 (:func:`compare_with_dns`). The force is :mod:`~pulsemap.solvers.studies.forcing`, the error
 measures :mod:`~pulsemap.solvers.studies.errors`, the outputs
-:mod:`~pulsemap.solvers.studies.run_report`.
+:mod:`~pulsemap.solvers.studies.run.report`.
 """
 
 from __future__ import annotations
@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 import numbers
 import time
-from dataclasses import dataclass, field
 from typing import Sequence
 
 from pulsemap.symbolic.provenance import provenance
@@ -39,7 +38,8 @@ from pulsemap.solvers.studies.methods import (
     RunError,
 )
 from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
-from pulsemap.solvers.studies.run_report import plot, to_csv, to_text
+from pulsemap.solvers.studies.run.report import plot, to_csv, to_text
+from pulsemap.solvers.studies.run.state import RunState
 
 __all__ = [
     "BALANCE_METHODS",
@@ -58,30 +58,6 @@ __all__ = [
     "to_csv",
     "to_text",
 ]
-
-
-@dataclass
-class RunState:
-    """What the steps of one run share: the scene and its choices, the seed so far, and the result."""
-
-    scene: Scene
-    methods: tuple[str, ...]
-    choice: Choice
-    out: dict
-    given_seed: float | None = None  # a measured peak at first_perturbed - 1 (--seed-peak)
-    seed_peak: float | None = None  # the DNS peak there, once known
-    dns_peaks: list | None = None
-    dns_alive: list | None = None
-    contacts: list[int] = field(default_factory=list)
-    snapshots: tuple[int, ...] = ()  # contacts at whose peak time the DNS keeps the strains around the pulse
-
-    @property
-    def timings(self) -> dict[str, float]:
-        return self.out["timings_s"]
-
-    @property
-    def warnings(self) -> list[str]:
-        return self.out["warnings"]
 
 
 def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, variant: str | None,
@@ -262,7 +238,7 @@ def run_scene(
     if reuse_dns is not None and "dns" not in state.methods:
         reuse_dns_run(state, reuse_dns)
     if any(m != "dns" for m in state.methods):
-        from pulsemap.solvers.studies.run_models import run_models  # the models' modules load when a model runs
+        from pulsemap.solvers.studies.run.models import run_models  # the models' modules load when a model runs
 
         run_models(state)
     compare_with_dns(state)
