@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-import json
+import math
 
-from pulsemap.solvers.data.records import append_record, open_for_append, read_keyed, read_lines, write_record
+from pulsemap.solvers.data.records import (append_record, encode_record, open_for_append, read_keyed, read_lines,
+                                          write_record)
 
 
 def test_missing_file_reads_as_empty(tmp_path):
@@ -23,7 +24,9 @@ def test_records_round_trip_and_the_last_of_a_key_wins(tmp_path):
 
 def test_skips_blank_non_object_and_keyless_lines(tmp_path):
     path = tmp_path / "r.jsonl"
-    path.write_text('\n[1, 2]\n"text"\n{"key": 5}\n{"v": 1}\n{"key": "k", "v": 2}\n\n', encoding="utf-8")
+    lines = ["", "[1, 2]", '"text"', encode_record({"key": 5}), encode_record({"v": 1}),
+             encode_record({"key": "k", "v": 2}), "", ""]
+    path.write_text("\n".join(lines), encoding="utf-8")
     assert list(read_lines(path)) == [{"key": 5}, {"v": 1}, {"key": "k", "v": 2}]
     assert read_keyed(path) == {"k": {"key": "k", "v": 2}}
     assert read_keyed(path, required=("scene",)) == {}
@@ -39,7 +42,7 @@ def test_a_line_cut_by_a_kill_is_skipped_and_the_next_record_starts_a_new_line(t
     append_record(path, {"key": "c", "scene": "z"})
     lines = path.read_text(encoding="utf-8").splitlines()
     assert len(lines) == 4 and lines[2] == '{"key": "c", "scene": '
-    assert json.loads(lines[3]) == {"key": "c", "scene": "z"}
+    assert lines[3] == encode_record({"key": "c", "scene": "z"})
     assert read_keyed(path, required=("scene",))["c"] == {"key": "c", "scene": "z"}
     append_record(path, {"key": "d", "scene": "w"})  # an intact file gets no blank line
     assert len(path.read_text(encoding="utf-8").splitlines()) == 5
@@ -50,9 +53,12 @@ def test_a_damaged_line_is_noted_with_file_and_line_and_skipped(tmp_path, capsys
     from pulsemap.solvers.data.records import non_finite_path
 
     path = tmp_path / "r.jsonl"
-    lines = [b'{"key": "a", "v": 1}', b'{"key": "b", "v": "\xff\xfe"}', b'{"key": "c", "v": [1, NaN]}',
-             b'{"key": "d", "v": {"w": 1e999}}', b"[" * 100000 + b"]" * 100000, b'{"key": "e", "v": -Infinity}',
-             b'{"key": "f", "v": 2}', b'{"key": "g", "v": "wrong"}', b'{"key": "cut", "v": ']
+    def line(rec: dict) -> bytes:
+        return encode_record(rec).encode()
+
+    lines = [line({"key": "a", "v": 1}), b'{"key": "b", "v": "\xff\xfe"}', line({"key": "c", "v": [1, math.nan]}),
+             line({"key": "d", "v": {"w": math.inf}}), b"[" * 100000 + b"]" * 100000, line({"key": "e", "v": -math.inf}),
+             line({"key": "f", "v": 2}), line({"key": "g", "v": "wrong"}), b'{"key": "cut", "v": ']
     path.write_bytes(b"\n".join(lines))
     recs = list(read_lines(path, check=lambda r: "v is a string" if isinstance(r["v"], str) else None))
     assert [r["key"] for r in recs] == ["a", "f"]

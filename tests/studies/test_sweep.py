@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from pulsemap.solvers.data.records import encode_record
+
 from pulsemap.solvers.studies.points import dns_task, plain_chain
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.sweep import SweepError, load_generated, point_key, read_records, run_sweep
@@ -98,8 +100,9 @@ def test_a_file_from_another_sweep_is_refused(tmp_path):
     out = tmp_path / "o.jsonl"
     run_sweep(_square, [{"x": 1.0}], out, max_workers=1)
     rec = json.loads(out.read_text())
-    rec["params"] = {"x": 5.0}  # same key, other parameters
-    out.write_text(json.dumps(rec) + "\n")
+    rec.pop("sha256")
+    rec["params"] = {"x": 5.0}  # same key, other parameters (a record written so, with its digest)
+    out.write_text(encode_record(rec) + "\n")
     with pytest.raises(SweepError, match="fresh output file"):
         run_sweep(_square, [{"x": 1.0}], out, max_workers=1)
 
