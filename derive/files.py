@@ -101,15 +101,27 @@ def write_atomic(path: str | os.PathLike, data: str | bytes) -> None:
         raise
 
 
+_FIXES = {errno.ENOSPC: "free some space on that disk or write elsewhere",
+          errno.EDQUOT: "free some space (quota exceeded) or write elsewhere",
+          errno.EEXIST: "remove or rename it, or give another path",
+          errno.EACCES: "check its permissions or write elsewhere",
+          errno.EPERM: "check its permissions or write elsewhere",
+          errno.EROFS: "the file system is read-only: write elsewhere",
+          errno.ENOENT: "check the path (create its folder first)",
+          errno.EISDIR: "give a file name, not a folder",
+          errno.ENOTDIR: "a part of the path is a file, not a folder: fix the path"}
+
+
 def describe_os_error(exc: OSError, path: str | os.PathLike, what: str) -> str:
     """One line naming the file, the system's reason and what to do, for an OSError while writing ``what``."""
-    fix = {errno.ENOSPC: "free some space on that disk or write elsewhere",
-           errno.EDQUOT: "free some space (quota exceeded) or write elsewhere",
-           errno.EEXIST: "remove or rename it, or give another path",
-           errno.EACCES: "check its permissions or write elsewhere",
-           errno.EPERM: "check its permissions or write elsewhere",
-           errno.EROFS: "the file system is read-only: write elsewhere",
-           errno.ENOENT: "create its folder first",
-           errno.EISDIR: "give a file name, not a folder",
-           errno.ENOTDIR: "a part of the path is a file, not a folder: fix the path"}.get(exc.errno, "check the path")
-    return f"cannot write {what} {path}: {exc.strerror or exc}: {fix}"
+    return f"cannot write {what} {path}: {exc.strerror or exc}: {_FIXES.get(exc.errno, 'check the path')}"
+
+
+def explain_os_error(exc: OSError) -> str:
+    """One line for an OSError from anywhere: the file it names (if any), the system's reason, what to do."""
+    if not exc.strerror:  # ours, already a sentence
+        return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    where = f"{exc.filename}: " if exc.filename is not None else ""
+    if getattr(exc, "filename2", None) is not None:
+        where = f"{exc.filename} -> {exc.filename2}: "
+    return f"{where}{exc.strerror}: {_FIXES.get(exc.errno, 'check the path and try again')}"

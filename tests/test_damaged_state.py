@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 
 import pytest
 
@@ -265,3 +266,133 @@ def test_one_digit_changed_in_a_table_row_is_computed_again(tmp_path, monkeypatc
     capsys.readouterr()
     assert table_mod.table(["fig8-eps0.1"], rows_file=rows_file) == first and len(calls) == 2
     assert f"{rows_file}:1: the record does not match its sha256 digest" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- the cache path is not a file
+
+
+@pytest.mark.parametrize("kind", ["directory", "FIFO", "symlink to /dev/zero"])
+def test_a_cache_entry_that_is_not_a_file_is_bypassed(kind, own_cache, capsys):
+    import os
+
+    from pulsemap.symbolic.integrals import constants
+
+    fresh = constants(["f1"])["f1"].value
+    (path,) = (own_cache / "integrals").glob("*.json")
+    path.unlink()
+    {"directory": path.mkdir, "FIFO": lambda: os.mkfifo(path),
+     "symlink to /dev/zero": lambda: path.symlink_to("/dev/zero")}[kind]()
+    capsys.readouterr()
+    assert constants(["f1"])["f1"].value == fresh  # returns at once: no blocking open, no endless read
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"cache path {path} is " in err and "working without it" in err
+    assert not list(path.parent.glob("*.tmp"))
+
+
+def test_the_cli_runs_past_a_folder_where_a_cache_entry_goes(own_cache, capsys):
+    assert main(["derive", "-mu*v", "--param", "mu=1", "--sympy-seconds", "0", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    for path in (own_cache / "integrals").glob("*.json"):
+        path.unlink()
+        path.mkdir()
+    assert main(["derive", "-mu*v", "--param", "mu=1", "--sympy-seconds", "0", "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out == out and "is a directory, not a regular file: working without it" in captured.err
+
+
+# --------------------------------------------------------------------------- a full disk
+
+
+@pytest.fixture()
+def full_disk(tmp_path):
+    """A 64 kB tmpfs filled up to its last bytes (needs root and mount; skipped with the reason otherwise)."""
+    import os
+    import subprocess
+
+    mnt = tmp_path / "small"
+    mnt.mkdir()
+    if os.geteuid() != 0:
+        pytest.skip("a full disk needs a small tmpfs, and mounting one needs root")
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here: {done.stderr.strip() or done.returncode}")
+    try:
+        (mnt / "old.json").write_text('{"old": true}\n')
+        with open(mnt / "filler", "wb", buffering=0) as fh:  # fill every block
+            try:
+                while True:
+                    fh.write(b"x" * 1024)
+            except OSError:
+                pass
+        yield mnt
+    finally:
+        subprocess.run(["umount", str(mnt)], check=False)
+
+
+def test_a_document_on_a_full_disk_keeps_the_old_file(full_disk, capsys):
+    from pulsemap.solvers.cli.common import write_text
+    from pulsemap.symbolic.files import WriteError
+
+    target = full_disk / "old.json"
+    with pytest.raises(WriteError) as info:
+        write_text(str(target), "x" * 100_000)
+    message = str(info.value)
+    assert str(target) in message and "No space left on device" in message and "free some space" in message
+    assert target.read_text() == '{"old": true}\n'  # not truncated
+    assert sorted(p.name for p in full_disk.iterdir()) == ["filler", "old.json"]  # no temporary left
+
+
+def test_the_cli_says_which_file_a_full_disk_stopped(full_disk, capsys):
+    target = full_disk / "old.json"
+    assert main(["profile", "--json", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"pulsemap: error: cannot write the document {target}: ")
+    assert "No space left on device" in err and "free some space" in err and "[Errno" not in err
+    assert target.read_text() == '{"old": true}\n'
+    assert sorted(p.name for p in full_disk.iterdir()) == ["filler", "old.json"]
+
+
+def test_a_full_cache_disk_is_noted_and_leaves_no_temporary(full_disk, monkeypatch, capsys):
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(full_disk / "cache"))
+    try:
+        cache.cache_dir()
+    except cache.CacheDirError:
+        pytest.skip("not even the cache folder fits on the full tmpfs")
+    cache.store("kappa", "big", {"values": [1.5] * 20_000})
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cannot be written (No space left on device)" in err
+    assert cache.load("kappa", "big") is None
+    assert not [p for p in (full_disk / "cache").rglob("*") if p.is_file()]
+
+
+# --------------------------------------------------------------------------- numba's own cache files
+
+
+def test_damaged_numba_cache_files_are_removed_and_the_kernel_compiled_again(tmp_path):
+    """numba unpickles its index and data files and lets the error through (a traceback on every run
+    until they are deleted); the CLI's guard removes them, says so in one line and runs again."""
+    import subprocess
+    import sys
+
+    (tmp_path / "kern.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n")
+    script = ("import sys, argparse; sys.path.insert(0, sys.argv[1]); import kern\n"
+              "from pulsemap.solvers.cli.common import call_recovering_numba_cache\n"
+              "print(call_recovering_numba_cache(lambda a: int(kern.twice(21.0)), argparse.Namespace()))\n")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+
+    def run():
+        return subprocess.run([sys.executable, "-c", script, str(tmp_path)], capture_output=True, text=True,
+                              env=env, timeout=300)
+
+    first = run()
+    assert first.returncode == 0 and first.stdout == "42\n", first.stderr
+    files = [p for p in (tmp_path / "numba").rglob("*") if p.suffix in (".nbi", ".nbc")]
+    assert files
+    for path in files:
+        path.write_bytes(os.urandom(64))
+    damaged = run()
+    assert damaged.returncode == 0 and damaged.stdout == "42\n", damaged.stderr
+    assert damaged.stderr.count("\n") == 1 and "numba's compiled-code cache in " in damaged.stderr
+    assert "is damaged (" in damaged.stderr and "compiling the kernels again" in damaged.stderr
+    again = run()
+    assert again.returncode == 0 and again.stdout == "42\n" and again.stderr == ""  # rewritten whole

@@ -19,6 +19,7 @@ from pulsemap.solvers.cli.common import (  # noqa: F401 (re-exported: the sub-co
     SET_HELP,
     UsageError,
     _stdout_document,
+    call_recovering_numba_cache,
     _text_to_stderr,
     add_set_option,
     load_scene_with_sets,
@@ -379,8 +380,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         func: Callable[[argparse.Namespace], int] = args.func
         if _stdout_document(args):
             with _text_to_stderr():
-                return func(args)
-        return func(args)
+                return call_recovering_numba_cache(func, args)
+        return call_recovering_numba_cache(func, args)
     except BrokenPipeError:  # e.g. piped into `head`
         sys.stderr.close()
         return 0
@@ -389,6 +390,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
     except (ValueError, OSError) as exc:  # our errors subclass ValueError
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if isinstance(exc, OSError):
+            from pulsemap.symbolic.files import explain_os_error
+
+            message = explain_os_error(exc)  # "[Errno 28] ..." -> the file, the reason, what to do
         print(f"pulsemap: error: {message}", file=sys.stderr)
         return EXIT_USAGE
 
