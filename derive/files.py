@@ -58,11 +58,14 @@ def open_regular(path: str | os.PathLike) -> BinaryIO:
 def read_bounded(path: str | os.PathLike, limit: int) -> bytes:
     """The bytes of regular file ``path`` (see :func:`open_regular`); TooLargeError past ``limit``
     bytes read (a file growing while read, or lying about its size, is stopped there)."""
+    chunks, total = [], 0
     with open_regular(path) as fh:
-        data = fh.read(limit + 1)
-    if len(data) > limit:
-        raise TooLargeError(errno.EFBIG, f"longer than {limit} bytes", str(path))
-    return data
+        while chunk := fh.read(min(1 << 20, limit + 1 - total)):  # chunks: no buffer of ``limit`` bytes up front
+            chunks.append(chunk)
+            total += len(chunk)
+            if total > limit:
+                raise TooLargeError(errno.EFBIG, f"longer than {limit} bytes", str(path))
+    return b"".join(chunks)
 
 
 def bounded_lines(fh: BinaryIO, limit: int) -> Iterator[bytes | None]:

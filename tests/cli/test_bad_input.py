@@ -424,3 +424,33 @@ def test_override_of_R_keeps_only_the_parameters_it_uses():
     scene = _scene()
     assert dict(scene.with_overrides(R="-v").perturbation.params) == {}
     assert dict(scene.with_overrides(R="-2*mu*v").perturbation.params) == {"mu": 1.0}
+
+
+# --------------------------------------------------------------------------- files that are not files
+
+
+@pytest.mark.parametrize("argv, needles", [
+    (["run", "/dev/zero"], ["/dev/zero", "is a character device, not a regular file", ".toml"]),
+    (["run", "/dev/urandom"], ["/dev/urandom", "is a character device"]),
+    (["run", "FIFO"], ["is a FIFO (named pipe), not a regular file"]),
+    (["table", "fig8-eps0.1", "--rows", "/dev/full"], ["/dev/full", "not a regular file"]),
+    (["table", "fig8-eps0.1", "--rows", "/dev/full", "--fresh"], ["/dev/full", "not a regular file"]),
+    (["table", "fig8-eps0.1", "--rows", "FIFO"], ["is a FIFO (named pipe), not a regular file"]),
+    (["sweep", "fig8-eps0.1", "--over", "perturbation.eps=0.1,0.2", "--out", "/dev/zero"],
+     ["record file /dev/zero is a character device"]),
+], ids=["run /dev/zero", "run /dev/urandom", "run a FIFO", "table --rows /dev/full", "table --rows /dev/full --fresh",
+        "table --rows a FIFO", "sweep --out /dev/zero"])
+def test_reads_of_devices_and_fifos_end_at_once(argv, needles, tmp_path):
+    """Reads are bounded by bytes read and never block: a real process ends within seconds, exit 2."""
+    fifo = tmp_path / "scene.toml"
+    os.mkfifo(fifo)
+    argv = [str(fifo) if a == "FIFO" else a for a in argv]
+    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+           "PULSEMAP_CACHE_DIR": str(tmp_path / "cache")}
+    out = subprocess.run([sys.executable, "-m", "pulsemap.solvers.cli.main", *argv], capture_output=True, text=True,
+                         cwd=tmp_path, env=env, timeout=60)
+    assert out.returncode == 2, out
+    assert out.stderr.startswith("pulsemap: error: ") and out.stderr.count("\n") == 1, out.stderr
+    for needle in needles:
+        assert needle in out.stderr, (needle, out.stderr)
+    assert os.path.exists("/dev/full") and fifo.exists()
