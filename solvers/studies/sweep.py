@@ -222,6 +222,17 @@ class SweepResult:
                 "failed": self.failed, "wall_s": self.wall_s, "executor": self.executor, "out": self.out}
 
 
+def worker_count(asked: int | None, stream: TextIO | None = None) -> int | None:
+    """Processes of the sweep's own pool: ``asked`` capped at the machine's CPU count (more only share
+    the same cores, and each holds its own copy of the chain), with a note on ``stream`` when capped."""
+    cpus = os.cpu_count() or 1
+    if asked is None or asked <= cpus:
+        return asked
+    print(f"pulsemap: note: {asked} workers asked, this machine has {cpus} CPUs: running {cpus}",
+          file=stream if stream is not None else sys.stderr, flush=True)
+    return cpus
+
+
 def _task_name(task: Callable) -> str:
     return f"{getattr(task, '__module__', '?')}.{getattr(task, '__qualname__', repr(task))}"
 
@@ -253,6 +264,8 @@ def run_sweep(
     if executor is not None and not isinstance(executor, cf.Executor) and not hasattr(executor, "submit"):
         raise SweepError(f"executor must be a concurrent.futures.Executor, got {type(executor).__name__}")
     err = stream if stream is not None else sys.stderr
+    if executor is None:
+        max_workers = worker_count(max_workers, err)
     t_start = time.perf_counter()
     task_name = _task_name(task)
     todo: dict[str, dict] = {}

@@ -147,6 +147,15 @@ CLI = [
     ("velocity where R's scaled force is too large", ["run", "fig8-eps0.1", "--set", "excitation.velocity=1e-100"],
      ["velocity = 1e-100", "maps R's coefficients", "v0 in ["]),
     ("json and csv both to stdout", ["run", "fig8-eps0.1", "--json", "-", "--csv", "-"], ["both ask for stdout"]),
+    # unbounded work: the total degree, and models whose size grows with it, refused before any work
+    ("total degree: powers of powers", ["derive", "((u^64)^64)^64"], ["total degree 262144", "more than 64"]),
+    ("total degree: a long product", ["derive", "*".join(["u"] * 65)], ["total degree 65", "more than 64"]),
+    ("map of degree 64 under --max-seconds", ["derive", "(u+v+1)^64-1", "--max-seconds", "5"],
+     ["degree 64", f"{math.comb(64 + 4, 4) - 1} monomials of Eq. 23", "more than the 2000"]),
+    ("run: map of degree 30", ["run", "default", "--set", "perturbation.R=(u+v+1)^30-1", "--methods", "map"],
+     ["degree 30", f"{math.comb(30 + 4, 4) - 1} monomials", "methods = [\"dns\"]"]),
+    ("run: energy balance of degree 30", ["run", "default", "--set", "perturbation.R=(u+v+1)^30-1", "--methods",
+                                          "energy-map"], [f"{math.comb(30 + 2, 2) - 1} terms", "more than the 120"]),
     # argparse's own usage errors
     ("no command", [], ["required", "COMMAND"]),
     ("unknown command", ["rnu", "default"], ["invalid choice: 'rnu'", "did you mean 'run'"]),

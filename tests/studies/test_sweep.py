@@ -206,3 +206,24 @@ def test_a_worker_runs_a_point_without_importing_sympy(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["6", "False"]
+
+
+def test_workers_are_capped_at_the_cpu_count_with_a_note(tmp_path, monkeypatch, capsys):
+    """--workers 1000000 forked a million processes; the pool gets os.cpu_count() (tested without forking)."""
+    import concurrent.futures as cf
+
+    from pulsemap.solvers.studies import sweep as sweep_mod
+
+    made = []
+
+    class FakePool(cf.ThreadPoolExecutor):
+        def __init__(self, max_workers=None, initializer=None):
+            made.append(max_workers)
+            super().__init__(max_workers=1)
+
+    monkeypatch.setattr(sweep_mod.os, "cpu_count", lambda: 3)
+    monkeypatch.setattr(sweep_mod.cf, "ProcessPoolExecutor", FakePool)
+    res = run_sweep(_square, [{"x": 1.0}, {"x": 2.0}], tmp_path / "w.jsonl", max_workers=1_000_000)
+    assert made == [3] and res.results() == [{"y": 1.0}, {"y": 4.0}] and "3 workers" in res.executor
+    assert capsys.readouterr().err == "pulsemap: note: 1000000 workers asked, this machine has 3 CPUs: running 3\n"
+    assert sweep_mod.worker_count(2) == 2 and sweep_mod.worker_count(None) is None
