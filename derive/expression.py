@@ -127,6 +127,19 @@ def total_degree(expr: sympy.Expr) -> int:
     return max(degrees, default=0)
 
 
+def singular_terms(expr: sympy.Expr) -> list[sympy.Expr]:
+    """The parts of ``expr`` that are infinite somewhere in u, v, i: negative powers of an expression
+    of the state (1/(u - 1)), and log or tan of one; in the order they appear."""
+    state = {symbol(name) for name in SYMBOLS}
+    found: list[sympy.Expr] = []
+    for node in sympy.preorder_traversal(sympy.sympify(expr)):
+        if not node.free_symbols & state or node in found:
+            continue
+        if (isinstance(node, sympy.Pow) and node.exp.is_negative) or isinstance(node, (sympy.log, sympy.tan)):
+            found.append(node)
+    return found
+
+
 def _check_result(expr: sympy.Expr, text: str) -> sympy.Expr:
     degree = total_degree(expr)
     if degree > MAX_EXPONENT:

@@ -396,3 +396,13 @@ def test_damaged_numba_cache_files_are_removed_and_the_kernel_compiled_again(tmp
     assert "is damaged (" in damaged.stderr and "compiling the kernels again" in damaged.stderr
     again = run()
     assert again.returncode == 0 and again.stdout == "42\n" and again.stderr == ""  # rewritten whole
+
+
+def test_a_file_where_the_generated_folder_goes_is_named_with_the_fix(own_cache, capsys):
+    """[Errno 17] File exists named neither the file nor what to do."""
+    own_cache.mkdir(parents=True)
+    (own_cache / "generated").write_text("not a folder")
+    code = main(["run", "default", "--methods", "map", "--set", "perturbation.R=-mu*v-0.1234*u^3", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "[Errno" not in err, err
+    assert f"pulsemap: error: {own_cache / 'generated'}: File exists: remove or rename it" in err

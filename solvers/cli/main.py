@@ -142,7 +142,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     from pulsemap.solvers.studies.run_report import nothing_ran
 
     scene = load_scene_with_sets(args.scene, args.sets)
-    methods = args.methods.split(",") if args.methods else None
+    methods = args.methods.split(",") if args.methods is not None else None
+    if methods is not None and not any(m.strip() for m in methods):
+        raise UsageError(f"--methods {args.methods!r} names no method: give a comma list such as map,dns, or leave "
+                         "--methods out to run the scene's methods")
     snapshots = _contact_list(args.snapshots, "--snapshots") if args.snapshots else ()
     result = run_scene(scene, methods=methods, profile=args.profile, variant=args.variant,
                        progress=not args.quiet, seed_peak=args.seed_peak, snapshots=snapshots)
