@@ -102,8 +102,10 @@ def load(namespace: str, key: str, check: Callable[[Any], str | None] | None = N
     """
     try:
         path = _entry_path(namespace, key)
+    except CacheDirError:
+        raise
     except OSError as exc:  # the namespace folder is a file, or cannot be made
-        _note_bypassed(cache_dir() / namespace, f"cannot be used ({exc.strerror or exc})")
+        _note_bypassed(cache_root() / namespace, f"cannot be used ({exc.strerror or exc})")
         return None
     try:
         raw = read_bounded(path, MAX_ENTRY_BYTES)
@@ -154,8 +156,10 @@ def store(namespace: str, key: str, value: Any) -> None:
     plain = json.loads(json.dumps(value))  # tuples -> lists, number keys -> strings: as it reads back
     try:
         path = _entry_path(namespace, key)
-    except OSError as exc:
-        _note_bypassed(cache_dir() / namespace, f"cannot be used ({exc.strerror or exc})")
+    except CacheDirError:
+        raise
+    except OSError as exc:  # the namespace folder is a file, or cannot be made
+        _note_bypassed(cache_root() / namespace, f"cannot be used ({exc.strerror or exc})")
         return
     try:
         mode = os.lstat(path).st_mode

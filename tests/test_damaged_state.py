@@ -406,3 +406,14 @@ def test_a_file_where_the_generated_folder_goes_is_named_with_the_fix(own_cache,
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "[Errno" not in err, err
     assert f"pulsemap: error: {own_cache / 'generated'}: File exists: remove or rename it" in err
+
+
+def test_a_file_where_a_cache_namespace_goes_is_bypassed(own_cache, capsys):
+    from pulsemap.symbolic.integrals import constants
+
+    own_cache.mkdir(parents=True)
+    (own_cache / "integrals").write_text("not a folder")
+    first = constants(["f1"])["f1"].value
+    assert constants(["f1"])["f1"].value == first
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"cache path {own_cache / 'integrals'} cannot be used" in err
