@@ -368,16 +368,24 @@ def test_a_full_cache_disk_is_noted_and_leaves_no_temporary(full_disk, monkeypat
 # --------------------------------------------------------------------------- numba's own cache files
 
 
-def test_damaged_numba_cache_files_are_removed_and_the_kernel_compiled_again(tmp_path):
+NUMBA_CALLERS = {
+    "command": ("from pulsemap.solvers.cli.common import call_recovering_numba_cache\n"
+                "print(call_recovering_numba_cache(lambda a: int(kern.twice(21.0)), argparse.Namespace()))\n"),
+    "sweep worker": ("from pulsemap.solvers.studies.sweep import _call\n"
+                     "print(int(_call(lambda p: {'y': kern.twice(p['x'])}, {'x': 21.0})['result']['y']))\n"),
+}
+
+
+@pytest.mark.parametrize("caller", NUMBA_CALLERS)
+def test_damaged_numba_cache_files_are_removed_and_the_kernel_compiled_again(caller, tmp_path):
     """numba unpickles its index and data files and lets the error through (a traceback on every run
-    until they are deleted); the CLI's guard removes them, says so in one line and runs again."""
+    until they are deleted); the guard of a command and of a sweep worker removes them, says so in
+    one line and runs again."""
     import subprocess
     import sys
 
     (tmp_path / "kern.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n")
-    script = ("import sys, argparse; sys.path.insert(0, sys.argv[1]); import kern\n"
-              "from pulsemap.solvers.cli.common import call_recovering_numba_cache\n"
-              "print(call_recovering_numba_cache(lambda a: int(kern.twice(21.0)), argparse.Namespace()))\n")
+    script = "import sys, argparse; sys.path.insert(0, sys.argv[1]); import kern\n" + NUMBA_CALLERS[caller]
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
 
     def run():

@@ -11,8 +11,9 @@ import math
 import os
 import stat
 import sys
-from pathlib import Path
 from typing import Callable, Sequence, TextIO
+
+from pulsemap.solvers.data.numba_cache import remove_damaged_numba_cache
 
 
 class UsageError(ValueError):
@@ -74,35 +75,14 @@ def write_text(path: str, text: str) -> None:
         raise WriteError(describe_os_error(exc, path, "the document")) from None
 
 
-def numba_cache_folder(exc: BaseException) -> Path | None:
-    """The folder of numba's cache files if ``exc`` was raised while numba read one of them (a damaged
-    index or data file: numba unpickles it and lets the error through), else None."""
-    tb, folder = exc.__traceback__, None
-    while tb is not None:
-        code = tb.tb_frame.f_code.co_filename
-        if code.endswith(os.path.join("numba", "core", "caching.py")):
-            f_locals = tb.tb_frame.f_locals
-            path = getattr(f_locals.get("self"), "_index_path", None) or f_locals.get("path")
-            if isinstance(path, (str, os.PathLike)):
-                folder = Path(path).parent
-        tb = tb.tb_next
-    return folder
-
-
 def call_recovering_numba_cache(func: Callable[[argparse.Namespace], int], args: argparse.Namespace) -> int:
     """``func(args)``; when numba fails to read its own cache files (damaged), they are removed with a
     note on stderr and the command runs once more (its kernels are compiled anew, 20-30 s)."""
     try:
         return func(args)
     except Exception as exc:  # noqa: BLE001 - only numba's cache damage is handled; the rest goes on up
-        folder = numba_cache_folder(exc)
-        if folder is None:
+        if not remove_damaged_numba_cache(exc):
             raise
-        removed = [p for pattern in ("*.nbi", "*.nbc") for p in folder.glob(pattern)]
-        for path in removed:
-            path.unlink(missing_ok=True)
-        print(f"pulsemap: note: numba's compiled-code cache in {folder} is damaged ({type(exc).__name__}): removed "
-              f"its {len(removed)} files, compiling the kernels again", file=sys.stderr, flush=True)
     return func(args)
 
 
