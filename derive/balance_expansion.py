@@ -71,6 +71,11 @@ class BalanceExpansion:
         return total
 
 
+MAX_BALANCE_TERMS = 120
+"""Most terms c u^a v^b of R a balance is derived with ((u+v+1)^14 - 1 has 119): each needs a
+profile quadrature of 0.3-1 s, so more would take minutes."""
+
+
 def balance_expand(R: sympy.Expr, n: float | sympy.Rational = 1.5, model: str = "energy", site_dependent: Iterable[str] = ()) -> BalanceExpansion:
     """Expand R = sum c_ab u^a v^b into the work (energy) or impulse (momentum) terms of the model."""
     check_model(model)
@@ -100,6 +105,12 @@ def balance_expand(R: sympy.Expr, n: float | sympy.Rational = 1.5, model: str = 
             f"the momentum balance is undefined for R = {R}: its term(s) without v ({shown}) keep acting "
             "on the bead the wave leaves displaced (x -> A*D), so the impulse int R dt diverges; "
             "use the energy balance or the map"
+        )
+    if len(terms) > MAX_BALANCE_TERMS:
+        raise BalanceError(
+            f"R of degree {max(a + b for a, b in (t.exponents for t in terms))} in u, v has {len(terms)} terms, "
+            f"more than the {MAX_BALANCE_TERMS} the {model} balance is derived with (one quadrature of up to "
+            "a second each): lower the degree of R, or run the DNS alone (methods = [\"dns\"])"
         )
     terms.sort(key=lambda t: (t.power, t.exponents))
     return BalanceExpansion(model, R, n_exact, tuple(terms), site)

@@ -3,9 +3,13 @@
 The location is the user's cache directory, never the installed package: ``$PULSEMAP_CACHE_DIR``
 if set, else ``$XDG_CACHE_HOME/pulsemap`` (the XDG rule; only an absolute path counts), else
 ``~/.cache/pulsemap``. Entries are small JSON files keyed by a string that names everything the
-value depends on; an unreadable entry is treated as missing, and a damaged one (not JSON, or a
-value its reader's check refuses: wrong shape, NaN) too, with a one-line note on stderr. Generated code the
-shipped ``generated/`` folder lacks is written to its ``generated/`` subfolder.
+value depends on, each carrying the sha256 of its value's canonical JSON (content-addressed, as git
+objects and ccache are): an entry whose value does not match its digest is damaged. A missing or
+unreadable entry is treated as missing; a damaged one (not JSON, no or a wrong digest, or a value its
+reader's check refuses: wrong shape, NaN) too, with a one-line note on stderr. A cache path that is
+not a regular file (a folder, a FIFO, a device) is noted and bypassed; reads stop at
+:data:`MAX_ENTRY_BYTES` bytes. Generated code the shipped ``generated/`` folder lacks is written to
+its ``generated/`` subfolder.
 """
 
 from __future__ import annotations
@@ -14,10 +18,12 @@ import hashlib
 import json
 import math
 import os
+import stat
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any, Callable
+
+from .files import FileKindError, TooLargeError, kind_of, read_bounded, write_atomic
 
 
 class CacheDirError(OSError):
@@ -48,6 +54,12 @@ def cache_dir() -> Path:
     return path
 
 
+MAX_ENTRY_BYTES = 64 * 1024 * 1024
+"""Longest cache entry read (counted in bytes read): the largest, a relaxed table, is a few kB."""
+
+_NOTED: set[str] = set()  # paths already noted as bypassed, so a run says it once
+
+
 def _entry_path(namespace: str, key: str) -> Path:
     digest = hashlib.sha256(key.encode()).hexdigest()[:24]
     folder = cache_dir() / namespace
@@ -60,9 +72,23 @@ def entry_path(namespace: str, key: str) -> Path:
     return _entry_path(namespace, key)
 
 
+def digest(value: Any) -> str:
+    """sha256 of the canonical JSON of ``value`` (sorted keys, no spaces): what an entry's value must match."""
+    return hashlib.sha256(json.dumps(value, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
 def note_damaged(namespace: str, key: str, problem: str) -> None:
     """One line on stderr: the entry is damaged and its value is being computed again."""
     print(f"pulsemap: note: cache entry {_entry_path(namespace, key)} is damaged ({problem}): computing it again",
+          file=sys.stderr, flush=True)
+
+
+def _note_bypassed(path: Path | str, problem: str) -> None:
+    """One line on stderr (once per path and process): the cache cannot be used there, the run goes on."""
+    if str(path) in _NOTED:
+        return
+    _NOTED.add(str(path))
+    print(f"pulsemap: note: cache path {path} {problem}: working without it (remove it to cache there again)",
           file=sys.stderr, flush=True)
 
 
@@ -71,22 +97,44 @@ def load(namespace: str, key: str, check: Callable[[Any], str | None] | None = N
     """Return the cached value stored under ``key``, or None (missing, or damaged: then noted on
     stderr unless ``quiet``).
 
-    ``check(value)`` names what is wrong with a value read back (schema, finiteness), or returns None.
+    The value must match the entry's sha256 digest; then ``check(value)`` names what is wrong with a
+    value read back (schema, finiteness), or returns None.
     """
-    path = _entry_path(namespace, key)
     try:
-        with open(path, encoding="utf-8") as fh:
-            entry = json.load(fh)
-    except OSError:  # missing or unreadable
+        path = _entry_path(namespace, key)
+    except CacheDirError:
+        raise
+    except OSError as exc:  # the namespace folder is a file, or cannot be made
+        _note_bypassed(cache_root() / namespace, f"cannot be used ({exc.strerror or exc})")
         return None
-    except ValueError as exc:  # entries are replaced atomically: text that is not JSON is damage
+    try:
+        raw = read_bounded(path, MAX_ENTRY_BYTES)
+    except FileNotFoundError:
+        return None
+    except FileKindError as exc:
+        _note_bypassed(path, exc.strerror)
+        return None
+    except TooLargeError:
+        if not quiet:
+            note_damaged(namespace, key, f"longer than {MAX_ENTRY_BYTES} bytes")
+        return None
+    except OSError:  # unreadable
+        return None
+    try:
+        entry = json.loads(raw.decode("utf-8"))
+    except (ValueError, RecursionError) as exc:  # entries are replaced atomically: text that is not JSON is damage
         if not quiet:
             note_damaged(namespace, key, f"not JSON: {str(exc).splitlines()[0][:80]}")
         return None
     if not isinstance(entry, dict) or entry.get("key") != key:
         return None
     value = entry.get("value")
-    problem = check(value) if check is not None else None
+    if "sha256" not in entry:
+        problem = "no digest of its value: written by an older pulsemap or by hand"
+    elif digest(value) != entry["sha256"]:
+        problem = "its value does not match its sha256 digest"
+    else:
+        problem = check(value) if check is not None else None
     if problem:
         if not quiet:
             note_damaged(namespace, key, problem)
@@ -100,9 +148,27 @@ def finite_number(value: Any) -> bool:
 
 
 def store(namespace: str, key: str, value: Any) -> None:
-    """Store a JSON-serialisable ``value`` under ``key`` (atomic rename)."""
-    path = _entry_path(namespace, key)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        json.dump({"key": key, "value": value}, fh)
-    os.replace(tmp, path)
+    """Store a JSON-serialisable ``value`` under ``key`` with the digest of its value (atomic rename).
+
+    The cache only saves time: a failure to store (no space left, a folder or FIFO where the entry
+    goes) is one note on stderr and the run goes on; no temporary file is left behind.
+    """
+    plain = json.loads(json.dumps(value))  # tuples -> lists, number keys -> strings: as it reads back
+    try:
+        path = _entry_path(namespace, key)
+    except CacheDirError:
+        raise
+    except OSError as exc:  # the namespace folder is a file, or cannot be made
+        _note_bypassed(cache_root() / namespace, f"cannot be used ({exc.strerror or exc})")
+        return
+    try:
+        mode = os.lstat(path).st_mode
+    except OSError:
+        mode = None
+    if mode is not None and not stat.S_ISREG(mode) and not stat.S_ISLNK(mode):
+        _note_bypassed(path, f"is {kind_of(mode)}, not a regular file")
+        return
+    try:
+        write_atomic(path, json.dumps({"key": key, "value": plain, "sha256": digest(plain)}))
+    except OSError as exc:
+        _note_bypassed(path, f"cannot be written ({exc.strerror or exc})")

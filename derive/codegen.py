@@ -21,7 +21,6 @@ user's parameters are arguments with a prefix no identifier of the module has (d
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from . import cache
@@ -31,6 +30,7 @@ from .codegen_force import generate_force
 from .codegen_jitforce import generate_jit_force
 from .codegen_map import generate_map
 from .codeprint import SIG_DIGITS, CodegenError
+from .files import WriteError, describe_os_error, write_atomic
 from .profile import check_profile_kind
 from .sources import (BalanceSource, ForceSource, JitForceSource, MapSource, module_name, source_from_dict,
                       verify_generated)
@@ -80,9 +80,10 @@ def write(source: MapSource | ForceSource | JitForceSource | BalanceSource, dire
     folder = Path(directory) if directory is not None else cache.cache_dir() / "generated"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / (module_name(source) + ".py")
-    tmp = path.with_suffix(f".tmp{os.getpid()}")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    try:
+        write_atomic(path, text)
+    except OSError as exc:
+        raise WriteError(describe_os_error(exc, path, "the generated module")) from None
     return path
 
 

@@ -142,6 +142,26 @@ def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str, error: t
         )
 
 
+MAX_MONOMIALS = 2000
+"""Most monomials of Eq. 23 a map is derived with: (u+v+1)^12 - 1 has 1819; past that the
+integrals, the law and the generated module take minutes (4844 of (u+v+1)^16: about a minute)."""
+
+
+def check_size(R: sympy.Expr, error: type[ValueError] = ExpansionError) -> int:
+    """The number of monomials of Eq. 23 for polynomial R (term c u^a v^b gives (a + 1)(b + 1) of
+    g_i, by the binomial theorem); ``error`` past MAX_MONOMIALS, before any of them is written out."""
+    monoms = sympy.Poly(R, symbol("u"), symbol("v")).monoms()
+    count = len({(k, a - k, m, b - m) for a, b in monoms for k in range(a + 1) for m in range(b + 1)})
+    if count > MAX_MONOMIALS:
+        degree = max(a + b for a, b in monoms)
+        raise error(
+            f"R of degree {degree} in u, v expands into {count} monomials of Eq. 23, more than the "
+            f"{MAX_MONOMIALS} a map is derived with (it would take many minutes): lower the degree of R, "
+            "or run the DNS alone (methods = [\"dns\"])"
+        )
+    return count
+
+
 def _state_terms(R: sympy.Expr, u: sympy.Symbol, v: sympy.Symbol) -> list[tuple[tuple[int, int], sympy.Expr]]:
     """((a, b), c) for the terms c u^a v^b of R (c free of u, v)."""
     return sympy.Poly(R, u, v).terms()
@@ -172,6 +192,7 @@ def expand(
     u, v = symbol("u"), symbol("v")
     r_i = _at_bead(R, 0, site)
     r_ip1 = _at_bead(R, 1, site)
+    check_size(R)
     # g_i = R_i(delta_i + delta_ip1, v_i + v_ip1) - R_{i+1}(delta_ip1, v_ip1) term by term: c u^a v^b gives
     # c C(a, k) C(b, m) delta_i^k delta_ip1^(a-k) v_i^m v_ip1^(b-m) (binomial theorem; no sympy expand of
     # the substituted powers, which took minutes for (u+v+1)^16)

@@ -19,6 +19,7 @@ Python)::
 from __future__ import annotations
 
 import keyword
+import math
 from typing import Iterable
 
 import sympy
@@ -109,7 +110,43 @@ def is_polynomial_in_state(expr: sympy.Expr) -> bool:
     return bool(sympy.sympify(expr).is_polynomial(symbol("u"), symbol("v")))
 
 
+def total_degree(expr: sympy.Expr) -> int:
+    """An upper bound on the total degree of ``expr`` in u, v, i, read off its tree without expanding
+    it: sums over products, maxima over sums, degree times |exponent| over numeric powers (so
+    ``((u^64)^64)^64`` and ``u*u*...*u`` count what they are); a function counts its argument."""
+    state = {symbol(name) for name in SYMBOLS}
+    if expr in state:
+        return 1
+    if not expr.free_symbols & state:
+        return 0
+    if isinstance(expr, sympy.Pow) and expr.exp.is_Number:
+        return total_degree(expr.base) * math.ceil(abs(expr.exp))
+    degrees = [total_degree(arg) for arg in expr.args]
+    if isinstance(expr, sympy.Mul) or isinstance(expr, sympy.Pow):
+        return sum(degrees)
+    return max(degrees, default=0)
+
+
+def singular_terms(expr: sympy.Expr) -> list[sympy.Expr]:
+    """The parts of ``expr`` that are infinite somewhere in u, v, i: negative powers of an expression
+    of the state (1/(u - 1)), and log or tan of one; in the order they appear."""
+    state = {symbol(name) for name in SYMBOLS}
+    found: list[sympy.Expr] = []
+    for node in sympy.preorder_traversal(sympy.sympify(expr)):
+        if not node.free_symbols & state or node in found:
+            continue
+        if (isinstance(node, sympy.Pow) and node.exp.is_negative) or isinstance(node, (sympy.log, sympy.tan)):
+            found.append(node)
+    return found
+
+
 def _check_result(expr: sympy.Expr, text: str) -> sympy.Expr:
+    degree = total_degree(expr)
+    if degree > MAX_EXPONENT:
+        raise ExpressionError(
+            f"{_context(text)} has total degree {degree} in u, v, i, more than {MAX_EXPONENT}: "
+            "lower the powers (repeated products and powers of powers multiply the degree)"
+        )
     bad = (sympy.zoo, sympy.oo, -sympy.oo, sympy.nan)
     if expr.has(*bad):
         raise ExpressionError(

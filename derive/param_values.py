@@ -92,7 +92,11 @@ def _finite_float(what: str, raw: object) -> float:
         raise PerturbationError(f"{what} = {raw} is a boolean: give a number")
     if not isinstance(raw, numbers.Real):
         raise PerturbationError(f"{what} = {raw!r} is not a number")
-    value = float(raw)
+    try:
+        value = float(raw)
+    except OverflowError:  # an integer of hundreds of digits
+        raise PerturbationError(f"{what} = {str(raw)[:12]}... ({len(str(raw))} digits) is beyond float64 "
+                                "(about 1.8e308): give a finite number") from None
     if not math.isfinite(value):
         raise PerturbationError(f"{what} = {value} is not finite: give a finite number")
     return value

@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import json
 import math
+import os
 
 import pytest
 
 from conftest import scene_toml, write_scene
+from pulsemap.solvers.data.records import encode_record
 from pulsemap.symbolic import cache
 from pulsemap.solvers.cli.main import main
 
@@ -88,8 +90,9 @@ def test_a_nan_in_sweep_records_is_run_again_not_reported(tmp_path, capsys):
     first = json.loads(report.read_text())
     lines = out.read_text().splitlines()
     rec = json.loads(lines[1])
+    rec.pop("sha256")
     rec["result"]["live_contacts"] = math.nan
-    lines[1] = json.dumps(rec)  # NaN: valid for Python's json, not for the report
+    lines[1] = encode_record(rec)  # NaN, with a right digest: valid for Python's json, not for the report
     out.write_text("\n".join(lines) + "\n")
     capsys.readouterr()
     assert main(argv) == 0
@@ -107,10 +110,318 @@ def test_a_non_utf8_line_in_a_rows_file_names_the_file_and_line(tmp_path, capsys
     rows_file = tmp_path / "rows.jsonl"
     (row,) = table([str(scene)], rows_file=rows_file, columns=COLUMNS[:1])
     good = rows_file.read_bytes()
-    for damage in (b'{"scene": "\xff"}\n', json.dumps({**row, "live": "many"}).encode() + b"\n",
-                   json.dumps({**row, "winner": {"model": "map", "rms_pct": "small"}}).encode() + b"\n"):
+    for damage in (b'{"scene": "\xff"}\n', encode_record({**row, "live": "many"}).encode() + b"\n",
+                   encode_record({**row, "winner": {"model": "map", "rms_pct": "small"}}).encode() + b"\n"):
         rows_file.write_bytes(damage + good)  # line 1 damaged, line 2 the good row
         capsys.readouterr()
         assert list(read_rows(rows_file).values()) == [row]
         err = capsys.readouterr().err
         assert err.startswith(f"pulsemap: note: {rows_file}:1: ") and err.count("\n") == 1
+
+
+# --------------------------------------------------------------------------- digests: one digit changed
+
+
+def _change_one_digit(path, after: str = '"value"') -> str:
+    """Change the first digit after a decimal point that follows ``after`` in the file (the JSON stays
+    valid, the number stays plausible); returns the changed text."""
+    text = path.read_text()
+    start = text.index(after)
+    j = next(i for i in range(start, len(text) - 1) if text[i] == "." and text[i + 1].isdigit()) + 1
+    changed = text[:j] + str((int(text[j]) + 1) % 10) + text[j + 1:]
+    path.write_text(changed)
+    return changed
+
+
+def test_one_digit_changed_in_the_cached_integrals_is_computed_again(own_cache, capsys):
+    from pulsemap.symbolic.integrals import constants
+
+    fresh = {k: c.value for k, c in constants(["f1", "f2"]).items()}
+    (path,) = (own_cache / "integrals").glob("*.json")
+    _change_one_digit(path)
+    damaged = json.loads(path.read_text())["value"]
+    assert {k: v[0] for k, v in damaged.items()} != fresh  # still valid JSON, one number off
+    capsys.readouterr()
+    assert {k: c.value for k, c in constants(["f1", "f2"]).items()} == fresh
+    err = capsys.readouterr().err
+    assert err == f"pulsemap: note: cache entry {path} is damaged (its value does not match its sha256 digest): " \
+                  "computing it again\n"
+    constants(["f1", "f2"])
+    assert capsys.readouterr().err == ""  # stored whole again
+
+
+def test_one_digit_changed_in_the_balance_constants_is_computed_again(own_cache, capsys):
+    from pulsemap.symbolic.balance_constants import balance_constants
+
+    fresh = {k: c.value for k, c in balance_constants(["K1", "V1"], n=1.5).items()}
+    (path,) = (own_cache / "balance").glob("*.json")
+    _change_one_digit(path)
+    capsys.readouterr()
+    assert {k: c.value for k, c in balance_constants(["K1", "V1"], n=1.5).items()} == fresh
+    err = capsys.readouterr().err
+    assert "does not match its sha256 digest" in err and str(path) in err and err.count("\n") == 1
+
+
+def test_one_digit_changed_in_a_relaxed_spline_is_fitted_again(own_cache, capsys):
+    """Knots edited out of order would give scipy's 'Knots must be in a non-decreasing order.'; the
+    digest (and, for an entry written with a right digest, the spline check) refuses it first."""
+    import numpy as np
+
+    from pulsemap.solvers.models.relaxed_table import NAMESPACE, bulk_fit_key, cached_smoothing_spline
+
+    x = np.linspace(0.0, 1.0, 12)
+    y, w = np.sin(3 * x), np.ones_like(x)
+    fresh = cached_smoothing_spline(x, y, w)(x)
+    (path,) = (own_cache / NAMESPACE).glob("*.json")
+    _change_one_digit(path)
+    capsys.readouterr()
+    np.testing.assert_array_equal(cached_smoothing_spline(x, y, w)(x), fresh)
+    assert "does not match its sha256 digest" in capsys.readouterr().err
+    entry = cache.load(NAMESPACE, bulk_fit_key(x, y, w))
+    entry["t"][5], entry["t"][6] = entry["t"][6] + 1.0, entry["t"][5]  # out of order, stored with its digest
+    cache.store(NAMESPACE, bulk_fit_key(x, y, w), entry)
+    np.testing.assert_array_equal(cached_smoothing_spline(x, y, w)(x), fresh)
+    err = capsys.readouterr().err
+    assert "knots out of order" in err and "Knots must be" not in err
+
+
+def test_one_digit_changed_in_a_kappa_entry_is_measured_again(own_cache, monkeypatch, capsys):
+    from pulsemap.solvers.chain import kappa as kappa_mod
+
+    calls = []
+    monkeypatch.setattr(kappa_mod, "measure_kappa", lambda exponent, *, rtol: calls.append(exponent) or {
+        "kappa": 1.25, "contact": 30, "beads": 50, "spread": 0.0, "rtol": rtol})
+    assert kappa_mod.kappa(1.5) == 1.25 and len(calls) == 1
+    (path,) = (own_cache / kappa_mod.NAMESPACE).glob("*.json")
+    _change_one_digit(path)
+    assert kappa_mod.kappa(1.5) == 1.25 and len(calls) == 2
+    assert "does not match its sha256 digest" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("namespace", ["integrals", "balance", "kappa", "relaxed", "dressed", "dressed-derived"])
+def test_no_changed_character_of_an_entry_is_served(namespace, own_cache, capsys):
+    """Property: every single-character change of an entry's file (each digit, each letter of the
+    digest, the key) gives back the stored value or nothing, never another value."""
+    value = {"x": [2.589940123, 1e-12], "y": [0.5, 3.0], "k": 3}
+    cache.store(namespace, "some key", value)
+    path = cache.entry_path(namespace, "some key")
+    text = path.read_text()
+    served = 0
+    for j, ch in enumerate(text):
+        if not ch.isalnum():
+            continue
+        path.write_text(text[:j] + ("7" if ch != "7" else "8") + text[j + 1:])
+        got = cache.load(namespace, "some key", quiet=True)
+        assert got is None or got == value, (j, text)
+        served += got is not None
+    assert served == 0  # every character matters: the key, the value or the digest
+    path.write_text(text)
+    assert cache.load(namespace, "some key") == value
+
+
+def test_an_entry_without_a_digest_is_computed_again(own_cache, capsys):
+    cache.store("kappa", "k", {"kappa": 1.0})
+    path = cache.entry_path("kappa", "k")
+    path.write_text(json.dumps({"key": "k", "value": {"kappa": 1.0}}))
+    assert cache.load("kappa", "k") is None
+    assert "no digest of its value" in capsys.readouterr().err
+
+
+def test_one_digit_changed_in_a_sweep_record_is_run_again(tmp_path, capsys):
+    from pulsemap.solvers.studies.sweep import run_sweep
+
+    out = tmp_path / "points.jsonl"
+    first = run_sweep(_square, [{"x": 1.5}, {"x": 2.5}], out, max_workers=1)
+    lines = out.read_text().splitlines()
+    rec = json.loads(lines[1])
+    lines[1] = lines[1].replace(json.dumps(rec["result"]["y"]), json.dumps(rec["result"]["y"] + 0.001))
+    assert lines[1] != out.read_text().splitlines()[1]
+    out.write_text("\n".join(lines) + "\n")
+    capsys.readouterr()
+    again = run_sweep(_square, [{"x": 1.5}, {"x": 2.5}], out, max_workers=1)
+    assert (again.computed, again.skipped) == (1, 1) and again.results() == first.results()
+    assert capsys.readouterr().err == (f"pulsemap: note: {out}:2: the record does not match its sha256 digest "
+                                       "(the line was changed): record ignored (its point is computed again)\n")
+
+
+def _square(params: dict) -> dict:
+    return {"y": params["x"] ** 2}
+
+
+def test_one_digit_changed_in_a_table_row_is_computed_again(tmp_path, monkeypatch, capsys):
+    from pulsemap.solvers.studies import table as table_mod
+
+    calls = []
+
+    def fake_row(name, columns=table_mod.COLUMNS, eps=None, sets=(), scene=None, progress=False):
+        calls.append(name)
+        return {"scene": name, "key": table_mod.row_key(scene.as_dict(), columns), "R": "-mu*v", "eps": 0.1,
+                "v0": 1.0, "live": 3, "errors": {"map/exact/paper": {"max_rel_all": 0.0123, "rms_rel_all": 0.0045}},
+                "winner": {"model": "map/exact/paper", "rms_rel": 0.0045}}
+
+    monkeypatch.setattr(table_mod, "scene_row", fake_row)
+    rows_file = tmp_path / "rows.jsonl"
+    first = table_mod.table(["fig8-eps0.1"], rows_file=rows_file)
+    rows_file.write_text(rows_file.read_text().replace("0.0123", "0.0124"))
+    capsys.readouterr()
+    assert table_mod.table(["fig8-eps0.1"], rows_file=rows_file) == first and len(calls) == 2
+    assert f"{rows_file}:1: the record does not match its sha256 digest" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- the cache path is not a file
+
+
+@pytest.mark.parametrize("kind", ["directory", "FIFO", "symlink to /dev/zero"])
+def test_a_cache_entry_that_is_not_a_file_is_bypassed(kind, own_cache, capsys):
+    import os
+
+    from pulsemap.symbolic.integrals import constants
+
+    fresh = constants(["f1"])["f1"].value
+    (path,) = (own_cache / "integrals").glob("*.json")
+    path.unlink()
+    {"directory": path.mkdir, "FIFO": lambda: os.mkfifo(path),
+     "symlink to /dev/zero": lambda: path.symlink_to("/dev/zero")}[kind]()
+    capsys.readouterr()
+    assert constants(["f1"])["f1"].value == fresh  # returns at once: no blocking open, no endless read
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"cache path {path} is " in err and "working without it" in err
+    assert not list(path.parent.glob("*.tmp"))
+
+
+def test_the_cli_runs_past_a_folder_where_a_cache_entry_goes(own_cache, capsys):
+    assert main(["derive", "-mu*v", "--param", "mu=1", "--sympy-seconds", "0", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    for path in (own_cache / "integrals").glob("*.json"):
+        path.unlink()
+        path.mkdir()
+    assert main(["derive", "-mu*v", "--param", "mu=1", "--sympy-seconds", "0", "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out == out and "is a directory, not a regular file: working without it" in captured.err
+
+
+# --------------------------------------------------------------------------- a full disk
+
+
+@pytest.fixture()
+def full_disk(tmp_path):
+    """A 64 kB tmpfs filled up to its last bytes (needs root and mount; skipped with the reason otherwise)."""
+    import os
+    import subprocess
+
+    mnt = tmp_path / "small"
+    mnt.mkdir()
+    if os.geteuid() != 0:
+        pytest.skip("a full disk needs a small tmpfs, and mounting one needs root")
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mnt)], capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here: {done.stderr.strip() or done.returncode}")
+    try:
+        (mnt / "old.json").write_text('{"old": true}\n')
+        with open(mnt / "filler", "wb", buffering=0) as fh:  # fill every block
+            try:
+                while True:
+                    fh.write(b"x" * 1024)
+            except OSError:
+                pass
+        yield mnt
+    finally:
+        subprocess.run(["umount", str(mnt)], check=False)
+
+
+def test_a_document_on_a_full_disk_keeps_the_old_file(full_disk, capsys):
+    from pulsemap.solvers.cli.common import write_text
+    from pulsemap.symbolic.files import WriteError
+
+    target = full_disk / "old.json"
+    with pytest.raises(WriteError) as info:
+        write_text(str(target), "x" * 100_000)
+    message = str(info.value)
+    assert str(target) in message and "No space left on device" in message and "free some space" in message
+    assert target.read_text() == '{"old": true}\n'  # not truncated
+    assert sorted(p.name for p in full_disk.iterdir()) == ["filler", "old.json"]  # no temporary left
+
+
+def test_the_cli_says_which_file_a_full_disk_stopped(full_disk, capsys):
+    target = full_disk / "old.json"
+    assert main(["profile", "--json", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"pulsemap: error: cannot write the document {target}: ")
+    assert "No space left on device" in err and "free some space" in err and "[Errno" not in err
+    assert target.read_text() == '{"old": true}\n'
+    assert sorted(p.name for p in full_disk.iterdir()) == ["filler", "old.json"]
+
+
+def test_a_full_cache_disk_is_noted_and_leaves_no_temporary(full_disk, monkeypatch, capsys):
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(full_disk / "cache"))
+    try:
+        cache.cache_dir()
+    except cache.CacheDirError:
+        pytest.skip("not even the cache folder fits on the full tmpfs")
+    cache.store("kappa", "big", {"values": [1.5] * 20_000})
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cannot be written (No space left on device)" in err
+    assert cache.load("kappa", "big") is None
+    assert not [p for p in (full_disk / "cache").rglob("*") if p.is_file()]
+
+
+# --------------------------------------------------------------------------- numba's own cache files
+
+
+NUMBA_CALLERS = {
+    "command": ("from pulsemap.solvers.cli.common import call_recovering_numba_cache\n"
+                "print(call_recovering_numba_cache(lambda a: int(kern.twice(21.0)), argparse.Namespace()))\n"),
+    "sweep worker": ("from pulsemap.solvers.studies.sweep import _call\n"
+                     "print(int(_call(lambda p: {'y': kern.twice(p['x'])}, {'x': 21.0})['result']['y']))\n"),
+}
+
+
+@pytest.mark.parametrize("caller", NUMBA_CALLERS)
+def test_damaged_numba_cache_files_are_removed_and_the_kernel_compiled_again(caller, tmp_path):
+    """numba unpickles its index and data files and lets the error through (a traceback on every run
+    until they are deleted); the guard of a command and of a sweep worker removes them, says so in
+    one line and runs again."""
+    import subprocess
+    import sys
+
+    (tmp_path / "kern.py").write_text("from numba import njit\n\n@njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n")
+    script = "import sys, argparse; sys.path.insert(0, sys.argv[1]); import kern\n" + NUMBA_CALLERS[caller]
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+
+    def run():
+        return subprocess.run([sys.executable, "-c", script, str(tmp_path)], capture_output=True, text=True,
+                              env=env, timeout=300)
+
+    first = run()
+    assert first.returncode == 0 and first.stdout == "42\n", first.stderr
+    files = [p for p in (tmp_path / "numba").rglob("*") if p.suffix in (".nbi", ".nbc")]
+    assert files
+    for path in files:
+        path.write_bytes(os.urandom(64))
+    damaged = run()
+    assert damaged.returncode == 0 and damaged.stdout == "42\n", damaged.stderr
+    assert damaged.stderr.count("\n") == 1 and "numba's compiled-code cache in " in damaged.stderr
+    assert "is damaged (" in damaged.stderr and "compiling the kernels again" in damaged.stderr
+    again = run()
+    assert again.returncode == 0 and again.stdout == "42\n" and again.stderr == ""  # rewritten whole
+
+
+def test_a_file_where_the_generated_folder_goes_is_named_with_the_fix(own_cache, capsys):
+    """[Errno 17] File exists named neither the file nor what to do."""
+    own_cache.mkdir(parents=True)
+    (own_cache / "generated").write_text("not a folder")
+    code = main(["run", "default", "--methods", "map", "--set", "perturbation.R=-mu*v-0.1234*u^3", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "[Errno" not in err, err
+    assert f"pulsemap: error: {own_cache / 'generated'}: File exists: remove or rename it" in err
+
+
+def test_a_file_where_a_cache_namespace_goes_is_bypassed(own_cache, capsys):
+    from pulsemap.symbolic.integrals import constants
+
+    own_cache.mkdir(parents=True)
+    (own_cache / "integrals").write_text("not a folder")
+    first = constants(["f1"])["f1"].value
+    assert constants(["f1"])["f1"].value == first
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"cache path {own_cache / 'integrals'} cannot be used" in err

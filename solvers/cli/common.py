@@ -9,8 +9,11 @@ import contextlib
 import json
 import math
 import os
+import stat
 import sys
 from typing import Callable, Sequence, TextIO
+
+from pulsemap.solvers.data.numba_cache import remove_damaged_numba_cache
 
 
 class UsageError(ValueError):
@@ -49,14 +52,38 @@ def write_json(path: str, payload: dict) -> None:
 
 
 def write_text(path: str, text: str) -> None:
-    """Write a document (JSON, CSV) to ``path`` ('-': stdout, which then holds nothing else)."""
+    """Write a document (JSON, CSV) to ``path`` ('-': stdout, which then holds nothing else), atomically
+    for a file (the old file stays whole if the write fails); the error names the file and the fix."""
     if path == "-":
         stream = _document_stream()
         stream.write(text)
         stream.flush()
         return
-    with open(path, "w", encoding="utf-8") as fh:
-        fh.write(text)
+    from pulsemap.symbolic.files import WriteError, describe_os_error, write_atomic
+
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        mode = None
+    try:
+        if mode is not None and not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):
+            with open(path, "w", encoding="utf-8") as fh:  # a pipe or device (/dev/stdout, >(jq)): written in place
+                fh.write(text)
+        else:  # a file: whole before and after (a temporary renamed over it), also on a full disk
+            write_atomic(os.path.realpath(path), text)
+    except OSError as exc:
+        raise WriteError(describe_os_error(exc, path, "the document")) from None
+
+
+def call_recovering_numba_cache(func: Callable[[argparse.Namespace], int], args: argparse.Namespace) -> int:
+    """``func(args)``; when numba fails to read its own cache files (damaged), they are removed with a
+    note on stderr and the command runs once more (its kernels are compiled anew, 20-30 s)."""
+    try:
+        return func(args)
+    except Exception as exc:  # noqa: BLE001 - only numba's cache damage is handled; the rest goes on up
+        if not remove_damaged_numba_cache(exc):
+            raise
+    return func(args)
 
 
 def _stdout_document(args: argparse.Namespace) -> bool:

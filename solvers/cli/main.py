@@ -19,6 +19,7 @@ from pulsemap.solvers.cli.common import (  # noqa: F401 (re-exported: the sub-co
     SET_HELP,
     UsageError,
     _stdout_document,
+    call_recovering_numba_cache,
     _text_to_stderr,
     add_set_option,
     load_scene_with_sets,
@@ -157,7 +158,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     from pulsemap.solvers.studies.run.report import nothing_ran
 
     scene = load_scene_with_sets(args.scene, args.sets)
-    methods = args.methods.split(",") if args.methods else None
+    methods = args.methods.split(",") if args.methods is not None else None
+    if methods is not None and not any(m.strip() for m in methods):
+        raise UsageError(f"--methods {args.methods!r} names no method: give a comma list such as map,dns, or leave "
+                         "--methods out to run the scene's methods")
     if args.rank and "dns" not in [m.strip() for m in (methods or scene.methods)]:
         raise UsageError("--rank ranks every model against the DNS: add dns to the methods")
     snapshots = _contact_list(args.snapshots, "--snapshots") if args.snapshots else ()
@@ -400,8 +404,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         func: Callable[[argparse.Namespace], int] = args.func
         if _stdout_document(args):
             with _text_to_stderr():
-                return func(args)
-        return func(args)
+                return call_recovering_numba_cache(func, args)
+        return call_recovering_numba_cache(func, args)
     except BrokenPipeError:  # e.g. piped into `head`
         sys.stderr.close()
         return 0
@@ -410,6 +414,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
     except (ValueError, OSError) as exc:  # our errors subclass ValueError
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        if isinstance(exc, OSError):
+            from pulsemap.symbolic.files import explain_os_error
+
+            message = explain_os_error(exc)  # "[Errno 28] ..." -> the file, the reason, what to do
         print(f"pulsemap: error: {message}", file=sys.stderr)
         return EXIT_USAGE
 

@@ -2,17 +2,44 @@
 
 A run killed while writing leaves its last line cut short: readers skip such a line, and
 :func:`open_for_append` first ends it with a newline, so the next record starts a line of its own
-(the cut record is simply computed again).
+(the cut record is simply computed again). Each line carries the sha256 of its record's canonical
+JSON (field ``sha256``): a line whose record does not match it (one digit changed) or that has none
+is never served as a result; it is noted on stderr and its point computed again. Reads hold at
+most :data:`MAX_LINE_BYTES` bytes of a line and refuse what is not a regular file (``/dev/full``, a FIFO).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
 import sys
 from pathlib import Path
 from typing import Any, Callable, Iterator, TextIO
+
+from pulsemap.symbolic.files import FileKindError, bounded_lines, open_regular
+
+MAX_LINE_BYTES = 64 * 1024 * 1024
+"""Longest record line read (bytes read): a record is a few kB; a longer line is skipped unread."""
+DIGEST = "sha256"
+"""The field of a record line holding the digest of the rest of the record."""
+
+
+class RecordFileError(ValueError):
+    """A record file that cannot be read as one (not a regular file); names the file and the fix."""
+
+
+def record_digest(record: dict) -> str:
+    """sha256 of the canonical JSON of ``record`` (sorted keys, no spaces), without its digest field."""
+    body = {k: v for k, v in record.items() if k != DIGEST}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
+def encode_record(record: dict) -> str:
+    """``record`` as one compact JSON line (no newline) with its digest."""
+    plain = json.loads(json.dumps(record))  # tuples -> lists: the record as it reads back
+    return json.dumps({**plain, DIGEST: record_digest(plain)}, separators=(",", ":"))
 
 
 def non_finite_path(obj: Any, where: str = "") -> str | None:
@@ -41,15 +68,24 @@ def read_lines(path: str | os.PathLike, check: Callable[[dict], str | None] | No
     """The JSON objects of a JSON-lines file in order (none for a missing file).
 
     Blank lines and lines that are not complete JSON (cut short by a kill) are skipped silently.
-    A line that cannot be a record we wrote -- not UTF-8, JSON that is not an object, a NaN or
-    infinity anywhere, or refused by ``check(record)`` (which names the problem, or returns None)
-    -- is skipped with a one-line note on stderr naming the file and the line.
+    A line that cannot be a record we wrote -- not UTF-8, JSON that is not an object, no digest or
+    one its record does not match, a NaN or infinity anywhere, or refused by ``check(record)``
+    (which names the problem, or returns None) -- is skipped with a one-line note on stderr naming
+    the file and the line, as is a line longer than MAX_LINE_BYTES. RecordFileError for a path that
+    is not a regular file.
     """
     p = Path(path)
-    if not p.exists():
+    try:
+        fh = open_regular(p)
+    except FileNotFoundError:
         return
-    with p.open("rb") as fh:
-        for lineno, raw in enumerate(fh, start=1):
+    except FileKindError as exc:
+        raise RecordFileError(f"record file {p} {exc.strerror}: give the path of a file (JSON lines)") from None
+    with fh:
+        for lineno, raw in enumerate(bounded_lines(fh, MAX_LINE_BYTES), start=1):
+            if raw is None:
+                _note(p, lineno, f"longer than {MAX_LINE_BYTES} bytes")
+                continue
             raw = raw.strip()
             if not raw:
                 continue
@@ -68,10 +104,15 @@ def read_lines(path: str | os.PathLike, check: Callable[[dict], str | None] | No
             if not isinstance(rec, dict):
                 _note(p, lineno, f"a JSON {type(rec).__name__}, not a record (an object)")
                 continue
-            problem = non_finite_path(rec)
-            if problem is not None:
-                problem = f"{problem} is not a finite number"
-            elif check is not None:
+            problem = None
+            if DIGEST not in rec:
+                problem = "no digest: not written by this pulsemap"
+            elif rec.pop(DIGEST) != record_digest(rec):
+                problem = "the record does not match its sha256 digest (the line was changed)"
+            if problem is None:
+                problem = non_finite_path(rec)
+                problem = None if problem is None else f"{problem} is not a finite number"
+            if problem is None and check is not None:
                 problem = check(rec)
             if problem:
                 _note(p, lineno, problem)
@@ -103,7 +144,7 @@ def open_for_append(path: str | os.PathLike) -> TextIO:
 
 def write_record(fh: TextIO, record: dict, sync: bool = False) -> None:
     """Write ``record`` as one compact JSON line and flush it (``sync``: to the disk, too)."""
-    fh.write(json.dumps(record, separators=(",", ":")) + "\n")
+    fh.write(encode_record(record) + "\n")
     fh.flush()
     if sync:
         os.fsync(fh.fileno())

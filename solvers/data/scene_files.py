@@ -37,7 +37,8 @@ from pulsemap.solvers.data.scene_schema import (
 )
 from pulsemap.solvers.data.scene_record import load_record, save_record
 from pulsemap.solvers.data.scene_spec import Scene
-from pulsemap.solvers.data.toml_bounds import TomlBoundsError, check_size, check_toml_bounds
+from pulsemap.solvers.data.toml_bounds import MAX_SCENE_BYTES, TomlBoundsError, check_size, check_toml_bounds
+from pulsemap.symbolic.files import FileKindError, TooLargeError, read_bounded
 
 
 def builtin_scenes() -> list[str]:
@@ -102,10 +103,12 @@ def load_scene(ref: str | Path) -> Scene:
             "name (pulsemap scenes lists them)"
         )
     try:
-        check_size(path.stat().st_size)  # before the file is read into memory
-        data = path.read_bytes()
-    except TomlBoundsError as exc:
-        raise SceneError(f"{text}: {exc}") from None
+        data = read_bounded(path, MAX_SCENE_BYTES)  # counted in bytes read: /dev/zero has stat size 0
+    except FileKindError as exc:
+        raise SceneError(f"{text}: {exc.strerror}: give the path of a .toml file") from None
+    except TooLargeError:
+        raise SceneError(f"{text}: the file is longer than the {MAX_SCENE_BYTES} bytes a scene may have: "
+                         "a scene file holds a few tables of numbers") from None
     except OSError as exc:
         raise SceneError(f"{text}: cannot read the scene file ({exc.strerror or exc}): check its permissions") from None
     return _parse_file(data, text)

@@ -112,7 +112,11 @@ def _number(value: Any, key: str) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         fix = " (remove the quotes)" if isinstance(value, str) else ""
         raise _Problem(f"{key} must be a number, got {_type_name(value)}{fix}")
-    result = float(value)
+    try:
+        result = float(value)
+    except OverflowError:  # a TOML integer of hundreds of digits
+        raise _Problem(f"{key} = {str(value)[:12]}... ({len(str(value))} digits) is beyond float64 "
+                       "(about 1.8e308): give a finite number") from None
     if not math.isfinite(result):
         raise _Problem(f"{key} = {result} is not finite: give a finite number")
     return result

@@ -293,6 +293,11 @@ def _spline_problem(value) -> str | None:
         return "not a spline {t, c, k}"
     if not all(cache.finite_number(v) for v in value["t"] + value["c"]):
         return "non-finite knots or coefficients"
+    t, k = value["t"], value["k"]
+    if any(b < a for a, b in zip(t, t[1:])):
+        return "knots out of order"
+    if not 0 <= k <= 5 or len(t) < 2 * k + 2 or len(value["c"]) < len(t) - k - 1:
+        return f"{len(t)} knots and {len(value['c'])} coefficients do not make a spline of degree {k}"
     return None
 
 

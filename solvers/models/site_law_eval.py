@@ -44,6 +44,17 @@ def _arg_values(module: ModuleType, pert: Perturbation, position: float, shift: 
     return out
 
 
+def _real(value, position: float, pert: Perturbation) -> float:
+    """``value`` as a float; a complex value (R between beads) is a SiteLawError naming where and why."""
+    if isinstance(value, complex) or np.iscomplexobj(value):
+        raise SiteLawError(
+            f"R = {pert.text} is complex at contact index {position:.6g} ({complex(value):.3g}): the law evaluates "
+            "R between beads (non-integer i), where a power of a negative number such as (-1)^i is not real; "
+            "write it as cos(pi*i), equal at every bead and real in between"
+        )
+    return float(value)
+
+
 def rate_function(module: ModuleType, pert: Perturbation, kind: str):
     """dB/di as a function (i, B) for ``kind`` "balance" (a balance module) or "longwave" (a map module)."""
     eps = float(pert.eps)
@@ -52,7 +63,7 @@ def rate_function(module: ModuleType, pert: Perturbation, kind: str):
 
         def rhs(i: float, B: float) -> float:
             A = max(B, 0.0) ** (1.0 / Q)
-            return float(module.balance_rate(A, eps, *_arg_values(module, pert, i, BALANCE_SHIFT))) / K
+            return _real(module.balance_rate(A, eps, *_arg_values(module, pert, i, BALANCE_SHIFT)), i, pert) / K
 
         return rhs, Q
     if kind == "longwave":
@@ -61,7 +72,7 @@ def rate_function(module: ModuleType, pert: Perturbation, kind: str):
         def rhs(i: float, B: float) -> float:
             A = max(B, 0.0) ** (1.0 / P)
             amps = (A, A) if module.VARIANT == "1d" else (A, A, A)
-            return float(module.map_residual(*amps, eps, *_arg_values(module, pert, i, 0.0))[0]) / f13
+            return _real(module.map_residual(*amps, eps, *_arg_values(module, pert, i, 0.0))[0], i, pert) / f13
 
         return rhs, P
     raise SiteLawError(f"unknown law kind {kind!r}: 'balance' or 'longwave'")

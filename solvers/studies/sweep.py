@@ -35,6 +35,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any, Callable, Iterable, Mapping, TextIO
 
+from pulsemap.solvers.data.numba_cache import remove_damaged_numba_cache
 from pulsemap.solvers.data.records import open_for_append, read_keyed, write_record
 from pulsemap.solvers.studies.progress import Progress, describe
 
@@ -166,7 +167,12 @@ def _call(task: Callable[[dict], dict], params: dict) -> dict:
     t0 = time.perf_counter()
     where = {"host": socket.gethostname(), "pid": os.getpid()}
     try:
-        result = task(params)
+        try:
+            result = task(params)
+        except Exception as exc:  # noqa: BLE001 - numba's damaged cache files: removed, the point run once more
+            if not remove_damaged_numba_cache(exc):
+                raise
+            result = task(params)
     except Exception as exc:  # noqa: BLE001 - recorded with its message, the sweep goes on
         message = str(exc).splitlines()[0] if str(exc) else ""
         return {"status": "error", "error": f"{type(exc).__name__}: {message}".rstrip(": "),
@@ -222,6 +228,17 @@ class SweepResult:
                 "failed": self.failed, "wall_s": self.wall_s, "executor": self.executor, "out": self.out}
 
 
+def worker_count(asked: int | None, stream: TextIO | None = None) -> int | None:
+    """Processes of the sweep's own pool: ``asked`` capped at the machine's CPU count (more only share
+    the same cores, and each holds its own copy of the chain), with a note on ``stream`` when capped."""
+    cpus = os.cpu_count() or 1
+    if asked is None or asked <= cpus:
+        return asked
+    print(f"pulsemap: note: {asked} workers asked, this machine has {cpus} CPUs: running {cpus}",
+          file=stream if stream is not None else sys.stderr, flush=True)
+    return cpus
+
+
 def _task_name(task: Callable) -> str:
     return f"{getattr(task, '__module__', '?')}.{getattr(task, '__qualname__', repr(task))}"
 
@@ -253,6 +270,8 @@ def run_sweep(
     if executor is not None and not isinstance(executor, cf.Executor) and not hasattr(executor, "submit"):
         raise SweepError(f"executor must be a concurrent.futures.Executor, got {type(executor).__name__}")
     err = stream if stream is not None else sys.stderr
+    if executor is None:
+        max_workers = worker_count(max_workers, err)
     t_start = time.perf_counter()
     task_name = _task_name(task)
     todo: dict[str, dict] = {}

@@ -128,9 +128,19 @@ def scene_row(name: str, progress: bool = False, columns=COLUMNS, eps: float | N
 
 def read_rows(path: str | os.PathLike) -> dict[str, dict]:
     """Finished rows of a JSON-lines file by row key (scene, columns and version)."""
+    _check_rows_path(path)
+    return read_keyed(path, required=("scene",), check=check_row)
+
+
+def _check_rows_path(path: str | os.PathLike) -> None:
+    """A rows file that exists must be a regular file (not a folder, a FIFO or a device like /dev/full)."""
     if Path(path).is_dir():
         raise TableError(f"rows file {path} is a directory: give a file name (e.g. {DEFAULT_ROWS_FILE})")
-    return read_keyed(path, required=("scene",), check=check_row)
+    if Path(path).exists() and not Path(path).is_file():
+        from pulsemap.symbolic.files import kind_of
+
+        raise TableError(f"rows file {path} is {kind_of(os.stat(path).st_mode)}, not a regular file: "
+                         f"give a file name (e.g. {DEFAULT_ROWS_FILE})")
 
 
 def check_row(row: dict) -> str | None:
@@ -178,6 +188,7 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
     scenes = {name: _scene(name, eps, sets) for name in names}  # every name and --set checked before any work
     done = read_rows(rows_file) if (rows_file is not None and not fresh) else {}
     if rows_file is not None and fresh and Path(rows_file).exists():
+        _check_rows_path(rows_file)  # --fresh never unlinks a device or a FIFO
         Path(rows_file).unlink()
     rows = []
     report = Progress("table", len(names), enabled=progress)

@@ -147,6 +147,29 @@ CLI = [
     ("velocity where R's scaled force is too large", ["run", "fig8-eps0.1", "--set", "excitation.velocity=1e-100"],
      ["velocity = 1e-100", "maps R's coefficients", "v0 in ["]),
     ("json and csv both to stdout", ["run", "fig8-eps0.1", "--json", "-", "--csv", "-"], ["both ask for stdout"]),
+    # unbounded work: the total degree, and models whose size grows with it, refused before any work
+    ("total degree: powers of powers", ["derive", "((u^64)^64)^64"], ["total degree 262144", "more than 64"]),
+    ("total degree: a long product", ["derive", "*".join(["u"] * 65)], ["total degree 65", "more than 64"]),
+    ("map of degree 64 under --max-seconds", ["derive", "(u+v+1)^64-1", "--max-seconds", "5"],
+     ["degree 64", f"{math.comb(64 + 4, 4) - 1} monomials of Eq. 23", "more than the 2000"]),
+    ("run: map of degree 30", ["run", "default", "--set", "perturbation.R=(u+v+1)^30-1", "--methods", "map"],
+     ["degree 30", f"{math.comb(30 + 4, 4) - 1} monomials", "methods = [\"dns\"]"]),
+    ("run: energy balance of degree 30", ["run", "default", "--set", "perturbation.R=(u+v+1)^30-1", "--methods",
+                                          "energy-map"], [f"{math.comb(30 + 2, 2) - 1} terms", "more than the 120"]),
+    # values that leave float64 or the reals while a model or the DNS runs: one line, never a traceback
+    ("R singular where the chain goes", ["run", "default", "--set", "perturbation.R=u*exp(1/(u-1))", "--methods", "dns"],
+     ["DNS stopped", "ZeroDivisionError", "its term 1/(u - 1) is infinite", "u - 1 = 0"]),
+    ("R complex between beads", ["run", "default", "--set", "perturbation.R=(-1)^i*u", "--methods", "energy-law"],
+     ["R = (-1)^i*u is complex at contact index", "cos(pi*i)"]),
+    ("velocity a 401-digit integer", ["run", "default", "--set", "excitation.velocity=" + "9" * 401],
+     ["velocity", "(401 digits) is beyond float64"]),
+    ("parameter a 401-digit integer", ["run", "default", "--set", "perturbation.params.mu=" + "9" * 401],
+     ["'mu'", "(401 digits) is beyond float64"]),
+    ("seed peak 1e300", ["run", "default", "--seed-peak", "1e300", "--methods", "map"],
+     ["the map (Eq. 23) stopped: OverflowError", "seed peak 1e+300", "smaller --seed-peak"]),
+    ("run: --methods ''", ["run", "default", "--methods", ""], ["--methods ''", "names no method"]),
+    ("run: nothing ran, with the reason", ["run", "default", "--methods", "dns", "--set", "perturbation.eps=1e300"],
+     ["nothing ran: no method produced a peak: DNS: no live primary pulse", "pulse died"]),
     # argparse's own usage errors
     ("no command", [], ["required", "COMMAND"]),
     ("unknown command", ["rnu", "default"], ["invalid choice: 'rnu'", "did you mean 'run'"]),
@@ -209,6 +232,8 @@ SCENES = [
     ("velocity a bool", edit("velocity = 1.0", "velocity = true"), ["velocity", "boolean"]),
     ("velocity nan", edit("velocity = 1.0", "velocity = nan"), ["velocity", "not finite"]),
     ("velocity 1e-300", edit("velocity = 1.0", "velocity = 1e-300"), ["velocity = 1e-300", "outside [1e-150, 1e+150]"]),
+    ("velocity a 401-digit integer", edit("velocity = 1.0", "velocity = " + "9" * 401),
+     ["velocity = 999999999999...", "(401 digits) is beyond float64"]),
     ("velocity 1e300", edit("velocity = 1.0", "velocity = 1e300"), ["velocity = 1e+300", "outside [1e-150, 1e+150]"]),
     ("rtol 1e-300", BASE + "[dns]\nrtol = 1e-300\n", ["rtol = 1e-300", "below what float64 can deliver", "rtol >= 2.2e-14"]),
     ("eps inf", edit("eps = 0.1", "eps = inf"), ["eps", "not finite"]),
@@ -375,6 +400,8 @@ API: list[tuple[str, Callable[[], object], Callable[[], type], list[str]]] = [
      ["'mu'", "not used"]),
     ("run: unknown method", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), methods=["mpa"]),
      _run_error, ["'mpa'", "did you mean 'map'"]),
+    ("run: no methods", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), methods=[]),
+     _run_error, ["no method to run"]),
     ("run: seed peak nan", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), seed_peak=math.nan),
      _run_error, ["seed peak", "finite"]),
     ("run: unknown profile", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), profile="spline"),
@@ -425,3 +452,33 @@ def test_override_of_R_keeps_only_the_parameters_it_uses():
     scene = _scene()
     assert dict(scene.with_overrides(R="-v").perturbation.params) == {}
     assert dict(scene.with_overrides(R="-2*mu*v").perturbation.params) == {"mu": 1.0}
+
+
+# --------------------------------------------------------------------------- files that are not files
+
+
+@pytest.mark.parametrize("argv, needles", [
+    (["run", "/dev/zero"], ["/dev/zero", "is a character device, not a regular file", ".toml"]),
+    (["run", "/dev/urandom"], ["/dev/urandom", "is a character device"]),
+    (["run", "FIFO"], ["is a FIFO (named pipe), not a regular file"]),
+    (["table", "fig8-eps0.1", "--rows", "/dev/full"], ["/dev/full", "not a regular file"]),
+    (["table", "fig8-eps0.1", "--rows", "/dev/full", "--fresh"], ["/dev/full", "not a regular file"]),
+    (["table", "fig8-eps0.1", "--rows", "FIFO"], ["is a FIFO (named pipe), not a regular file"]),
+    (["sweep", "fig8-eps0.1", "--over", "perturbation.eps=0.1,0.2", "--out", "/dev/zero"],
+     ["record file /dev/zero is a character device"]),
+], ids=["run /dev/zero", "run /dev/urandom", "run a FIFO", "table --rows /dev/full", "table --rows /dev/full --fresh",
+        "table --rows a FIFO", "sweep --out /dev/zero"])
+def test_reads_of_devices_and_fifos_end_at_once(argv, needles, tmp_path):
+    """Reads are bounded by bytes read and never block: a real process ends within seconds, exit 2."""
+    fifo = tmp_path / "scene.toml"
+    os.mkfifo(fifo)
+    argv = [str(fifo) if a == "FIFO" else a for a in argv]
+    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+           "PULSEMAP_CACHE_DIR": str(tmp_path / "cache")}
+    out = subprocess.run([sys.executable, "-m", "pulsemap.solvers.cli.main", *argv], capture_output=True, text=True,
+                         cwd=tmp_path, env=env, timeout=60)
+    assert out.returncode == 2, out
+    assert out.stderr.startswith("pulsemap: error: ") and out.stderr.count("\n") == 1, out.stderr
+    for needle in needles:
+        assert needle in out.stderr, (needle, out.stderr)
+    assert os.path.exists("/dev/full") and fifo.exists()

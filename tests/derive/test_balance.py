@@ -416,6 +416,7 @@ def test_table_row_ranks_every_model_and_names_the_winner():
 
 def test_table_appends_rows_and_skips_finished_scenes(tmp_path, monkeypatch):
     import pulsemap.solvers.studies.table as table_mod
+    from pulsemap.solvers.data.records import encode_record
 
     calls = []
 
@@ -437,8 +438,9 @@ def test_table_appends_rows_and_skips_finished_scenes(tmp_path, monkeypatch):
     # a row computed for another scene definition (stale key) is recomputed
     lines = rows_file.read_text().splitlines()
     stale = json.loads(lines[0])
+    stale.pop("sha256")
     stale["key"] = "0" * 20
-    rows_file.write_text(json.dumps(stale) + "\n")
+    rows_file.write_text(encode_record(stale) + "\n")  # a whole row, with its digest, of another definition
     table_mod.table(names[:1], rows_file=rows_file)
     assert calls == names + names[:1]
     table_mod.table(names[:1], rows_file=rows_file, fresh=True)

@@ -32,6 +32,8 @@ def _damage(path, how):
     text = path.read_bytes()
     if how == "edited":
         path.write_bytes(text.replace(b"0.25", b"0.5"))
+    elif how == "one digit":
+        path.write_bytes(text.replace(b"0.25", b"0.26"))
     elif how == "truncated":
         path.write_bytes(text[: len(text) // 3])
     elif how == "random bytes":
@@ -45,7 +47,7 @@ def _damage(path, how):
         raise AssertionError(how)
 
 
-HOW = ["edited", "truncated", "random bytes", "empty", "another module"]
+HOW = ["edited", "one digit", "truncated", "random bytes", "empty", "another module"]
 
 
 @pytest.mark.parametrize("how", HOW)

@@ -134,7 +134,7 @@ def test_dns_outcomes_on_a_short_chain(tmp_path):
 def test_cli_bifurcation_retry_failed_reruns_recorded_errors(tmp_path):
     """A point recorded with an error stays failed on a rerun, and is run again with --retry-failed."""
     from pulsemap.solvers.cli.main import main
-    from pulsemap.solvers.data.records import read_keyed
+    from pulsemap.solvers.data.records import encode_record, read_keyed
 
     out, rep_path = tmp_path / "b.jsonl", tmp_path / "rep.json"
     argv = ["bifurcation", VDP_SCENE, "--param", "mu", "--range", "1", "3", "--points", "2", "--impulses", "2.3",
@@ -144,9 +144,10 @@ def test_cli_bifurcation_retry_failed_reruns_recorded_errors(tmp_path):
     recs = [json.loads(line) for line in out.read_text().splitlines()]
     assert len(recs) == 2 and all(r["status"] == "ok" for r in recs)
     low = min(recs, key=lambda r: r["params"]["params"]["mu"])
-    bad = {**{k: v for k, v in low.items() if k != "result"}, "status": "error", "error": "RuntimeError: injected"}
+    bad = {**{k: v for k, v in low.items() if k not in ("result", "sha256")}, "status": "error",
+           "error": "RuntimeError: injected"}
     with out.open("a") as fh:
-        fh.write(json.dumps(bad) + "\n")
+        fh.write(encode_record(bad) + "\n")  # a failed point as the sweep records it, with its digest
     assert read_keyed(out)[low["key"]]["status"] == "error"
 
     def outcomes():

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from pulsemap.solvers.data.records import encode_record
+
 from pulsemap.solvers.studies.points import dns_task, plain_chain
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.sweep import SweepError, load_generated, point_key, read_records, run_sweep
@@ -98,8 +100,9 @@ def test_a_file_from_another_sweep_is_refused(tmp_path):
     out = tmp_path / "o.jsonl"
     run_sweep(_square, [{"x": 1.0}], out, max_workers=1)
     rec = json.loads(out.read_text())
-    rec["params"] = {"x": 5.0}  # same key, other parameters
-    out.write_text(json.dumps(rec) + "\n")
+    rec.pop("sha256")
+    rec["params"] = {"x": 5.0}  # same key, other parameters (a record written so, with its digest)
+    out.write_text(encode_record(rec) + "\n")
     with pytest.raises(SweepError, match="fresh output file"):
         run_sweep(_square, [{"x": 1.0}], out, max_workers=1)
 
@@ -205,3 +208,24 @@ def test_a_worker_runs_a_point_without_importing_sympy(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["6", "False"]
+
+
+def test_workers_are_capped_at_the_cpu_count_with_a_note(tmp_path, monkeypatch, capsys):
+    """--workers 1000000 forked a million processes; the pool gets os.cpu_count() (tested without forking)."""
+    import concurrent.futures as cf
+
+    from pulsemap.solvers.studies import sweep as sweep_mod
+
+    made = []
+
+    class FakePool(cf.ThreadPoolExecutor):
+        def __init__(self, max_workers=None, initializer=None):
+            made.append(max_workers)
+            super().__init__(max_workers=1)
+
+    monkeypatch.setattr(sweep_mod.os, "cpu_count", lambda: 3)
+    monkeypatch.setattr(sweep_mod.cf, "ProcessPoolExecutor", FakePool)
+    res = run_sweep(_square, [{"x": 1.0}, {"x": 2.0}], tmp_path / "w.jsonl", max_workers=1_000_000)
+    assert made == [3] and res.results() == [{"y": 1.0}, {"y": 4.0}] and "3 workers" in res.executor
+    assert capsys.readouterr().err == "pulsemap: note: 1000000 workers asked, this machine has 3 CPUs: running 3\n"
+    assert sweep_mod.worker_count(2) == 2 and sweep_mod.worker_count(None) is None

@@ -77,6 +77,8 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
     if seed_peak is not None and not (isinstance(seed_peak, (int, float)) and math.isfinite(seed_peak) and seed_peak > 0):
         raise RunError(f"seed peak must be a finite number > 0, got {seed_peak!r}")
     methods = tuple(methods) if methods is not None else tuple(scene.methods)
+    if not methods:
+        raise RunError(f"no method to run: give at least one of {', '.join(METHODS)} (or None for the scene's)")
     try:
         methods = tuple(check_choice(m.strip() if isinstance(m, str) else m, "method", METHODS) for m in methods)
         choice = Choice(check_choice(profile or scene.profile, "profile", PROFILES),
@@ -123,14 +125,17 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     force = None if (pert.is_zero or pert.eps == 0) else make_force(scene, beads)
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    res = simulate(
-        beads, scene.exponent, scene.velocity, span, force,
-        method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
-        atol=float(scene.dns.get("atol", 1e-12)), progress=progress,
-        engine=scene.dns.get("engine", "compiled"),
-        snapshots=[c for c in state.snapshots if span[0] <= c <= span[1]],
-        window=dns_window_of(scene, dns_window),
-    )
+    try:
+        res = simulate(
+            beads, scene.exponent, scene.velocity, span, force,
+            method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
+            atol=float(scene.dns.get("atol", 1e-12)), progress=progress,
+            engine=scene.dns.get("engine", "compiled"),
+            snapshots=[c for c in state.snapshots if span[0] <= c <= span[1]],
+            window=dns_window_of(scene, dns_window),
+        )
+    except ArithmeticError as exc:  # the compiled force divided by zero or overflowed
+        raise RunError(_force_failure(pert, exc)) from None
     state.timings["dns"] = time.perf_counter() - t0
     dns_peaks = on_contacts(contacts, res.contacts, res.peaks, res.alive)
     dns_alive = [p is not None for p in dns_peaks]
@@ -153,6 +158,19 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     if dns_seed is not None:
         state.seed_peak = dns_seed
         out["dns"]["seed_peak"] = dns_seed  # peak at first_perturbed - 1, seeds map and law
+
+
+def _force_failure(pert, exc: ArithmeticError) -> str:
+    """One line for a DNS stopped by the force itself: the error, R's term that is infinite, the fix."""
+    from pulsemap.symbolic.expression import singular_terms
+
+    terms = singular_terms(pert.R)
+    where = ""
+    if terms:
+        zero = terms[0].base if terms[0].is_Pow else terms[0].args[0]
+        where = f": its term {terms[0]} is infinite where the chain reaches {zero} = 0"
+    return (f"DNS stopped: R = {pert.text} gave {type(exc).__name__} ({exc}) in the compiled force{where}; "
+            "R must stay finite for every u, v the chain reaches (move the singularity out of reach or bound R)")
 
 
 def front_outputs(res, contacts: list[int], alive: list[bool]) -> dict:

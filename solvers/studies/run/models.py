@@ -6,6 +6,7 @@ timings and warnings, exactly as :func:`pulsemap.solvers.studies.run.run_scene` 
 
 from __future__ import annotations
 
+import contextlib
 import time
 from types import ModuleType
 
@@ -218,6 +219,25 @@ def run_relaxed(state: "RunState", prm: dict) -> None:
         state.warnings.append(f"relaxed: {run.message}")
 
 
+class ModelNumberError(ValueError):
+    """A reduced model whose numbers left float64 (overflow, division by zero); names the model and the seed."""
+
+
+@contextlib.contextmanager
+def _float64_guard(what: str, state: "RunState"):
+    """An ArithmeticError from generated code (A^P past 1e308, a division by zero) as one line naming
+    the model, the seed and the fix."""
+    try:
+        yield
+    except ArithmeticError as exc:
+        seed = state.out.get("seed", {})
+        raise ModelNumberError(
+            f"{what} stopped: {type(exc).__name__} ({exc}) from the seed peak {seed.get('peak', float('nan')):.6g} at "
+            f"contact {seed.get('contact')} ({seed.get('from', '?')}): the amplitude or R's coefficients are too "
+            "large for float64; give a smaller --seed-peak or scale R's parameters"
+        ) from None
+
+
 def run_models(state: "RunState") -> None:
     """Derive, seed and run every reduced model among the methods."""
     mod, balance = derive_models(state)
@@ -229,12 +249,16 @@ def run_models(state: "RunState") -> None:
     seed_A = seed_models(state, S0)
     prm = parameter_values(state.scene, state.scene.beads)
     if "relaxed" in state.methods:
-        run_relaxed(state, prm)
-    run_balance(state, balance, seed_A, prm)
+        with _float64_guard("the relaxed map", state):
+            run_relaxed(state, prm)
+    with _float64_guard("the balance " + ", ".join(m for m in state.methods if m in BALANCE_METHODS), state):
+        run_balance(state, balance, seed_A, prm)
     if "map" in state.methods and mod is not None:
-        run_map(state, mod, seed_A, prm)
+        with _float64_guard("the map (Eq. 23)", state):
+            run_map(state, mod, seed_A, prm)
     if "longwave" in state.methods and mod is not None:
-        run_longwave(state, mod, seed_A, prm)
+        with _float64_guard("the long-wave law (Eq. 30)", state):
+            run_longwave(state, mod, seed_A, prm)
     if dressed is not None:
         run_dressed(state, dressed, seed_A)
 

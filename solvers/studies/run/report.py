@@ -174,7 +174,11 @@ def nothing_ran(result: dict) -> str:
         return ""
     refused = [f"{m}: {result[m]['refused']}" for m in result["choices"]["methods"]
                if isinstance(result.get(m), dict) and "refused" in result[m]]
-    return "nothing ran: " + ("; ".join(refused) if refused else "no method produced a peak")
+    if refused:
+        return "nothing ran: " + "; ".join(refused)
+    why = [w for w in result.get("warnings", []) if not w.startswith("eps = ")]  # what stopped each method
+    return "nothing ran: no method produced a peak" + (": " + "; ".join(why) if why else
+                                                       " (no method reported why: please report this scene)")
 
 
 def plot(result: dict, path: str, log_y: bool = False) -> None:
