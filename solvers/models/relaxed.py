@@ -33,7 +33,8 @@ from typing import Mapping
 
 import numpy as np
 
-from pulsemap.solvers.models.relaxed_table import ONSET, SegmentSpec, SegmentTable, chain_force, leave_one_out
+from pulsemap.solvers.models.onsite import onsite_force
+from pulsemap.solvers.models.relaxed_table import ONSET, SegmentSpec, SegmentTable, leave_one_out
 
 X_SMALL = 1e-3  # |x| below which a monomial's log-ratios are continued linearly in x
 TITLE = "relaxed transfer map (canonical segment runs) with the tabulated onset"
@@ -72,8 +73,8 @@ class RelaxedModel:
     def table(self, sign: int) -> SegmentTable:
         if sign not in self.tables:
             text = _monomial_text(*self.exponents, sign)
-            self.tables[sign] = SegmentTable(SegmentSpec(text, (), 1.0, self.n, self.spec.rtol, self.spec.method,
-                                                         self.spec.engine, self.spec.window_accuracy))
+            self.tables[sign] = SegmentTable(SegmentSpec(text, (), 1.0, self.n, self.spec.rtol,
+                                                         self.spec.window_accuracy))
         return self.tables[sign]
 
     def _small_side(self, log_p: float, table: SegmentTable) -> float | None:
@@ -191,8 +192,7 @@ def _monomial_text(a: int, b: int, sign: int) -> str:
 
 
 def build_model(R, R_text: str, used: tuple[str, ...], values: Mapping[str, object], eps: float, n: float,
-                coefficients: np.ndarray | None, *, rtol: float = 1e-9, engine: str = "auto",
-                method: str = "DOP853") -> RelaxedModel:
+                coefficients: np.ndarray | None, *, rtol: float = 1e-9) -> RelaxedModel:
     """The relaxed model of eps R (sympy ``R``, its text, used parameter names and values).
 
     ``coefficients``: eps_i R_i(1, 1) per bead (the monomial's local coefficient); needed for a
@@ -208,21 +208,21 @@ def build_model(R, R_text: str, used: tuple[str, ...], values: Mapping[str, obje
     if mono is not None and abs(e) > 1e-12:
         if coefficients is None:
             raise RelaxedError("a single-monomial R needs its per-bead coefficients eps_i R_i(1, 1)")
-        spec = SegmentSpec(_monomial_text(*mono, 1), (), 1.0, float(n), rtol, method, engine)
+        spec = SegmentSpec(_monomial_text(*mono, 1), (), 1.0, float(n), rtol)
         return RelaxedModel(float(n), spec, {}, np.asarray(coefficients, float), e, mono)
     if site:
         raise RelaxedError(f"relaxed: R = {R_text} varies along the chain and is not a single monomial c_i u^a v^b "
                            "with a scaling exponent e != 0; the relaxed map needs R uniform, or one such monomial "
                            "(used at its local coefficient)")
     params = tuple(sorted((k, float(values[k])) for k in used))
-    spec = SegmentSpec(R_text, params, float(eps), float(n), rtol, method, engine)
+    spec = SegmentSpec(R_text, params, float(eps), float(n), rtol)
     return RelaxedModel(float(n), spec, {0: SegmentTable(spec)})
 
 
 def bead_coefficients(force_mod, used: tuple[str, ...], values: Mapping[str, object], eps: float,
                       first_perturbed: int, beads: int) -> np.ndarray:
     """eps_i R_i(1, 1) for beads 1..beads (zero before first_perturbed) from the generated force."""
-    force = chain_force(force_mod, beads, first_perturbed, eps, values)
+    force = onsite_force(force_mod, beads, first_perturbed, eps, values)
     ones = np.ones(beads)
     with np.errstate(all="ignore"):
         c = np.asarray(force.force(ones, ones), float)
@@ -231,8 +231,7 @@ def bead_coefficients(force_mod, used: tuple[str, ...], values: Mapping[str, obj
     return c
 
 
-def model_for_scene(scene, values: Mapping[str, object], *, rtol: float = 1e-9, engine: str = "auto",
-                    method: str = "DOP853") -> RelaxedModel:
+def model_for_scene(scene, values: Mapping[str, object], *, rtol: float = 1e-9) -> RelaxedModel:
     """The relaxed model of a scene's eps R (``values``: its parameters, scalars or per-bead arrays)."""
     from pulsemap.symbolic.scaling import monomial_exponents
     from pulsemap.solvers.models.codeload import force_module
@@ -244,5 +243,4 @@ def model_for_scene(scene, values: Mapping[str, object], *, rtol: float = 1e-9, 
         beads = min(lengths) if lengths else int(scene.contacts[1]) + 2
         coef = bead_coefficients(force_module(pert.text, pert.used_parameters), pert.used_parameters, values,
                                  float(pert.eps), int(scene.first_perturbed), beads)
-    return build_model(pert.R, pert.text, pert.used_parameters, values, float(pert.eps), float(scene.exponent), coef,
-                       rtol=rtol, engine=engine, method=method)
+    return build_model(pert.R, pert.text, pert.used_parameters, values, float(pert.eps), float(scene.exponent), coef, rtol=rtol)

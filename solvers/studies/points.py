@@ -15,8 +15,8 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from pulsemap.solvers.chain.force_table import jit_force, table_from_module
 from pulsemap.solvers.chain.dns import OnSiteForce, chain_length_for, simulate
+from pulsemap.solvers.models.onsite import ForceError, onsite_force
 from pulsemap.solvers.studies.sweep import SweepError, generated_ref, load_generated
 
 __all__ = ["bead_params", "chain_force", "dns_map_task", "dns_span", "dns_task", "on_contacts", "plain_chain",
@@ -117,62 +117,16 @@ def bead_params(chain: Mapping[str, Any]) -> dict[str, float | np.ndarray]:
 
 
 def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | None = None) -> OnSiteForce:
-    """eps_i R_i(x_i, v_i) (zero before first_perturbed) from a generated force module, Eq. 1.
-
-    ``restrict(lo, hi)`` gives the same force on beads lo..hi-1, so a moving-window DNS pays
-    for its window only; ``monomials`` is the same force as a table for the compiled engine.
-    Only ``chain["beads"]``, ``["first_perturbed"]`` and ``["eps"]`` are read (and
-    ``["params"]`` when ``values`` is not given). A force that cannot be evaluated at rest, or
+    """eps_i R_i(x_i, v_i) (zero before first_perturbed) from a generated force module, Eq. 1
+    (models/onsite.py). Only ``chain["beads"]``, ``["first_perturbed"]`` and ``["eps"]`` are read
+    (and ``["params"]`` when ``values`` is not given). A force that cannot be evaluated at rest, or
     is not finite there, is a SweepError.
     """
-    beads = int(chain["beads"])
     values = bead_params(chain) if values is None else values
-    idx = np.arange(1, beads + 1, dtype=float)
-    eps = np.where(idx >= int(chain["first_perturbed"]), float(chain["eps"]), 0.0)
-    full = tuple(values[name] if np.ndim(values[name]) else float(values[name]) for name in module.PARAMS)
-    zeros = np.zeros(beads)
     try:
-        with np.errstate(all="ignore"):
-            kx = np.abs(np.asarray(module.force_dx(zeros, zeros, idx, eps, *full), dtype=float))
-            kv = np.abs(np.asarray(module.force_dv(zeros, zeros, idx, eps, *full), dtype=float))
-    except (ValueError, ZeroDivisionError, FloatingPointError) as exc:
-        raise SweepError(f"the on-site force cannot be evaluated at rest: {exc}") from None
-    if not (np.all(np.isfinite(kx)) and np.all(np.isfinite(kv))):
-        raise SweepError("the on-site force is undefined at rest (non-finite value): check R and its parameters")
-    hint = float(max(kv.max(initial=0.0), math.sqrt(kx.max(initial=0.0))))
-
-    def build(lo: int, hi: int, monomials=None, jit=None) -> OnSiteForce:
-        i, e = idx[lo:hi], eps[lo:hi]
-        args = tuple(a[lo:hi] if np.ndim(a) else a for a in full)
-        return OnSiteForce(
-            force=lambda x, v: module.force(x, v, i, e, *args),
-            dforce_dx=lambda x, v: module.force_dx(x, v, i, e, *args),
-            dforce_dv=lambda x, v: module.force_dv(x, v, i, e, *args),
-            stiffness_hint=hint,
-            restrict=build,
-            monomials=monomials,
-            jit=jit,
-        )
-
-    table = table_from_module(module, idx, eps, full)  # the table: the compiled engine's F
-    return build(0, beads, table, None if table is not None else (lambda: numba_force(module, idx, eps, full)))
-
-
-def numba_force(module, idx: np.ndarray, eps: np.ndarray, full: tuple):
-    """The force module's R as a generated numba force for the compiled engine (chain/force_table.JitForce),
-    or a string saying why the scipy engine integrates it instead."""
-    from pulsemap.solvers.models.codeload import jit_force_module
-
-    if hasattr(module, "DELTA"):
-        return "non-smooth R (sign, Heaviside or abs, integrated as a stiff ramp): the scipy engine runs it"
-    zeros = np.zeros(idx.shape)
-    with np.errstate(all="ignore"):
-        if np.any(np.asarray(module.force(zeros, zeros, idx, eps, *full)) != 0.0):
-            return "R(0, 0) != 0 on some bead: the chain does not start at rest"
-    try:
-        return jit_force(jit_force_module(module.SOURCE["R"], module.SOURCE["params"]), idx, eps, full)
-    except (ValueError, RuntimeError, ImportError) as exc:  # ImportError: a numba cache that cannot be loaded
-        return f"R has no compiled form ({type(exc).__name__}: {exc})"
+        return onsite_force(module, int(chain["beads"]), int(chain["first_perturbed"]), float(chain["eps"]), values)
+    except ForceError as exc:
+        raise SweepError(str(exc)) from None
 
 
 def on_contacts(contacts: Sequence[int], at: Sequence[int], values: Sequence[float | None],

@@ -194,6 +194,7 @@ def run_relaxed(state: "RunState", prm: dict) -> None:
     """The relaxed transfer map with its onset (solvers/models/relaxed.py) from the seed peak; refused
     (reported, not raised) for an R it cannot take."""
     from pulsemap.solvers.models.relaxed import ONSET, RelaxedError, iterate_relaxed, model_for_scene
+    from pulsemap.solvers.models.relaxed_table import SegmentRunError
 
     scene, out = state.scene, state.out
     seed_contact, c1 = scene.first_perturbed - 1, scene.contacts[1]
@@ -204,6 +205,10 @@ def run_relaxed(state: "RunState", prm: dict) -> None:
     except RelaxedError as exc:
         state.warnings.append(f"relaxed refused: {exc}")
         out["relaxed"] = {"model": MODEL_TITLES["relaxed"], "refused": str(exc)}
+        return
+    except SegmentRunError as exc:
+        state.warnings.append(f"relaxed failed: {exc}")
+        out["relaxed"] = {"model": MODEL_TITLES["relaxed"], "failed": str(exc)}
         return
     state.timings["relaxed"] = time.perf_counter() - t0
     out["peaks"]["relaxed"] = on_contacts(state.contacts, run.contacts, run.peaks)

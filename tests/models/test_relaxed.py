@@ -120,3 +120,31 @@ def test_seed_is_checked():
         iterate_relaxed(model, math.nan, 15, 30)
     with pytest.raises(RelaxedError, match="after the seed"):
         iterate_relaxed(model, 1.0, 15, 15)
+
+
+def test_segment_runs_use_the_engine_simulate_chooses(monkeypatch):
+    """A polynomial R runs on the compiled engine, a non-smooth one (Coulomb's sign) on the scipy one."""
+    from pulsemap.solvers.chain import dns
+
+    engines = []
+    real = dns.simulate
+
+    def spy(*args, **kw):
+        res = real(*args, **kw)
+        engines.append(res.engine)
+        return res
+
+    monkeypatch.setattr(dns, "simulate", spy)
+    assert len(rt.segment_peaks(rt.SegmentSpec("-u^1", (), 1.0, N), 1.0)) > rt.ONSET
+    assert len(rt.segment_peaks(rt.SegmentSpec("-mu*sign(v)", (("mu", 1.0),), 0.05, N), 1.0)) > rt.ONSET
+    assert engines == ["compiled", "scipy"]
+
+
+def test_a_segment_run_that_stops_early_is_an_error_not_a_dead_pulse(monkeypatch):
+    """A run stopped by its step budget (as by an integrator failure) raises with its reason."""
+    from pulsemap.solvers.chain import dns
+
+    real = dns.simulate
+    monkeypatch.setattr(dns, "simulate", lambda *a, **kw: real(*a, **{**kw, "max_steps": 20}))
+    with pytest.raises(rt.SegmentRunError, match="ended early: step budget of 20 steps"):
+        rt.segment_peaks(rt.SegmentSpec("-u^1", (), 1.0, N), 1.0)

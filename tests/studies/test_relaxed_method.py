@@ -34,3 +34,15 @@ def test_live_range_ends_at_two_percent_of_the_seed():
     assert live_contacts(contacts, dns, 15, 1.0) == [16, 17, 18, 19]
     err = rms_on(contacts, dns, [None, 0.5, 0.1, 0.03, None, 0.0, None], [16, 17, 18, 19])
     assert err["rms_rel"] == 0.0 and err["missing"] == 1 and err["rms_rel_all"] == pytest.approx(0.5)
+
+
+@pytest.mark.slow
+def test_coulomb_friction_within_5_percent_of_the_dns(tmp_path):
+    """-mu*sign(v) at eps 0.05: the pulse lives to ~contact 28 and relaxed follows it (segment runs on
+    the scipy engine, which simulate chooses for a non-smooth R; the live range of `pulsemap run`)."""
+    text = scene_toml("coulomb", beads=60, eps=0.05, contacts=(16, 50), methods=("dns", "relaxed"))
+    text = text.replace('R = "-mu*v"', 'R = "-mu*sign(v)"')
+    res = run_scene(load_scene(str(write_scene(tmp_path, text))))
+    live = res["errors"]["relaxed"]["live"]
+    assert live["contacts"][0] == 16 and live["compared"] >= 10 and live["missing"] == 0
+    assert live["rms_rel_all"] < 0.05
