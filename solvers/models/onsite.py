@@ -21,12 +21,13 @@ class ForceError(ValueError):
     """An on-site force that cannot be evaluated at rest (or is not finite there)."""
 
 
-def onsite_force(module, beads: int, first_perturbed: int, eps: float, values: Mapping[str, object]) -> OnSiteForce:
-    """eps_i R_i on beads 1..beads (zero before first_perturbed); ``values`` maps the module's
-    parameters to scalars or per-bead arrays. ForceError when R is not finite at rest."""
+def onsite_force(module, beads: int, first_perturbed: int, eps, values: Mapping[str, object]) -> OnSiteForce:
+    """eps_i R_i on beads 1..beads (zero before first_perturbed); ``eps`` a scalar or per-bead array,
+    ``values`` maps the module's parameters to scalars or per-bead arrays. ForceError when R is not
+    finite at rest."""
     beads = int(beads)
     idx = np.arange(1, beads + 1, dtype=float)
-    e = np.where(idx >= int(first_perturbed), float(eps), 0.0)
+    e = np.where(idx >= int(first_perturbed), np.asarray(eps, float) if np.ndim(eps) else float(eps), 0.0)
     full = tuple(np.asarray(values[name], float) if np.ndim(values[name]) else float(values[name])
                  for name in module.PARAMS)
     zeros = np.zeros(beads)

@@ -44,7 +44,10 @@ class SegmentSpec:
     ``R`` the perturbation text, ``params`` its scalar values, ``eps``, ``n``; DNS ``rtol`` (the
     engine and method are the ones ``simulate`` chooses for the force: the compiled engine, Rodas4
     where stiff, the scipy engine for a non-smooth R); the moving window is sized for
-    ``window_accuracy``. atol is rtol/100 times the amplitude's scales.
+    ``window_accuracy``. atol is rtol/100 times the amplitude's scales. ``bump``: () for the uniform
+    chain, or (bead, delta, name): on bead first_perturbed + bead alone, R multiplied by 1 + delta
+    (name "") or parameter ``name`` raised by delta (the runs a response kernel is measured from,
+    solvers/models/relaxed_kernel.py).
     """
 
     R: str
@@ -53,6 +56,7 @@ class SegmentSpec:
     n: float
     rtol: float = 1e-9
     window_accuracy: float = 1e-8
+    bump: tuple = ()
 
     def geometry(self) -> tuple[int, int, int]:
         """(launch contact, first perturbed bead, entry contact) of the segment runs."""
@@ -67,7 +71,8 @@ class SegmentSpec:
         return (f"relaxed-segment|v{VERSION}|R={self.R}|params={prm}|eps={self.eps!r}|n={self.n!r}"
                 f"|A=2^({j}/{LATTICE})|centre={centre}|fp={fp}|contacts={entry}..{entry + CONTACTS}"
                 f"|death={DEATH}|rtol={self.rtol!r}|atol=rtol/100*scale|dns=simulate-auto"
-                f"|window={self.window_accuracy!r}:{self.window_rule()}")
+                f"|window={self.window_accuracy!r}:{self.window_rule()}"
+                + (f"|bump=bead fp+{self.bump[0]}:{self.bump[2] or 'R'}:{self.bump[1]!r}" if self.bump else ""))
 
     def window_rule(self) -> str:
         """The segment runs' window geometry (window.rule_for_accuracy: the cache key follows its calibration)."""
@@ -82,17 +87,18 @@ def lattice_amplitude(j: int) -> float:
 
 
 class SegmentRunError(RuntimeError):
-    """A segment run that ended for a reason other than its pulse (an integrator failure, a blow-up,
-    a spent step budget or t_max): the table cannot read it as a pulse that died."""
+    """A segment run that ended for a reason other than its pulse (an integrator failure, a spent step
+    budget or t_max): the table cannot read it as a pulse that died. A blow-up (the chain's energy
+    growing without bound: an unstable R) ends the pulse's record like a death, as before."""
 
 
-PULSE_ENDS = ("last contact peaked", "pulse died")  # stop reasons a segment run may end with
+PULSE_ENDS = ("last contact peaked", "pulse died", "blow-up")  # ends of the pulse, not of the integrator
 
 
 def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     """Peaks P_0.. of one canonical segment run (DNS with a moving window, no cache), on the engine and
     method ``simulate`` chooses for the force. SegmentRunError when the run ends other than by its
-    last contact or its pulse's death."""
+    last contact, its pulse's death or a blow-up."""
     from pulsemap.solvers.chain.dns import simulate
     from pulsemap.solvers.chain.launch import Launch
     from pulsemap.solvers.models.codeload import force_module
@@ -101,7 +107,15 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     names = tuple(k for k, _ in spec.params)
     centre, fp, entry = spec.geometry()
     beads = entry + CONTACTS + 12
-    force = onsite_force(force_module(spec.R, names), beads, fp, spec.eps, dict(spec.params))
+    eps, values = np.full(beads, float(spec.eps)), dict(spec.params)
+    if spec.bump:
+        bead, delta, name = spec.bump
+        if name:
+            values[name] = np.full(beads, values[name])
+            values[name][fp - 1 + bead] += delta
+        else:
+            eps[fp - 1 + bead] *= 1.0 + delta
+    force = onsite_force(force_module(spec.R, names), beads, fp, eps, values)
     scale = min(1.0, amplitude, amplitude ** ((spec.n + 1.0) / 2.0))
     res = simulate(beads, spec.n, 1.0, (entry, entry + CONTACTS), force, launch=Launch(float(amplitude), centre),
                    rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale, window="auto",

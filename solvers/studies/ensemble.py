@@ -11,6 +11,10 @@ peak at contact first_perturbed - 1, exactly as ``pulsemap run`` does for one sc
 Statistics per contact, over the realisations: mean, standard deviation (ddof 1), min and max
 of the DNS peak, of the map's peak and of the map's relative error against the DNS, each over the
 realisations whose DNS primary pulse is alive at that contact.
+
+Per realisation, the relaxed model (solvers/models/relaxed.py, its tables and kernel shared by
+every realisation) is run in the parent from the same seed peak, and its RMS error over the
+realisation's live range (the rule of ``pulsemap run``, live_range.py) stands next to the map's.
 """
 
 from __future__ import annotations
@@ -111,9 +115,46 @@ def ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = N
         "failed": [{"realisation": rec["params"]["ensemble"]["realisation"], "error": rec.get("error")}
                    for rec in res.records if rec["status"] != "ok"],
         "statistics": statistics(results, scene.first_perturbed),
+        "relaxed": relaxed_errors(scene, points, results),
         "sweep": res.summary(),
     }
     return report
+
+
+def relaxed_errors(scene, points: Sequence[dict], results: Sequence[dict | None]) -> dict:
+    """Per realisation the RMS and max relative error of the relaxed model and of the map against the
+    DNS over the live range (a contact without a value counts 100 %, as in ``pulsemap run``)."""
+    from pulsemap.solvers.models.relaxed import RelaxedError, iterate_relaxed, model_for_scene
+    from pulsemap.solvers.models.relaxed_table import SegmentRunError
+    from pulsemap.solvers.studies.live_range import live_contacts, rms_on
+    from pulsemap.solvers.studies.points import bead_params, on_contacts
+
+    seed_contact = scene.first_perturbed - 1
+    rows = []
+    for j, (point, res) in enumerate(zip(points, results)):
+        row: dict[str, Any] = {"realisation": j}
+        rows.append(row)
+        if res is None:
+            row["error"] = "the realisation failed"
+            continue
+        contacts, dns = res["contacts"], res["peaks"]
+        live = live_contacts(contacts, dns, seed_contact, res["seed_peak"])
+        row["live_contacts"] = [live[0], live[-1]] if live else None
+        row["map"] = _scores(rms_on(contacts, dns, res["map_peaks"], live))
+        try:
+            run = iterate_relaxed(model_for_scene(scene, bead_params(point)), float(res["seed_peak"]), seed_contact,
+                                  int(contacts[-1]))
+        except (RelaxedError, SegmentRunError) as exc:
+            row["error"] = f"relaxed: {exc}"
+            continue
+        row["relaxed"] = _scores(rms_on(contacts, dns, on_contacts(contacts, run.contacts, run.peaks), live))
+    done = [r for r in rows if "relaxed" in r]
+    return {"realisations": rows,
+            **{f"{m}_rms_rel": _stats([r[m]["rms_rel"] for r in done]) for m in ("relaxed", "map")}}
+
+
+def _scores(err: dict) -> dict:
+    return {"rms_rel": err["rms_rel_all"], "max_rel": err["max_rel_all"], "missing": err["missing"]}
 
 
 def to_text(report: dict) -> str:
@@ -135,6 +176,7 @@ def to_text(report: dict) -> str:
             if s["n"]:
                 lines.append(f"  map {label} rel. error over a realisation's live contacts: mean {100 * s['mean']:.1f} %"
                              + (f", std {100 * s['std']:.1f} %" if s["std"] is not None else ""))
+        lines += _relaxed_lines(report.get("relaxed"))
         lines.append(f"  {'contact':>7s} {'alive':>5s} {'DNS mean':>9s} {'DNS std':>8s} {'map mean':>9s} {'map std':>8s} "
                      f"{'err mean':>8s} {'err std':>8s}")
         for c, d, m, e in zip(st["contacts"], st["dns"], st["map"], st["rel_error"]):
@@ -143,6 +185,23 @@ def to_text(report: dict) -> str:
             lines.append(f"  {c:7d} {d['n']:5d} {_f(d['mean'], 9, 5)} {_f(d['std'], 8, 5)} {_f(m['mean'], 9, 5)} "
                          f"{_f(m['std'], 8, 5)} {_pct(e['mean'])} {_pct(e['std'])}")
     return "\n".join(lines)
+
+
+def _relaxed_lines(rel: dict | None) -> list[str]:
+    """Per realisation the relaxed model's and the map's RMS error over the live range, and their means."""
+    if not rel or not rel["realisations"]:
+        return []
+    out = ["  RMS rel. error over each realisation's live range (a contact without a value counts 100 %):",
+           f"  {'realis.':>7s} {'live':>9s} {'relaxed':>8s} {'map':>8s}"]
+    for r in rel["realisations"]:
+        live = "-" if not r.get("live_contacts") else "{}..{}".format(*r["live_contacts"])
+        rel_rms = r["relaxed"]["rms_rel"] if "relaxed" in r else None
+        map_rms = r["map"]["rms_rel"] if "map" in r else None
+        out.append(f"  {r['realisation']:7d} {live:>9s} {_pct(rel_rms)} {_pct(map_rms)}"
+                   + (f"  ({r['error']})" if "error" in r else ""))
+    means = [rel[f"{m}_rms_rel"]["mean"] for m in ("relaxed", "map")]
+    out.append(f"  {'mean':>7s} {'':>9s} {_pct(means[0])} {_pct(means[1])}")
+    return out
 
 
 def _pct(x) -> str:

@@ -216,10 +216,8 @@ def run_relaxed(state: "RunState", prm: dict) -> None:
                       "onset_contacts": ONSET, "segment_runs": model.segment_runs(),
                       "tables": [t.spec.R for t in model.tables.values()],
                       "scaling_exponent": model.e, "bulk_accuracy_log_ratio": model.accuracy()}
-    if model.coefficients is not None and len(set(model.coefficients[scene.first_perturbed - 1:].tolist())) > 1:
-        state.warnings.append("relaxed: R varies along the chain: each contact uses the map at the local coefficient "
-                              "of its first bead (the tables assume R uniform over the ~5 contacts a pulse needs "
-                              "to relax)")
+    if model.kernels:
+        out["relaxed"]["kernel_runs"] = sum(2 * len(k.runs) for k in model.kernels.values())
     if run.status != "ok":
         state.warnings.append(f"relaxed: {run.message}")
 

@@ -24,7 +24,7 @@ def model_for(R: str, eps: float, params: dict, beads: int = 80, fp: int = 16):
               for k in pert.used_parameters}
     coef = bead_coefficients(force_module(pert.text, pert.used_parameters), pert.used_parameters, values,
                              eps, fp, beads)
-    return build_model(pert.R, pert.text, pert.used_parameters, values, eps, N, coef)
+    return build_model(pert.R, pert.text, pert.used_parameters, values, eps, N, coef, first_perturbed=fp)
 
 
 def test_scaling_exponent_matches_the_symmetry_of_eq1():
@@ -109,9 +109,12 @@ def test_bulk_fit_reproduces_a_smooth_law():
     assert float(rt.fit_bulk(np.full(5, 0.3), np.full(5, -0.01))(0.3)) == pytest.approx(-0.01)
 
 
-def test_site_dependent_polynomial_is_refused():
-    with pytest.raises(RelaxedError, match="not a single monomial"):
-        model_for("-(k*u - mu*v)", 0.1, {"k": [0.5] * 80, "mu": 1.0})
+def test_site_dependent_r_the_grid_cannot_take_is_refused():
+    """Several monomials: one site-dependent parameter, no explicit bead index."""
+    with pytest.raises(RelaxedError, match="2 site-dependent parameters"):
+        model_for("-(k*u - mu*v)", 0.1, {"k": [0.5] * 80, "mu": [1.0] * 80})
+    with pytest.raises(RelaxedError, match="depends on the bead index i"):
+        model_for("-(k*i*u - mu*v)", 0.1, {"k": 0.01, "mu": 1.0})
 
 
 def test_seed_is_checked():

@@ -20,9 +20,10 @@ def test_relaxed_runs_beside_the_dns_with_live_range_errors(tmp_path):
     assert live["rms_rel_all"] < 0.02  # the damped pulse: the relaxed map within 2 % of the DNS
 
 
-def test_site_dependent_polynomial_is_refused_not_raised(tmp_path):
+def test_site_dependent_r_it_cannot_take_is_refused_not_raised(tmp_path):
     text = scene_toml("graded", beads=60, eps=0.1, contacts=(16, 30), methods=("relaxed",))
-    text = text.replace('R = "-mu*v"', 'R = "-(mu*v + k*u)"').replace("mu = 1.0", "mu = 1.0\nk = {uniform = [0, 1], seed = 3}")
+    text = text.replace('R = "-mu*v"', 'R = "-(mu*v + k*u)"').replace(
+        "mu = 1.0", "mu = {uniform = [0, 1], seed = 4}\nk = {uniform = [0, 1], seed = 3}")
     assert "seed = 3" in text
     res = run_scene(load_scene(str(write_scene(tmp_path, text))))
     assert "refused" in res["relaxed"] and res["peaks"]["relaxed"] is None
