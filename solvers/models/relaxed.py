@@ -220,7 +220,7 @@ class RelaxedModel:
         return max((leave_one_out(t) for t in self.tables.values() if len(t.runs) > 2), default=float("nan"))
 
     def segment_runs(self) -> int:
-        return sum(len(t.runs) for t in self.tables.values()) + sum(2 * len(k.runs) for k in self.kernels.values())
+        return sum(len(t.runs) for t in self.tables.values()) + sum(len(k.runs) for k in self.kernels.values())
 
 
 @dataclass(frozen=True)

@@ -6,14 +6,16 @@ whose first bead it is. For a segment table (relaxed_table.SegmentTable, uniform
     G_j(P) = d log(P_{c}/P_{c-1}) / d(log of R's scale on bead c + j)
 
 (or d/d(a parameter on bead c + j)): the change of the step onto contact c when R (or the
-parameter) on one bead, j places after the contact's first bead, is changed. It is measured, for each launch amplitude of the table, by two
-segment runs with R on bead first_perturbed + BUMP_BEAD scaled by 1 +- DELTA (a parameter:
-moved by +- DELTA max(|value|, 0.1); a central difference), read off the relaxed part of the run (contacts after the onset): the step onto the
-run's m-th contact sees the bump at j = BUMP_BEAD + 1 - m. The part of that change the map
-itself carries (the bump's earlier effect on P_{c-1} times the bulk map's slope d log r/d log P)
-is taken off, so that iterating the map with the kernel counts each effect once. Points are interpolated in log P_{c-1}
-per j (clamped at the ends). Sum_j G_j(P) is the derivative of the uniform map in log R's scale
-(tests/models/test_relaxed_kernel.py checks it). Runs are cached with the table's runs.
+parameter) on one bead, j places after the contact's first bead, is changed. It is measured, for
+each launch amplitude of the table, by one segment run with R on bead first_perturbed + BUMP_BEAD
+scaled by 1 + DELTA (a parameter: moved by DELTA max(|value|, 0.1)) against the table's own run,
+read off the relaxed part of the run (contacts after the onset): the step onto the run's m-th
+contact sees the bump at j = BUMP_BEAD + 1 - m. The part of that change the map itself carries
+(the bump's earlier effect on P_{c-1} times the bulk map's slope d log r/d log P) is taken off,
+so that iterating the map with the kernel counts each effect once. Points are interpolated in
+log P_{c-1} per j (clamped at the ends). Sum_j G_j(P) is the derivative of the uniform map in the
+varied quantity (tests/models/test_relaxed_kernel.py checks it). The map uses the kernel's shares
+G_j / sum_j G_j (``weights``). Runs are cached like the table's.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from pulsemap.solvers.models.relaxed_table import ONSET, SegmentTable, cached_se
 J_MIN, J_MAX = -4, 2  # the kernel's span in beads (behind the contact's first bead .. ahead of it)
 BUMP_BEAD = ONSET + J_MAX  # the bumped bead, after first_perturbed: steps ONSET+1.. see j = J_MAX, J_MAX-1, ..
 SLOPE_STEP = 1e-3  # half-step in log P of the bulk map's slope d log r / d log P
-DELTA = 0.02  # relative change of R on the bumped bead (central difference: error O(DELTA^2))
+DELTA = 0.02  # relative change of R on the bumped bead (a one-sided difference: the kernel's shares to O(DELTA))
 
 
 @dataclass
@@ -37,21 +39,19 @@ class KernelTable:
 
     table: SegmentTable
     param: str = ""  # "": R's scale on the bead; else the parameter the kernel is of
-    runs: dict = field(default_factory=dict)  # lattice j -> (peaks bumped up, peaks bumped down)
+    runs: dict = field(default_factory=dict)  # lattice j -> peaks of the bumped run
     _fits: dict | None = None
 
     def step(self) -> tuple[float, float]:
         """(the bump, the change of the varied quantity it makes: log scale of R, or the parameter)."""
         if not self.param:
-            return DELTA, math.log1p(DELTA) - math.log1p(-DELTA)
+            return DELTA, math.log1p(DELTA)
         d = DELTA * max(abs(dict(self.table.spec.params)[self.param]), 0.1)
-        return d, 2.0 * d
+        return d, d
 
-    def _bumped(self, j: int) -> tuple[list[float], list[float]]:
+    def _bumped(self, j: int) -> list[float]:
         if j not in self.runs:
-            d = self.step()[0]
-            up, down = (replace(self.table.spec, bump=(BUMP_BEAD, b, self.param)) for b in (d, -d))
-            self.runs[j] = (cached_segment(up, j), cached_segment(down, j))
+            self.runs[j] = cached_segment(replace(self.table.spec, bump=(BUMP_BEAD, self.step()[0], self.param)), j)
             self._fits = None
         return self.runs[j]
 
@@ -61,8 +61,8 @@ class KernelTable:
         change = self.step()[1]
         fit = self.table.bulk()
         for lat, base in sorted(self.table.runs.items()):
-            up, down = self._bumped(lat)
-            k = min(len(base), len(up), len(down))
+            up, down = self._bumped(lat), base
+            k = min(len(base), len(up))
             for m in range(ONSET + 1, k):
                 j = BUMP_BEAD + 1 - m
                 if J_MIN <= j <= J_MAX and fit is not None:

@@ -1,4 +1,4 @@
-"""Segment runs and the tables of the relaxed transfer map (issue 17), cached on disk.
+"""Segment runs and the tables of the relaxed transfer map, cached on disk.
 
 A canonical segment run (``segment_peaks``) launches the exact solitary wave of amplitude A
 (solvers/chain/launch.py) on contact c = launch.min_centre(n) of a chain perturbed from bead

@@ -93,7 +93,7 @@ def test_a_step_mixes_its_neighbours_by_the_kernel():
     beads = 80
     model = model_for("-k*u", 0.3, {"k": list(np.linspace(0.2, 1.0, beads))}, beads=beads)
     mix = model.mix(30, 0.7)
-    assert len(mix) == J_MAX - J_MIN + 1 - 1 or len(mix) == J_MAX - J_MIN + 1  # zero weights are dropped
+    assert J_MAX - J_MIN - 1 <= len(mix) <= J_MAX - J_MIN + 1  # the window, less zero weights
     assert sum(w for w, _ in mix) == pytest.approx(1.0, abs=1e-12)
     assert max(mix)[1] == pytest.approx(model._coef(30))  # the largest share: the contact's own bead
 
