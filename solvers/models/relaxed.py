@@ -275,12 +275,15 @@ def _monomial_text(a: int, b: int, sign: int) -> str:
 
 
 def build_model(R, R_text: str, used: tuple[str, ...], values: Mapping[str, object], eps: float, n: float,
-                coefficients: np.ndarray | None, *, rtol: float = 1e-9, first_perturbed: int | None = None) -> RelaxedModel:
+                coefficients: np.ndarray | None, *, rtol: float = 1e-9,
+                first_perturbed: int | None = None) -> RelaxedModel:
     """The relaxed model of eps R (sympy ``R``, its text, used parameter names and values).
 
     ``coefficients``: eps_i R_i(1, 1) per bead (the monomial's local coefficient); needed for a
     single monomial, ignored otherwise. ``first_perturbed`` (default: the first bead with a nonzero
-    coefficient): beads before it are the bare chain the segment runs enter from. Site-dependent R with several monomials is refused.
+    coefficient; required for a site-dependent R of several monomials): beads before it are the
+    bare chain the segment runs enter from. A site-dependent R of several monomials takes one
+    site-dependent parameter and no explicit bead index i (``_grid_model``).
     """
     from pulsemap.symbolic.scaling import monomial_exponents, scaling_exponent
 
@@ -356,5 +359,5 @@ def model_for_scene(scene, values: Mapping[str, object], *, rtol: float = 1e-9) 
         beads = min(lengths) if lengths else int(scene.contacts[1]) + 2
         coef = bead_coefficients(force_module(pert.text, pert.used_parameters), pert.used_parameters, values,
                                  float(pert.eps), int(scene.first_perturbed), beads)
-    return build_model(pert.R, pert.text, pert.used_parameters, values, float(pert.eps), float(scene.exponent), coef, rtol=rtol,
-                       first_perturbed=int(scene.first_perturbed))
+    return build_model(pert.R, pert.text, pert.used_parameters, values, float(pert.eps), float(scene.exponent), coef,
+                       rtol=rtol, first_perturbed=int(scene.first_perturbed))
