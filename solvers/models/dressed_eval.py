@@ -6,7 +6,9 @@ from ln A(i0) = ln A0 + sum_j Delta_j k1_j x_j(A0)/(1 - rho_j x_j(A0)) (the onse
 LSODA (rtol 1e-11). It stops where A falls to 1e-12 A0 (extinction), grows to 1e12 A0, or some
 |rho_j x_j| reaches 0.95 (the second-order term as large as the first: the series, and its Pade
 form, have lost their meaning; a restoring foundation near extinction, x = c A^(-1/2)): contacts
-past the end carry None. ``beyond`` is the first contact index where some |x_j| exceeds its validity bound.
+past the end carry None. ``beyond`` is the first contact index where some |x_j| exceeds its validity bound;
+the law gives no values past it either (status "beyond its validity bound"): it stays quiet where its
+two-term form is not trusted.
 """
 
 from __future__ import annotations
@@ -101,9 +103,13 @@ def evaluate_dressed_law(coef: DressedCoefficients, S0: float, A0: float, i0: fl
     beyond = float(sol.t_events[3][0]) if sol.t_events[3].size else None
     if beyond is None and past_bound(i0, [lnA0]) > 0:
         beyond = float(i0)
-    stop = float(sol.t[-1])
+    if beyond is not None and (ended_at is None or beyond < ended_at) and beyond < float(sol.t[-1]):
+        ended_at, status = beyond, "beyond its validity bound"
+    stop = float(sol.t[-1]) if ended_at is None else ended_at
     vals = [math.exp(float(sol.sol(c)[0])) if c <= stop + 1e-12 else None for c in contacts]
     msg = f"{status} at contact index {ended_at:.6g}" if ended_at is not None else "ODE solved (LSODA, rtol 1e-11)"
+    if status == "beyond its validity bound":
+        msg += ": some |x_j| passes the two-term law's validity bound (derive --model dressed prints it); no values past it"
     run = BalanceRun("dressed", "law", contacts.astype(int), vals, [v * S0 if v is not None else None for v in vals],
                      status, msg, ended_at, "dressed (second order)", "exact")
     return run, beyond

@@ -18,22 +18,31 @@ The model (tables: solvers/models/relaxed_table.py):
 
 Scaling (derive/scaling.py): for a single monomial eps c u^a v^b every ratio is a function of
 x = eps c A^e only, so the tables are built once for R = +-u^a v^b at eps = 1 and used for any
-eps, c and v0 by the amplitude change A' = |eps c|^(1/e) A; a site-dependent coefficient (graded
-or random foundation) uses the map at the local coefficient of each contact's first bead.
-Several monomials (or a non-polynomial R, or e = 0) get tables of their own R, eps and params;
-site-dependent R with several monomials is refused. Below |x| = X_SMALL the log-ratios are
+eps, c and v0 by the amplitude change A' = |eps c|^(1/e) A. Several monomials (or a non-polynomial
+R, or e = 0) get tables of their own R, eps and params. Below |x| = X_SMALL the log-ratios are
 continued linearly in x (first order in the perturbation), which covers c = 0 exactly.
+
+Site-dependent R (graded, modulated or random foundations): a bead's coefficient acts on the
+pulse over several contacts, so the step onto contact c mixes the uniform map over the
+coefficients of beads c + j, j = J_MIN..J_MAX: log r_c = sum_j w_j(P) log r(P; c_{c+j}), with
+w_j the shares of a first-order response kernel measured by segment runs with one bumped bead
+(solvers/models/relaxed_kernel.py). Where the window is uniform the map is the local one,
+bit for bit. A single monomial reads the coefficient c_i = eps_i R_i(1, 1); several monomials
+take one site-dependent parameter and uniform tables at GRID_POINTS values across its range,
+linear in the parameter between them. Every table and kernel is calibrated on segment runs only.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from typing import Mapping
 
 import numpy as np
 
-from pulsemap.solvers.models.relaxed_table import ONSET, SegmentSpec, SegmentTable, chain_force, leave_one_out
+from pulsemap.solvers.models.onsite import onsite_force
+from pulsemap.solvers.models.relaxed_kernel import J_MAX, J_MIN, KernelTable
+from pulsemap.solvers.models.relaxed_table import ONSET, SegmentSpec, SegmentTable, leave_one_out
 
 X_SMALL = 1e-3  # |x| below which a monomial's log-ratios are continued linearly in x
 TITLE = "relaxed transfer map (canonical segment runs) with the tabulated onset"
@@ -47,9 +56,11 @@ class RelaxedError(ValueError):
 class RelaxedModel:
     """Onset and bulk tables and how a scene's amplitudes map onto them.
 
-    ``coefficients``: eps_i c_i per bead (1-based at index i-1) for the monomial path, None for
-    a table of the scene's own R. ``e``: the monomial's scaling exponent. ``tables``: one per sign
-    of the coefficient (monomial path) or {0: the scene's table}.
+    ``coefficients``: eps_i c_i per bead (1-based at index i-1) for the monomial path, the
+    site-dependent parameter's values on the grid path, None for a table of the scene's own R.
+    ``e``: the monomial's scaling exponent. ``tables``: one per sign of the coefficient (monomial
+    path), one per grid point (grid path: ``grid`` the parameter ``param``'s values), or {0: the
+    scene's table}. ``kernels``: the response kernel of each table a site-dependent R needs.
     """
 
     n: float
@@ -58,48 +69,108 @@ class RelaxedModel:
     coefficients: np.ndarray | None = None
     e: float | None = None
     exponents: tuple[int, int] | None = None
+    first_perturbed: int = 1
+    kernels: dict = field(default_factory=dict)
+    grid: tuple[float, ...] | None = None
+    param: str | None = None
 
     # ------------------------------------------------------------ amplitude change
-    def _local(self, bead: int) -> tuple[int, float] | None:
-        """(table sign, log lambda) at ``bead``; None when the coefficient there is 0."""
-        if self.coefficients is None:
+    def _scale(self, c: float | None) -> tuple[int, float] | None:
+        """(table sign, log lambda) of coefficient c (None: the scene's own table); None for c = 0."""
+        if c is None:
             return 0, 0.0
-        c = float(self.coefficients[min(bead, len(self.coefficients)) - 1])
         if c == 0.0:
             return None
         return (1 if c > 0 else -1), math.log(abs(c)) / self.e
 
-    def table(self, sign: int) -> SegmentTable:
-        if sign not in self.tables:
-            text = _monomial_text(*self.exponents, sign)
-            self.tables[sign] = SegmentTable(SegmentSpec(text, (), 1.0, self.n, self.spec.rtol, self.spec.method,
-                                                         self.spec.engine, self.spec.window_accuracy))
-        return self.tables[sign]
+    def _coef(self, bead: int) -> float:
+        return float(self.coefficients[min(max(bead, 1), len(self.coefficients)) - 1])
+
+    def mix(self, contact: int, peak: float) -> list[tuple[float, float | None]]:
+        """[(w_j, c_j)]: log r of the step onto ``contact`` at peak P is sum_j w_j log r(P; c_j), the
+        uniform map at the coefficient c_j of bead contact + j (J_MIN <= j <= J_MAX) weighted by the
+        response kernel's shares at the window's mean coefficient (relaxed_kernel.KernelTable.weights).
+        To first order in the departures from the mean this is the kernel's own correction. Where
+        the window is uniform: [(1, own)], today's local map exactly. Beads before first_perturbed
+        count as the contact's own coefficient (the segment runs enter bare, like the scene)."""
+        if self.coefficients is None:
+            return [(1.0, None)]
+        own = self._coef(contact)
+        window = [self._coef(contact + j) if contact + j >= self.first_perturbed else own
+                  for j in range(J_MIN, J_MAX + 1)]
+        if all(c == own for c in window):
+            return [(1.0, own)]
+        ref = float(np.mean(window))
+        if self.grid is not None:  # the kernel of the grid table nearest the window's mean
+            key = int(np.argmin(np.abs(np.asarray(self.grid) - ref)))
+            tab, at = self.table(key), math.log(peak)
+        else:
+            key = 1 if ref > 0 else -1 if ref < 0 else (1 if own >= 0 else -1)
+            tab = self.table(key)
+            if ref == 0.0:
+                at = self._bound()
+            else:
+                log_p = math.log(abs(ref)) / self.e + math.log(peak)
+                bound = self._small_side(log_p, tab)
+                at = log_p if bound is None else bound
+        w = self.kernel(key).weights(at) if tab.cover(at) else None
+        if w is None:
+            return [(1.0, own)]
+        return [(float(wj), c) for wj, c in zip(w, window) if wj != 0.0]
+
+    def kernel(self, key: int) -> KernelTable:
+        """The response kernel of table ``key`` (of R's scale; of the parameter on the grid path)."""
+        if key not in self.kernels:
+            self.kernels[key] = KernelTable(self.table(key), self.param or "")
+        return self.kernels[key]
+
+    def table(self, key: int) -> SegmentTable:
+        """The table of a sign of the monomial's coefficient, or of grid point ``key`` (grid path)."""
+        if key not in self.tables and self.grid is not None:
+            params = tuple(sorted({**dict(self.spec.params), self.param: float(self.grid[key])}.items()))
+            self.tables[key] = SegmentTable(replace(self.spec, params=params))
+        if key not in self.tables:
+            text = _monomial_text(*self.exponents, key)
+            self.tables[key] = SegmentTable(SegmentSpec(text, (), 1.0, self.n, self.spec.rtol,
+                                                        self.spec.window_accuracy))
+        return self.tables[key]
+
+    def _bound(self) -> float:
+        """log P' where |x| = (P'/S0)^e = X_SMALL (monomial path)."""
+        from pulsemap.symbolic.profile import exact_profile
+
+        return math.log(exact_profile(self.n).S0) + math.log(X_SMALL) / self.e
 
     def _small_side(self, log_p: float, table: SegmentTable) -> float | None:
         """log P' of the X_SMALL boundary when log_p lies beyond it (monomial path), else None."""
         if self.e is None:
             return None
-        from pulsemap.symbolic.profile import exact_profile
-
-        # |x| = (P'/S0)^e; X_SMALL boundary at log P' = log S0 + log(X_SMALL)/e
-        bound = math.log(exact_profile(self.n).S0) + math.log(X_SMALL) / self.e
+        bound = self._bound()
         beyond = log_p > bound if self.e < 0 else log_p < bound
         return bound if beyond else None
 
     # ------------------------------------------------------------ steps
-    def onset_ratios(self, seed_peak: float, seed_contact: int) -> list[float] | None:
-        """P_k/P_{k-1} for the ONSET contacts after the seed; None: the pulse dies in the onset."""
-        out = []
-        for k in range(1, ONSET + 1):
-            local = self._local(seed_contact + k)
-            if local is None:
-                out.append(1.0)
-                continue
-            sign, log_lam = local
-            tab = self.table(sign)
-            log_p = log_lam + math.log(seed_peak)
-            bound = self._small_side(log_p, tab)
+    def _where(self, c: float | None, peak: float) -> list[tuple[float, SegmentTable, float, float | None]]:
+        """[(weight, table, log P' on it, X_SMALL boundary or None)] whose weighted log ratios are the
+        uniform chain's at coefficient c: one table (the scene's, or the monomial's sign at the scaled
+        amplitude; none for c = 0), or the two grid tables around parameter value c (linear in c)."""
+        if self.grid is not None:
+            g = self.grid
+            i = min(max(int(np.searchsorted(g, c)) - 1, 0), len(g) - 2)
+            t = min(max((c - g[i]) / (g[i + 1] - g[i]), 0.0), 1.0)
+            return [(w, self.table(k), math.log(peak), None) for w, k in ((1.0 - t, i), (t, i + 1)) if w != 0.0]
+        scale = self._scale(c)
+        if scale is None:
+            return []
+        sign, log_lam = scale
+        tab = self.table(sign)
+        log_p = log_lam + math.log(peak)
+        return [(1.0, tab, log_p, self._small_side(log_p, tab))]
+
+    def _log_onset(self, c: float | None, seed_peak: float, k: int) -> float | None:
+        """log P_k/P_{k-1} after entry at seed_peak on the uniform chain of coefficient c (None: dies)."""
+        total = 0.0
+        for weight, tab, log_p, bound in self._where(c, seed_peak):
             at = log_p if bound is None else bound
             tab.ensure_entry(at)
             ratios = tab.onset_ratios(at)
@@ -108,35 +179,48 @@ class RelaxedModel:
             value = ratios[k - 1]
             if bound is not None:
                 value *= math.exp(self.e * (log_p - bound))  # linear in x below X_SMALL
-            out.append(math.exp(value))
+            total += weight * value
+        return total
+
+    def _log_bulk(self, c: float | None, peak: float) -> float | None:
+        """log F(P)/P of the uniform chain of coefficient c (None: no relaxed pulse there)."""
+        total = 0.0
+        for weight, tab, log_p, bound in self._where(c, peak):
+            at = log_p if bound is None else bound
+            if not tab.cover(at):
+                return None
+            fit = tab.bulk()
+            if fit is None:
+                return None
+            value = float(fit(at))
+            if bound is not None:
+                value *= math.exp(self.e * (log_p - bound))
+            total += weight * value
+        return total
+
+    def onset_ratios(self, seed_peak: float, seed_contact: int) -> list[float] | None:
+        """P_k/P_{k-1} for the ONSET contacts after the seed; None: the pulse dies in the onset."""
+        out = []
+        for k in range(1, ONSET + 1):
+            terms = [(w, self._log_onset(c, seed_peak, k)) for w, c in self.mix(seed_contact + k, seed_peak)]
+            if any(v is None for _, v in terms):
+                return None
+            out.append(math.exp(sum(w * v for w, v in terms)))
         return out
 
     def bulk_ratio(self, peak: float, contact: int) -> float | None:
         """F(P)/P for the step onto ``contact``; None where no relaxed pulse exists (it dies)."""
-        local = self._local(contact)
-        if local is None:
-            return 1.0
-        sign, log_lam = local
-        tab = self.table(sign)
-        log_p = log_lam + math.log(peak)
-        bound = self._small_side(log_p, tab)
-        at = log_p if bound is None else bound
-        if not tab.cover(at):
+        terms = [(w, self._log_bulk(c, peak)) for w, c in self.mix(contact, peak)]
+        if any(v is None for _, v in terms):
             return None
-        fit = tab.bulk()
-        if fit is None:
-            return None
-        value = float(fit(at))
-        if bound is not None:
-            value *= math.exp(self.e * (log_p - bound))
-        return math.exp(value)
+        return math.exp(sum(w * v for w, v in terms))
 
     def accuracy(self) -> float:
         """Stated accuracy of the bulk map: the worst leave-one-run-out error in log r."""
         return max((leave_one_out(t) for t in self.tables.values() if len(t.runs) > 2), default=float("nan"))
 
     def segment_runs(self) -> int:
-        return sum(len(t.runs) for t in self.tables.values())
+        return sum(len(t.runs) for t in self.tables.values()) + sum(len(k.runs) for k in self.kernels.values())
 
 
 @dataclass(frozen=True)
@@ -191,12 +275,15 @@ def _monomial_text(a: int, b: int, sign: int) -> str:
 
 
 def build_model(R, R_text: str, used: tuple[str, ...], values: Mapping[str, object], eps: float, n: float,
-                coefficients: np.ndarray | None, *, rtol: float = 1e-9, engine: str = "auto",
-                method: str = "DOP853") -> RelaxedModel:
+                coefficients: np.ndarray | None, *, rtol: float = 1e-9,
+                first_perturbed: int | None = None) -> RelaxedModel:
     """The relaxed model of eps R (sympy ``R``, its text, used parameter names and values).
 
     ``coefficients``: eps_i R_i(1, 1) per bead (the monomial's local coefficient); needed for a
-    single monomial, ignored otherwise. Site-dependent R with several monomials is refused.
+    single monomial, ignored otherwise. ``first_perturbed`` (default: the first bead with a nonzero
+    coefficient; required for a site-dependent R of several monomials): beads before it are the
+    bare chain the segment runs enter from. A site-dependent R of several monomials takes one
+    site-dependent parameter and no explicit bead index i (``_grid_model``).
     """
     from pulsemap.symbolic.scaling import monomial_exponents, scaling_exponent
 
@@ -208,21 +295,50 @@ def build_model(R, R_text: str, used: tuple[str, ...], values: Mapping[str, obje
     if mono is not None and abs(e) > 1e-12:
         if coefficients is None:
             raise RelaxedError("a single-monomial R needs its per-bead coefficients eps_i R_i(1, 1)")
-        spec = SegmentSpec(_monomial_text(*mono, 1), (), 1.0, float(n), rtol, method, engine)
-        return RelaxedModel(float(n), spec, {}, np.asarray(coefficients, float), e, mono)
+        spec = SegmentSpec(_monomial_text(*mono, 1), (), 1.0, float(n), rtol)
+        coef = np.asarray(coefficients, float)
+        if first_perturbed is None:
+            first_perturbed = int(np.argmax(coef != 0.0)) + 1 if np.any(coef != 0.0) else 1
+        return RelaxedModel(float(n), spec, {}, coef, e, mono, int(first_perturbed))
     if site:
-        raise RelaxedError(f"relaxed: R = {R_text} varies along the chain and is not a single monomial c_i u^a v^b "
-                           "with a scaling exponent e != 0; the relaxed map needs R uniform, or one such monomial "
-                           "(used at its local coefficient)")
+        return _grid_model(R, R_text, used, values, eps, n, rtol, first_perturbed)
     params = tuple(sorted((k, float(values[k])) for k in used))
-    spec = SegmentSpec(R_text, params, float(eps), float(n), rtol, method, engine)
+    spec = SegmentSpec(R_text, params, float(eps), float(n), rtol)
     return RelaxedModel(float(n), spec, {0: SegmentTable(spec)})
+
+
+GRID_POINTS = 9  # uniform tables across a site-dependent parameter's range (several monomials)
+
+
+def _grid_model(R, R_text: str, used: tuple[str, ...], values: Mapping[str, object], eps: float, n: float,
+                rtol: float, first_perturbed: int | None) -> RelaxedModel:
+    """Site-dependent R with several monomials: uniform tables at GRID_POINTS values of its one
+    site-dependent parameter, the map linear in the parameter between them, mixed over neighbours
+    by the parameter's response kernel (RelaxedModel.mix)."""
+    if "i" in {s.name for s in R.free_symbols}:
+        raise RelaxedError(f"relaxed: R = {R_text} depends on the bead index i and is not a single monomial; write "
+                           "the bead-dependent part as a parameter (a list, a random draw or an expression of i)")
+    varying = [k for k in used if np.ndim(values[k])]
+    if len(varying) != 1:
+        raise RelaxedError(f"relaxed: R = {R_text} has {len(varying)} site-dependent parameters "
+                           f"({', '.join(varying)}); a relaxed model with several monomials takes one")
+    name = varying[0]
+    if first_perturbed is None:
+        raise RelaxedError("relaxed: a site-dependent R with several monomials needs first_perturbed")
+    theta = np.asarray(values[name], float)
+    if not np.all(np.isfinite(theta)):
+        raise RelaxedError(f"relaxed: parameter {name} is not finite on every bead")
+    lo, hi = float(theta[first_perturbed - 1:].min()), float(theta[first_perturbed - 1:].max())
+    grid = tuple(np.linspace(lo, hi, GRID_POINTS).tolist()) if hi > lo else (lo, lo + 1.0)
+    params = tuple(sorted((k, float(values[k]) if k != name else lo) for k in used))
+    spec = SegmentSpec(R_text, params, float(eps), float(n), rtol)
+    return RelaxedModel(float(n), spec, {}, theta, None, None, int(first_perturbed), grid=grid, param=name)
 
 
 def bead_coefficients(force_mod, used: tuple[str, ...], values: Mapping[str, object], eps: float,
                       first_perturbed: int, beads: int) -> np.ndarray:
     """eps_i R_i(1, 1) for beads 1..beads (zero before first_perturbed) from the generated force."""
-    force = chain_force(force_mod, beads, first_perturbed, eps, values)
+    force = onsite_force(force_mod, beads, first_perturbed, eps, values)
     ones = np.ones(beads)
     with np.errstate(all="ignore"):
         c = np.asarray(force.force(ones, ones), float)
@@ -231,8 +347,7 @@ def bead_coefficients(force_mod, used: tuple[str, ...], values: Mapping[str, obj
     return c
 
 
-def model_for_scene(scene, values: Mapping[str, object], *, rtol: float = 1e-9, engine: str = "auto",
-                    method: str = "DOP853") -> RelaxedModel:
+def model_for_scene(scene, values: Mapping[str, object], *, rtol: float = 1e-9) -> RelaxedModel:
     """The relaxed model of a scene's eps R (``values``: its parameters, scalars or per-bead arrays)."""
     from pulsemap.symbolic.scaling import monomial_exponents
     from pulsemap.solvers.models.codeload import force_module
@@ -245,4 +360,4 @@ def model_for_scene(scene, values: Mapping[str, object], *, rtol: float = 1e-9, 
         coef = bead_coefficients(force_module(pert.text, pert.used_parameters), pert.used_parameters, values,
                                  float(pert.eps), int(scene.first_perturbed), beads)
     return build_model(pert.R, pert.text, pert.used_parameters, values, float(pert.eps), float(scene.exponent), coef,
-                       rtol=rtol, engine=engine, method=method)
+                       rtol=rtol, first_perturbed=int(scene.first_perturbed))

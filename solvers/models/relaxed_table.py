@@ -23,17 +23,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from pulsemap.symbolic import cache
 
-if TYPE_CHECKING:  # pragma: no cover
-    from pulsemap.solvers.chain.equations import OnSiteForce
-
 NAMESPACE = "relaxed"
-VERSION = 1
+VERSION = 2
 GAP = 6  # beads between the launch contact and the first perturbed bead (S < 1e-15 S(0) there)
 CONTACTS = 20  # contacts recorded after the entry contact
 ONSET = 5  # contacts after the entry read from the onset table; the bulk map from then on
@@ -46,10 +41,13 @@ MAX_RUNS = 80  # segment runs one table may hold (a bound on the build cost)
 class SegmentSpec:
     """Everything a segment run depends on but the launch amplitude.
 
-    ``R`` the perturbation text, ``params`` its scalar values, ``eps``, ``n``; DNS ``rtol``,
-    ``method`` and ``engine`` (the moving window's: "auto", "fortran", "scipy"; always the scipy
-    DNS engine, which the cached tables were computed with); the window is sized for
-    ``window_accuracy``. atol is rtol/100 times the amplitude's scales.
+    ``R`` the perturbation text, ``params`` its scalar values, ``eps``, ``n``; DNS ``rtol`` (the
+    engine and method are the ones ``simulate`` chooses for the force: the compiled engine, Rodas4
+    where stiff, the scipy engine for a non-smooth R); the moving window is sized for
+    ``window_accuracy``. atol is rtol/100 times the amplitude's scales. ``bump``: () for the uniform
+    chain, or (bead, delta, name): on bead first_perturbed + bead alone, R multiplied by 1 + delta
+    (name "") or parameter ``name`` raised by delta (the runs a response kernel is measured from,
+    solvers/models/relaxed_kernel.py).
     """
 
     R: str
@@ -57,9 +55,8 @@ class SegmentSpec:
     eps: float
     n: float
     rtol: float = 1e-9
-    method: str = "DOP853"
-    engine: str = "auto"
     window_accuracy: float = 1e-8
+    bump: tuple = ()
 
     def geometry(self) -> tuple[int, int, int]:
         """(launch contact, first perturbed bead, entry contact) of the segment runs."""
@@ -73,8 +70,9 @@ class SegmentSpec:
         centre, fp, entry = self.geometry()
         return (f"relaxed-segment|v{VERSION}|R={self.R}|params={prm}|eps={self.eps!r}|n={self.n!r}"
                 f"|A=2^({j}/{LATTICE})|centre={centre}|fp={fp}|contacts={entry}..{entry + CONTACTS}"
-                f"|death={DEATH}|rtol={self.rtol!r}|atol=rtol/100*scale|method={self.method}|engine={self.engine}"
-                f"|window={self.window_accuracy!r}:{self.window_rule()}")
+                f"|death={DEATH}|rtol={self.rtol!r}|atol=rtol/100*scale|dns=simulate-auto"
+                f"|window={self.window_accuracy!r}:{self.window_rule()}"
+                + (f"|bump=bead fp+{self.bump[0]}:{self.bump[2] or 'R'}:{self.bump[1]!r}" if self.bump else ""))
 
     def window_rule(self) -> str:
         """The segment runs' window geometry (window.rule_for_accuracy: the cache key follows its calibration)."""
@@ -88,35 +86,43 @@ def lattice_amplitude(j: int) -> float:
     return 2.0 ** (j / LATTICE)
 
 
-def chain_force(module, beads: int, first_perturbed: int, eps: float, values) -> "OnSiteForce":
-    """eps_i R_i(x_i, v_i) on beads 1..beads (zero before first_perturbed) from a generated force
-    module; ``values`` maps its parameters to scalars or per-bead arrays (Eq. 1)."""
-    from pulsemap.solvers.chain.equations import OnSiteForce
+class SegmentRunError(RuntimeError):
+    """A segment run that ended for a reason other than its pulse (an integrator failure, a spent step
+    budget or t_max): the table cannot read it as a pulse that died. A blow-up (the chain's energy
+    growing without bound: an unstable R) ends the pulse's record like a death, as before."""
 
-    idx = np.arange(1, beads + 1, dtype=float)
-    e = np.where(idx >= first_perturbed, float(eps), 0.0)
-    args = tuple(np.asarray(values[k], float) if np.ndim(values[k]) else float(values[k]) for k in module.PARAMS)
-    return OnSiteForce(force=lambda x, v: module.force(x, v, idx, e, *args),
-                       dforce_dx=lambda x, v: module.force_dx(x, v, idx, e, *args),
-                       dforce_dv=lambda x, v: module.force_dv(x, v, idx, e, *args))
+
+PULSE_ENDS = ("last contact peaked", "pulse died", "blow-up")  # ends of the pulse, not of the integrator
 
 
 def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
-    """Peaks P_0.. of one canonical segment run (DNS with a moving window, no cache)."""
+    """Peaks P_0.. of one canonical segment run (DNS with a moving window, no cache), on the engine and
+    method ``simulate`` chooses for the force. SegmentRunError when the run ends other than by its
+    last contact, its pulse's death or a blow-up."""
     from pulsemap.solvers.chain.dns import simulate
     from pulsemap.solvers.chain.launch import Launch
     from pulsemap.solvers.models.codeload import force_module
+    from pulsemap.solvers.models.onsite import onsite_force
 
     names = tuple(k for k, _ in spec.params)
     centre, fp, entry = spec.geometry()
     beads = entry + CONTACTS + 12
-    mod = force_module(spec.R, names)
-    force = chain_force(mod, beads, fp, spec.eps, dict(spec.params))
+    eps, values = np.full(beads, float(spec.eps)), dict(spec.params)
+    if spec.bump:
+        bead, delta, name = spec.bump
+        if name:
+            values[name] = np.full(beads, values[name])
+            values[name][fp - 1 + bead] += delta
+        else:
+            eps[fp - 1 + bead] *= 1.0 + delta
+    force = onsite_force(force_module(spec.R, names), beads, fp, eps, values)
     scale = min(1.0, amplitude, amplitude ** ((spec.n + 1.0) / 2.0))
     res = simulate(beads, spec.n, 1.0, (entry, entry + CONTACTS), force, launch=Launch(float(amplitude), centre),
-                   method=spec.method, rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale, window="auto",
-                   window_accuracy=spec.window_accuracy, window_engine=spec.engine, death_fraction=DEATH,
-                   engine="scipy")
+                   rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale, window="auto",
+                   window_accuracy=spec.window_accuracy, death_fraction=DEATH)
+    if not res.stop_reason.startswith(PULSE_ENDS):
+        raise SegmentRunError(f"segment run of R = {spec.R} (eps {spec.eps:g}) launched at amplitude {amplitude:.6g} "
+                              f"ended early: {res.stop_reason} [{res.engine}: {res.engine_reason}]")
     out = []
     for p, alive in zip(res.peaks, res.alive):
         if not alive or not math.isfinite(p):

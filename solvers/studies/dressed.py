@@ -33,6 +33,8 @@ from pulsemap.solvers.models.dressed_eval import DressedCoefficients
 from pulsemap.solvers.models.dressed_expansion import ExpansionError
 from pulsemap.solvers.studies.dressed_calibration import CalibrationError, calibrate, calibrate_cross, first_order_rate
 
+MAX_BEAD_STEP = 0.05  # largest change of a coefficient from one bead to the next, over its largest |value|
+BEAD_SPAN = 100  # beads after the first perturbed one over which a run's law checks that its coefficients are slow
 CROSS_NOTE = "a cross term k2_jl x_j x_l could be neither derived nor calibrated: the law neglects it"
 SOURCES = ("derived", "calibrated")
 
@@ -136,6 +138,21 @@ def coefficient_along(coefficient: sympy.Expr, pert: Perturbation, beads: np.nda
     return np.broadcast_to(np.asarray(vals, dtype=float), beads.shape).copy()
 
 
+def bead_to_bead(coefficient: sympy.Expr, monomial: str, pert: Perturbation, first_bead: float) -> str:
+    """Why the dressed law cannot follow a coefficient that jumps from bead to bead ("" when it can): its rate
+    is local in the contact index, while a bead acts on the pulse over several contacts (the relaxed model's
+    response kernel), so the law holds where the coefficient changes by <= MAX_BEAD_STEP of its largest
+    value from one bead to the next (checked over BEAD_SPAN beads from ``first_bead``)."""
+    vals = coefficient_along(coefficient, pert, first_bead + np.arange(BEAD_SPAN + 1.0))
+    scale = float(np.max(np.abs(vals)))
+    step = float(np.max(np.abs(np.diff(vals)))) / scale if scale > 0 and np.all(np.isfinite(vals)) else 0.0
+    if step <= MAX_BEAD_STEP:
+        return ""
+    return (f"the coefficient of {monomial} changes by up to {100 * step:.0f} % of its largest value from one bead to "
+            f"the next (the law holds where it changes by <= {100 * MAX_BEAD_STEP:g} %: a bead acts on the pulse over "
+            "several contacts); use method relaxed")
+
+
 def site_coefficient_functions(pert: Perturbation, law: DressedLaw, i0: float, i1: float, step: float = 1 / 16):
     """c_j(i) = eps R's coefficient of monomial j at bead i + 1/2 (the energy law's convention, derive/site_law.py),
     tabulated from i0 to i1 and interpolated linearly: one function per term of ``law``."""
@@ -175,6 +192,10 @@ def dressed_law(pert: Perturbation, n: float = 1.5, at_bead: float | None = None
                 continue
         else:
             value = coefficient_at(t.coefficient, pert, float(at_bead))
+            if not site:  # a run follows c_j(i) along the chain: only where it changes slowly from bead to bead
+                why = bead_to_bead(t.coefficient, str(t.monomial), pert, float(at_bead) + 0.5)
+                if why:
+                    raise DressedError(why)
         try:
             co = monomial_coefficients(a, b, n, source)
         except (CalibrationError, ExpansionError) as exc:

@@ -11,6 +11,10 @@ peak at contact first_perturbed - 1, exactly as ``pulsemap run`` does for one sc
 Statistics per contact, over the realisations: mean, standard deviation (ddof 1), min and max
 of the DNS peak, of the map's peak and of the map's relative error against the DNS, each over the
 realisations whose DNS primary pulse is alive at that contact.
+
+Per realisation, the relaxed model (solvers/models/relaxed.py, its tables and kernel shared by
+every realisation) is run in the parent from the same seed peak, and its RMS error over the
+realisation's live range (the rule of ``pulsemap run``, live_range.py) stands next to the map's.
 """
 
 from __future__ import annotations
@@ -110,9 +114,42 @@ def ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = N
         "failed": [{"realisation": rec["params"]["ensemble"]["realisation"], "error": rec.get("error")}
                    for rec in res.records if rec["status"] != "ok"],
         "statistics": statistics(results, scene.first_perturbed),
+        "relaxed": relaxed_errors(scene, points, results),
         "sweep": res.summary(),
     }
     return report
+
+
+def relaxed_errors(scene, points: Sequence[dict], results: Sequence[dict | None]) -> dict:
+    """Per realisation the error of the relaxed model and of the map against the DNS, as ``pulsemap
+    run`` reports it (studies/errors.py: percent over the live range)."""
+    from pulsemap.solvers.models.relaxed import RelaxedError, iterate_relaxed, model_for_scene
+    from pulsemap.solvers.models.relaxed_table import SegmentRunError
+    from pulsemap.solvers.studies.forcing import bead_params
+    from pulsemap.solvers.studies.points import on_contacts
+
+    seed_contact = scene.first_perturbed - 1
+    rows = []
+    for j, (point, res) in enumerate(zip(points, results)):
+        row: dict[str, Any] = {"realisation": j}
+        rows.append(row)
+        if res is None:
+            row["error"] = "the realisation failed"
+            continue
+        contacts, dns, seed_peak = res["contacts"], res["peaks"], res["seed_peak"]
+        row["map"] = model_error(contacts, dns, res["map_peaks"], seed_contact, seed_peak)
+        row["live_range"] = row["map"]["live_range"]
+        try:
+            run = iterate_relaxed(model_for_scene(scene, bead_params(point)), float(seed_peak), seed_contact,
+                                  int(contacts[-1]))
+        except (RelaxedError, SegmentRunError) as exc:
+            row["error"] = f"relaxed: {exc}"
+            continue
+        row["relaxed"] = model_error(contacts, dns, on_contacts(contacts, run.contacts, run.peaks), seed_contact,
+                                     seed_peak)
+    done = [r for r in rows if "relaxed" in r]
+    return {"realisations": rows,
+            **{f"{m}_rms_pct": _stats([r[m]["rms_pct"] for r in done]) for m in ("relaxed", "map")}}
 
 
 def to_text(report: dict) -> str:
@@ -134,6 +171,7 @@ def to_text(report: dict) -> str:
             if s["n"]:
                 lines.append(f"  map {label} error of a realisation (percent over its live range): mean {s['mean']:.1f} %"
                              + (f", std {s['std']:.1f} %" if s["std"] is not None else ""))
+        lines += _relaxed_lines(report.get("relaxed"))
         lines.append(f"  {'contact':>7s} {'alive':>5s} {'DNS mean':>9s} {'DNS std':>8s} {'map mean':>9s} {'map std':>8s} "
                      f"{'err mean':>8s} {'err std':>8s}")
         for c, d, m, e in zip(st["contacts"], st["dns"], st["map"], st["rel_error"]):
@@ -144,8 +182,26 @@ def to_text(report: dict) -> str:
     return "\n".join(lines)
 
 
-def _pct(x) -> str:
-    return f"{'-':>8s}" if x is None else f"{100 * x:7.1f}%"
+def _relaxed_lines(rel: dict | None) -> list[str]:
+    """Per realisation the relaxed model's and the map's RMS error over the live range, and their means."""
+    if not rel or not rel["realisations"]:
+        return []
+    out = ["  RMS error (percent) over each realisation's live range (a contact without a value counts 100 %):",
+           f"  {'realis.':>7s} {'live':>9s} {'relaxed':>8s} {'map':>8s}"]
+    for r in rel["realisations"]:
+        live = "-" if not r.get("live_range") else "{}..{}".format(*r["live_range"])
+        rel_rms = r["relaxed"]["rms_pct"] if "relaxed" in r else None
+        map_rms = r["map"]["rms_pct"] if "map" in r else None
+        out.append(f"  {r['realisation']:7d} {live:>9s} {_pct(rel_rms, 1)} {_pct(map_rms, 1)}"
+                   + (f"  ({r['error']})" if "error" in r else ""))
+    means = [rel[f"{m}_rms_pct"]["mean"] for m in ("relaxed", "map")]
+    out.append(f"  {'mean':>7s} {'':>9s} {_pct(means[0], 1)} {_pct(means[1], 1)}")
+    return out
+
+
+def _pct(x, scale: float = 100) -> str:
+    """A fraction (scale 100) or a percent (scale 1) in an 8-wide column, '-' for None."""
+    return f"{'-':>8s}" if x is None else f"{scale * x:7.1f}%"
 
 
 def plot(report: dict, path: str) -> None:

@@ -24,7 +24,7 @@ def model_for(R: str, eps: float, params: dict, beads: int = 80, fp: int = 16):
               for k in pert.used_parameters}
     coef = bead_coefficients(force_module(pert.text, pert.used_parameters), pert.used_parameters, values,
                              eps, fp, beads)
-    return build_model(pert.R, pert.text, pert.used_parameters, values, eps, N, coef)
+    return build_model(pert.R, pert.text, pert.used_parameters, values, eps, N, coef, first_perturbed=fp)
 
 
 def test_scaling_exponent_matches_the_symmetry_of_eq1():
@@ -109,9 +109,12 @@ def test_bulk_fit_reproduces_a_smooth_law():
     assert float(rt.fit_bulk(np.full(5, 0.3), np.full(5, -0.01))(0.3)) == pytest.approx(-0.01)
 
 
-def test_site_dependent_polynomial_is_refused():
-    with pytest.raises(RelaxedError, match="not a single monomial"):
-        model_for("-(k*u - mu*v)", 0.1, {"k": [0.5] * 80, "mu": 1.0})
+def test_site_dependent_r_the_grid_cannot_take_is_refused():
+    """Several monomials: one site-dependent parameter, no explicit bead index."""
+    with pytest.raises(RelaxedError, match="2 site-dependent parameters"):
+        model_for("-(k*u - mu*v)", 0.1, {"k": [0.5] * 80, "mu": [1.0] * 80})
+    with pytest.raises(RelaxedError, match="depends on the bead index i"):
+        model_for("-(k*i*u - mu*v)", 0.1, {"k": 0.01, "mu": 1.0})
 
 
 def test_seed_is_checked():
@@ -120,3 +123,31 @@ def test_seed_is_checked():
         iterate_relaxed(model, math.nan, 15, 30)
     with pytest.raises(RelaxedError, match="after the seed"):
         iterate_relaxed(model, 1.0, 15, 15)
+
+
+def test_segment_runs_use_the_engine_simulate_chooses(monkeypatch):
+    """A polynomial R runs on the compiled engine, a non-smooth one (Coulomb's sign) on the scipy one."""
+    from pulsemap.solvers.chain import dns
+
+    engines = []
+    real = dns.simulate
+
+    def spy(*args, **kw):
+        res = real(*args, **kw)
+        engines.append(res.engine)
+        return res
+
+    monkeypatch.setattr(dns, "simulate", spy)
+    assert len(rt.segment_peaks(rt.SegmentSpec("-u^1", (), 1.0, N), 1.0)) > rt.ONSET
+    assert len(rt.segment_peaks(rt.SegmentSpec("-mu*sign(v)", (("mu", 1.0),), 0.05, N), 1.0)) > rt.ONSET
+    assert engines == ["compiled", "scipy"]
+
+
+def test_a_segment_run_that_stops_early_is_an_error_not_a_dead_pulse(monkeypatch):
+    """A run stopped by its step budget (as by an integrator failure) raises with its reason."""
+    from pulsemap.solvers.chain import dns
+
+    real = dns.simulate
+    monkeypatch.setattr(dns, "simulate", lambda *a, **kw: real(*a, **{**kw, "max_steps": 20}))
+    with pytest.raises(rt.SegmentRunError, match="ended early: step budget of 20 steps"):
+        rt.segment_peaks(rt.SegmentSpec("-u^1", (), 1.0, N), 1.0)

@@ -45,7 +45,8 @@ def test_a_realisation_equals_pulsemap_run_of_that_seed(tmp_path):
     j = 2
     seed = derived_seed(11, j)
     assert rep["derived_seeds"][j] == {"k": seed}
-    ref = run_scene(sc.with_overrides(params={"k": {"uniform": [0, 1], "seed": seed}}), methods=["dns", "map"])
+    ref = run_scene(sc.with_overrides(params={"k": {"uniform": [0, 1], "seed": seed}}),
+                    methods=["dns", "map", "relaxed"])
     res = recs[j]["result"]
     k0 = res["contacts"].index(16)
     assert res["peaks"][k0:] == ref["peaks"]["dns"]
@@ -53,6 +54,11 @@ def test_a_realisation_equals_pulsemap_run_of_that_seed(tmp_path):
     assert res["seed_peak"] == ref["dns"]["seed_peak"]
     row = rep["statistics"]["realisations"][j]  # the realisation's map error is the one run reports
     assert {k: row[k] for k in ref["errors"]["map"]} == ref["errors"]["map"]
+    # the relaxed model's and the map's errors per realisation are run's, over the same live range
+    row = rep["relaxed"]["realisations"][j]
+    for method in ("relaxed", "map"):
+        assert row[method]["rms_pct"] == pytest.approx(ref["errors"][method]["rms_pct"], rel=1e-12)
+    assert rep["relaxed"]["relaxed_rms_pct"]["n"] == 3
 
 
 def test_statistics_per_contact_recomputed_from_the_records(tmp_path):

@@ -194,6 +194,7 @@ def run_relaxed(state: "RunState", prm: dict) -> None:
     """The relaxed transfer map with its onset (solvers/models/relaxed.py) from the seed peak; refused
     (reported, not raised) for an R it cannot take."""
     from pulsemap.solvers.models.relaxed import ONSET, RelaxedError, iterate_relaxed, model_for_scene
+    from pulsemap.solvers.models.relaxed_table import SegmentRunError
 
     scene, out = state.scene, state.out
     seed_contact, c1 = scene.first_perturbed - 1, scene.contacts[1]
@@ -205,16 +206,18 @@ def run_relaxed(state: "RunState", prm: dict) -> None:
         state.warnings.append(f"relaxed refused: {exc}")
         out["relaxed"] = {"model": MODEL_TITLES["relaxed"], "refused": str(exc)}
         return
+    except SegmentRunError as exc:
+        state.warnings.append(f"relaxed failed: {exc}")
+        out["relaxed"] = {"model": MODEL_TITLES["relaxed"], "failed": str(exc)}
+        return
     state.timings["relaxed"] = time.perf_counter() - t0
     out["peaks"]["relaxed"] = on_contacts(state.contacts, run.contacts, run.peaks)
     out["relaxed"] = {"model": MODEL_TITLES["relaxed"], "status": run.status, "message": run.message,
                       "onset_contacts": ONSET, "segment_runs": model.segment_runs(),
                       "tables": [t.spec.R for t in model.tables.values()],
                       "scaling_exponent": model.e, "bulk_accuracy_log_ratio": model.accuracy()}
-    if model.coefficients is not None and len(set(model.coefficients[scene.first_perturbed - 1:].tolist())) > 1:
-        state.warnings.append("relaxed: R varies along the chain: each contact uses the map at the local coefficient "
-                              "of its first bead (the tables assume R uniform over the ~5 contacts a pulse needs "
-                              "to relax)")
+    if model.kernels:
+        out["relaxed"]["kernel_runs"] = sum(len(k.runs) for k in model.kernels.values())
     if run.status != "ok":
         state.warnings.append(f"relaxed: {run.message}")
 

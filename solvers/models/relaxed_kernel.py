@@ -1,0 +1,101 @@
+"""First-order response of the relaxed map to the coefficients of neighbouring beads, from segment runs.
+
+A bead's on-site coefficient acts on the primary pulse over several contacts, not only on the step
+whose first bead it is. For a segment table (relaxed_table.SegmentTable, uniform R) the kernel is
+
+    G_j(P) = d log(P_{c}/P_{c-1}) / d(log of R's scale on bead c + j)
+
+(or d/d(a parameter on bead c + j)): the change of the step onto contact c when R (or the
+parameter) on one bead, j places after the contact's first bead, is changed. It is measured, for
+each launch amplitude of the table, by one segment run with R on bead first_perturbed + BUMP_BEAD
+scaled by 1 + DELTA (a parameter: moved by DELTA max(|value|, 0.1)) against the table's own run,
+read off the relaxed part of the run (contacts after the onset): the step onto the run's m-th
+contact sees the bump at j = BUMP_BEAD + 1 - m. The part of that change the map itself carries
+(the bump's earlier effect on P_{c-1} times the bulk map's slope d log r/d log P) is taken off,
+so that iterating the map with the kernel counts each effect once. Points are interpolated in
+log P_{c-1} per j (clamped at the ends). Sum_j G_j(P) is the derivative of the uniform map in the
+varied quantity (tests/models/test_relaxed_kernel.py checks it). The map uses the kernel's shares
+G_j / sum_j G_j (``weights``). Runs are cached like the table's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from pulsemap.solvers.models.relaxed_table import ONSET, SegmentTable, cached_segment
+
+J_MIN, J_MAX = -4, 2  # the kernel's span in beads (behind the contact's first bead .. ahead of it)
+BUMP_BEAD = ONSET + J_MAX  # the bumped bead, after first_perturbed: steps ONSET+1.. see j = J_MAX, J_MAX-1, ..
+SLOPE_STEP = 1e-3  # half-step in log P of the bulk map's slope d log r / d log P
+DELTA = 0.02  # relative change of R on the bumped bead (a one-sided difference: the kernel's shares to O(DELTA))
+
+
+@dataclass
+class KernelTable:
+    """G_j(log P) for j = J_MIN..J_MAX, from bumped segment runs at the table's lattice points."""
+
+    table: SegmentTable
+    param: str = ""  # "": R's scale on the bead; else the parameter the kernel is of
+    runs: dict = field(default_factory=dict)  # lattice j -> peaks of the bumped run
+    _fits: dict | None = None
+
+    def step(self) -> tuple[float, float]:
+        """(the bump, the change of the varied quantity it makes: log scale of R, or the parameter)."""
+        if not self.param:
+            return DELTA, math.log1p(DELTA)
+        d = DELTA * max(abs(dict(self.table.spec.params)[self.param]), 0.1)
+        return d, d
+
+    def _bumped(self, j: int) -> list[float]:
+        if j not in self.runs:
+            self.runs[j] = cached_segment(replace(self.table.spec, bump=(BUMP_BEAD, self.step()[0], self.param)), j)
+            self._fits = None
+        return self.runs[j]
+
+    def points(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """Per j: (log P_{m-1}, G_j) over the lattice runs, sorted by log P."""
+        pts: dict[int, list] = {j: [] for j in range(J_MIN, J_MAX + 1)}
+        change = self.step()[1]
+        fit = self.table.bulk()
+        for lat, base in sorted(self.table.runs.items()):
+            up, down = self._bumped(lat), base
+            k = min(len(base), len(up))
+            for m in range(ONSET + 1, k):
+                j = BUMP_BEAD + 1 - m
+                if J_MIN <= j <= J_MAX and fit is not None:
+                    x = float(np.log(base[m - 1]))
+                    d_log_r = np.log(up[m] / up[m - 1]) - np.log(down[m] / down[m - 1])
+                    d_log_p = np.log(up[m - 1] / down[m - 1])  # the bump's earlier effect, which the map carries
+                    slope = float(fit(x + SLOPE_STEP) - fit(x - SLOPE_STEP)) / (2.0 * SLOPE_STEP)
+                    pts[j].append((x, float((d_log_r - slope * d_log_p) / change)))
+        out = {}
+        for j, p in pts.items():
+            p.sort()
+            out[j] = (np.array([a for a, _ in p]), np.array([b for _, b in p]))
+        return out
+
+    def weights(self, log_p: float) -> np.ndarray | None:
+        """G_j / sum_j G_j at log P: the share of each neighbour in the step (None: no kernel measured)."""
+        g = self.kernel(log_p)
+        total = float(g.sum())
+        return None if total == 0.0 or not np.isfinite(total) else g / total
+
+    def kernel(self, log_p: float) -> np.ndarray:
+        """G_j at log P for j = J_MIN..J_MAX (0 where no run measured that j)."""
+        if self._fits is None or len(self._fits.get("lattice", ())) != len(self.table.runs):
+            self._fits = {"lattice": tuple(self.table.runs), "pts": self.points()}
+        out = np.zeros(J_MAX - J_MIN + 1)
+        for i, j in enumerate(range(J_MIN, J_MAX + 1)):
+            x, y = self._fits["pts"][j]
+            if x.size:
+                out[i] = float(np.interp(log_p, x, y))
+        return out
+
+    def weights(self, log_p: float) -> np.ndarray | None:
+        """G_j / sum_j G_j at log P: the share of each neighbour in the step (None: no kernel measured)."""
+        g = self.kernel(log_p)
+        total = float(g.sum())
+        return None if total == 0.0 or not np.isfinite(total) else g / total
