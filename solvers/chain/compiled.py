@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import time as _time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -39,13 +39,8 @@ EXPLICIT_METHODS = (METHOD, HIGH_ORDER_METHOD)
 ENERGY_EVERY = 4  # blow-up guard and energy drift every this many steps (as solvers/window.py)
 DELAY_FACTOR = 2.0  # peaks.primary_pulse_lost's default
 ROOM = 96  # initial buffer beyond ``behind`` (grown on demand)
-# Method 'auto' on the compiled engine runs Rodas4 when the force's stiffness hint exceeds this x
-# the contact rate (the scipy engine's LSODA/DOP853 crossover, equations.STIFFNESS_RATIO = 30, does
-# not hold here). Measured, damped chain (R = -mu v) contacts 1..36, time of the compiled
-# Dormand-Prince 5(4) / Rodas4 at equal accuracy, rtol 1e-6 / 1e-8 / 1e-10: hint 100: 0.32 / 0.17 /
-# 0.11; 300: 0.57 / 0.26 / 0.14; 500: 0.8 / 0.35 / 0.17; 1000: 1.5 / 0.59 / 0.24; 3000: 4.1 / 1.5 /
-# 0.52; 1e5: 76 / 26 / 8 (the explicit kernel stability-bound). Below 300 the explicit kernel is
-# the cheaper at every rtol.
+# Method 'auto' on the compiled engine runs Rodas4 when the force's stiffness hint exceeds this x the
+# contact rate: below it the explicit kernel is the cheaper at every rtol (docs/dns.rst).
 COMPILED_STIFFNESS_RATIO = 300.0
 PAUSE_STEPS = 20_000  # accepted steps between progress checks (~2-20 ms of kernel time)
 
@@ -194,6 +189,23 @@ def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, i
                 np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f, method)
 
 
+def kernel_for(method: str):
+    """The numba dispatcher of a kernel (its module imported, so compiled or loaded, only when a run needs it)."""
+    if method == METHOD:
+        from pulsemap.solvers.chain.compiled_kernel import run as kernel
+    elif method == HIGH_ORDER_METHOD:
+        from pulsemap.solvers.chain.compiled_dop853 import run as kernel
+    else:
+        from pulsemap.solvers.chain.compiled_stiff import run as kernel
+    return kernel
+
+
+def kernel_args(run: _Run) -> tuple:
+    """The kernel's arguments for ``run`` (compiled_kernel.run's order)."""
+    return (run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e, run.total_e,
+            *run.table.kernel_args)
+
+
 def drive(run: _Run, code: int | None = None, report=None) -> int:
     """Run the kernel until a stop rule fires (``code``: the kernel's last answer, if it ran already),
     growing the window's buffer whenever it asks for room. With ``report`` (a dns_progress.DNSProgress)
@@ -201,13 +213,7 @@ def drive(run: _Run, code: int | None = None, report=None) -> int:
     changes no number (the kernel's state is complete between calls)."""
     from pulsemap.solvers.chain import compiled_track as K
 
-    if run.method == METHOD:
-        from pulsemap.solvers.chain.compiled_kernel import run as kernel
-    elif run.method == HIGH_ORDER_METHOD:
-        from pulsemap.solvers.chain.compiled_dop853 import run as kernel
-    else:
-        from pulsemap.solvers.chain.compiled_stiff import run as kernel
-
+    kernel = kernel_for(run.method)
     if report is not None and report.enabled:
         run.ci[K.PAUSE_EVERY] = PAUSE_STEPS
     while True:
@@ -225,8 +231,7 @@ def drive(run: _Run, code: int | None = None, report=None) -> int:
             run.y, run.f = y, f
         with warnings.catch_warnings():  # numba calls C function pointers (JitForce) 'experimental'
             warnings.filterwarnings("ignore", "First-class function type feature is experimental")
-            code = int(kernel(run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e,
-                              run.total_e, *run.table.kernel_args))
+            code = int(kernel(*kernel_args(run)))
 
 
 def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSResult:
@@ -262,7 +267,10 @@ def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tu
     ``progress``: a line on stderr at most every 5 s (dns_progress.DNSProgress), as the scipy engines."""
     from pulsemap.solvers.chain.dns_progress import DNSProgress
 
+    from pulsemap.solvers.chain.jit import ready
+
     run = prepare(beads, exponent, velocity, contacts, table, **settings)
+    compile_s = ready(kernel_for(run.method), kernel_args(run))
     wall0 = _time.perf_counter()
     code = drive(run, report=DNSProgress("dns", run.last, enabled=progress) if progress else None)
-    return result(run, code, _time.perf_counter() - wall0, engine_reason)
+    return replace(result(run, code, _time.perf_counter() - wall0, engine_reason), compile_s=compile_s)

@@ -9,14 +9,14 @@ force call for: Dormand-Prince 5(4), DOP853 when named, Rodas4 for a stiff force
 arithmetic: identical peaks), the chains spread over the cores, one parallel call per kernel used.
 """
 
-# numba cache stamp: 8355ae96e33cf052
+# numba cache stamp: 174edc8ca357db61
 from __future__ import annotations
 
 import time as _time
 from typing import Sequence
 
 import numpy as np
-from numba import njit, prange
+from pulsemap.solvers.chain.jit import njit, prange
 
 from pulsemap.solvers.chain.compiled import (
     EXPLICIT_METHODS, HIGH_ORDER_METHOD, METHOD, STIFF_METHOD, auto_reason, drive, explicit_reason, is_stiff,

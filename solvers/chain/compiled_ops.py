@@ -7,11 +7,11 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 8355ae96e33cf052
+# numba cache stamp: 174edc8ca357db61
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from pulsemap.solvers.chain.jit import njit
 
 from pulsemap.solvers.chain.compiled_force import add_onsite
 

@@ -18,11 +18,11 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 8355ae96e33cf052
+# numba cache stamp: 174edc8ca357db61
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from pulsemap.solvers.chain.jit import njit
 
 from pulsemap.solvers.chain.compiled_force import onsite_slopes
 from pulsemap.solvers.chain.compiled_kernel import start

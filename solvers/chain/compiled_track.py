@@ -17,11 +17,11 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: 8355ae96e33cf052
+# numba cache stamp: 174edc8ca357db61
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from pulsemap.solvers.chain.jit import njit
 
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, _pow, pulse_lost, rhs, segment_energy, window_energy
 

@@ -175,7 +175,7 @@ def simulate(
     ``window=None`` (default) integrates the whole chain. ``window="auto"`` integrates only a
     moving window of beads around the leading edge (solvers/window.py), sized so that the
     window costs less than ``window_accuracy`` relative peak error (default None: the looser of
-    rtol and 1e-8, window.window_accuracy_for; the rule's calibration: window.CALIBRATION); an
+    rtol and 1e-8, window.window_accuracy_for; the rule's calibration: docs/dns.rst); an
     int gives the window's
     width in beads, a ``WindowRule`` its full geometry. The windowed cost per contact does not
     grow with N. Its ``energy_drift`` counts the energy carried out by dropped beads.

@@ -11,9 +11,7 @@ Array = np.ndarray
 
 FORTRAN_CODES = {"DOP853": "dop853", "RK45": "dopri5"}  # Hairer's codes behind scipy.integrate.ode
 FORTRAN_METHODS = {code: method for method, code in FORTRAN_CODES.items()}
-# PI step-size control (Hairer's BETA): fewer rejected steps at contact openings. Measured on
-# N = 1000, contacts 16..990, v0 = 1 (benchmarks/bench_dns.py): beta = 0.06 cut DOP853's
-# evaluations at equal peak accuracy by ~30 % (0, 0.03, 0.045, 0.06 tried; 0.1 is worse).
+# PI step-size control (Hairer's BETA): fewer rejected steps at contact openings (docs/dns.rst).
 FORTRAN_BETA = {"dop853": 0.06, "dopri5": 0.04}
 
 

@@ -20,8 +20,8 @@ shift costs one or two right-hand-side evaluations. The cost per contact is inde
 chain length N (the full chain costs O(N) per contact, O(N^2) per run).
 
 The window rule (``rule_for_accuracy``) was calibrated against the full chain (peaks at every
-contact, n = 1.5 and n = 3, v0 = 1, unperturbed and damped from bead 16); see
-``CALIBRATION`` below and benchmarks/bench_dns_scaling.py.
+contact, n = 1.5 and n = 3, v0 = 1, unperturbed and damped from bead 16); see docs/dns.rst
+("Window calibration") and benchmarks/bench_dns_scaling.py.
 """
 
 from __future__ import annotations
@@ -41,22 +41,11 @@ from pulsemap.solvers.chain.peaks import PeakTracker, scan_step, velocity_scale
 Array = np.ndarray
 BOUNDARIES = ("coast", "free")
 
-# Measured max relative peak error the window costs against the full chain, by the number of
-# beads kept behind the front (boundary "coast", compiled engine, rtol 1e-12 in both runs so the
-# integrator's own error is ~1e-11): worst case over all 31 built-in and suite scenes but
-# chain10000 (2026-11-25). The worst are decaying pulses' last contacts before they die
-# (fig8-eps0.1 and nonstiff: a long compressed tail behind the front) and a self-excited wake
-# that decides where the pulse dies (vdp-mu1-v2.3: 13 behind moved the death contact; 12 gave
-# 1.8e-4). Most scenes are at the integrator floor from 5 behind (vdp-mu3-v2.3 from 4).
-# "free" is 3-30x worse than "coast". The ahead threshold changes the peaks by at most ~5x
-# itself (n1.1: 1e-6 -> 6e-6, 1e-8 -> 2.5e-8, 1e-10 -> as 1e-30), hence accuracy / 100.
-CALIBRATION: dict[int, float] = {12: 2.6e-6, 13: 2.4e-4, 14: 4.4e-7, 15: 3.3e-8, 16: 2.9e-8, 18: 7.4e-10,
-                                 20: 2.6e-10, 22: 9.5e-11, 24: 8.9e-11}
-#: (accuracy floor, behind) of rule_for_accuracy: the fewest beads behind whose measured worst
-#: (CALIBRATION) is at least 3x below the accuracy (10x from 1e-8 on) and past the cliff at 13;
-#: below 1e-9 the integrator's floor.
+#: (accuracy floor, behind) of rule_for_accuracy: the fewest beads behind whose measured worst peak
+#: error against the full chain is at least 3x below the accuracy (10x from 1e-8 on) and past the
+#: cliff at 13; below 1e-9 the integrator's floor (the calibration: docs/dns.rst, "Window calibration").
 BEHIND_FOR: tuple[tuple[float, int], ...] = ((1e-7, 16), (1e-8, 18), (1e-9, 22), (0.0, 24))
-THRESHOLD_FRACTION = 1e-2  # ahead threshold = accuracy x this (CALIBRATION: ~5x threshold at most)
+THRESHOLD_FRACTION = 1e-2  # ahead threshold = accuracy x this (it moves the peaks by ~5x itself at most)
 DEFAULT_WINDOW_ACCURACY = 1e-8  # simulate's window accuracy unless rtol asks for less (window_accuracy_for)
 
 
@@ -98,9 +87,8 @@ def validate_rule(rule: WindowRule) -> WindowRule:
 def rule_for_accuracy(accuracy: float) -> WindowRule:
     """Window rule whose truncation error stays below ``accuracy`` (relative peak error).
 
-    Calibrated rule (CALIBRATION, BEHIND_FOR): 16 beads behind down to 1e-7 (measured worst
-    2.9e-8), 18 down to 1e-8 (7.4e-10), 22 down to 1e-9 (9.5e-11), 24 below (the integrator's
-    floor, ~1e-10); ahead, a bead is added when the last one moves by accuracy / 100 of the
+    Calibrated rule (BEHIND_FOR; docs/dns.rst, "Window calibration"): 16 beads behind down to 1e-7,
+    18 down to 1e-8, 22 down to 1e-9, 24 below (the integrator's floor); ahead, a bead is added when the last one moves by accuracy / 100 of the
     scales v0^(2/(n+1)) and v0.
     """
     if not (np.isfinite(accuracy) and 0.0 < accuracy < 1.0):
