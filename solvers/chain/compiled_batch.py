@@ -9,7 +9,7 @@ force call for: Dormand-Prince 5(4), DOP853 when named, Rodas4 for a stiff force
 arithmetic: identical peaks), the chains spread over the cores, one parallel call per kernel used.
 """
 
-# numba cache stamp: 174edc8ca357db61
+# numba cache stamp: b33fd2b1e0be28e7
 from __future__ import annotations
 
 import time as _time

@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 174edc8ca357db61
+# numba cache stamp: b33fd2b1e0be28e7
 from __future__ import annotations
 
 import numpy as np
