@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: b33fd2b1e0be28e7
+# numba cache stamp: 328bfcbdf9135f4f
 from __future__ import annotations
 
 import numpy as np

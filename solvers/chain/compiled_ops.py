@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: b33fd2b1e0be28e7
+# numba cache stamp: 328bfcbdf9135f4f
 from __future__ import annotations
 
 import numpy as np

@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: b33fd2b1e0be28e7
+# numba cache stamp: 328bfcbdf9135f4f
 from __future__ import annotations
 
 import numpy as np
@@ -31,7 +31,7 @@ from pulsemap.solvers.chain.compiled_track import (
     ATOL, CAPACITY, EXP, H, NFEV, NJEV, REJECTED, RTOL, T,
     finish_step, next_step, peak_in_step, track_step, window_now)
 
-METHOD = "Rodas4"  # compiled.STIFF_METHOD
+METHOD = "Rodas4"  # plan.STIFF_METHOD
 ORDER = 4  # of the step (the embedded one: 3); the dense output is a cubic Hermite (order 3)
 # --- the tableau (module docstring); a and c strictly lower triangular, row i = stage i + 1
 GAMMA = 0.25

@@ -36,7 +36,7 @@ from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, energy, m
 from pulsemap.solvers.chain.front import memo, state_at
 from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.hairer import FORTRAN_CODES, run_fortran
-from pulsemap.solvers.chain.peaks import PeakTracker, scan_step, velocity_scale
+from pulsemap.solvers.chain.peaks import PeakTracker, StopRules, scan_step, velocity_scale
 
 Array = np.ndarray
 BOUNDARIES = ("coast", "free")
@@ -234,18 +234,14 @@ def simulate_windowed(
     method: str = "DOP853",
     rtol: float = 1e-10,
     atol: float = 1e-12,
-    peak_fraction: float = 1e-2,
-    death_fraction: float = 1e-3,
-    t_max: float,
-    stall_factor: float = 5.0,
+    stop: StopRules,
     progress: bool = False,
     engine: str = "auto",
-    overtake_factor: float = 1.25,
-    max_steps: int = 10**9,
     front=None,
     launch=None,
 ):
-    """Moving-window integration of Eq. 1 (arguments validated by dns.simulate, which calls it).
+    """Moving-window integration of Eq. 1 (arguments validated by dns.simulate, which calls it; ``stop``
+    with t_max and max_steps given).
 
     ``launch`` (a solvers.chain.launch.Launch, checked by dns.simulate): start from that exact
     solitary wave instead of the impact v0 on bead 1 (``velocity`` is then its velocity scale).
@@ -264,10 +260,9 @@ def simulate_windowed(
     moving = 1 if launch is None else launch.front(exponent)  # beads in motion at t = 0
     run = _Run(lo=0, hi=min(beads, moving + rule.ahead + rule.chunk + 1))
     report = DNSProgress("dns-window", last, enabled=progress)
-    track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
-                              death_fraction=death_fraction, overtake_factor=overtake_factor,
-                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1,
-                              method=method)
+    track = PeakTracker.start(first, last, velocity, exponent, stop,
+                              next_contact=1 if launch is None else launch.centre + 1, method=method)
+    t_max, max_steps = float(stop.t_max), int(stop.max_steps)
     if launch is None:
         y = np.zeros(2 * run.hi)
         y[1] = velocity
@@ -295,7 +290,7 @@ def simulate_windowed(
         local_last = min(last, run.hi - 1) - run.lo
         dense = memo(dense_factory)
         found = scan_step(y_old, y_new, t_old, t_new, dense, track.next_contact - run.lo,
-                          local_last, track.threshold, peak_fraction)
+                          local_last, track.threshold, stop.peak_fraction)
         track.record(found, offset=run.lo)
         if found and front is not None:
             front.record(found, state_at(dense()), offset=run.lo, extra_energy=run.e_gone)

@@ -105,6 +105,7 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     """Peaks P_0.. of one canonical segment run (DNS with a moving window, no cache)."""
     from pulsemap.solvers.chain.dns import simulate
     from pulsemap.solvers.chain.launch import Launch
+    from pulsemap.solvers.chain.peaks import StopRules
     from pulsemap.solvers.models.codeload import force_module
 
     names = tuple(k for k, _ in spec.params)
@@ -115,7 +116,7 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     scale = min(1.0, amplitude, amplitude ** ((spec.n + 1.0) / 2.0))
     res = simulate(beads, spec.n, 1.0, (entry, entry + CONTACTS), force, launch=Launch(float(amplitude), centre),
                    method=spec.method, rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale, window="auto",
-                   window_accuracy=spec.window_accuracy, window_engine=spec.engine, death_fraction=DEATH,
+                   window_accuracy=spec.window_accuracy, window_engine=spec.engine, stop=StopRules(death_fraction=DEATH),
                    engine="scipy")
     out = []
     for p, alive in zip(res.peaks, res.alive):
