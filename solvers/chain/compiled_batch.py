@@ -9,7 +9,7 @@ force call for: Dormand-Prince 5(4), DOP853 when named, Rodas4 for a stiff force
 arithmetic: identical peaks), the chains spread over the cores, one parallel call per kernel used.
 """
 
-# numba cache stamp: 328bfcbdf9135f4f
+# numba cache stamp: 1be72224545a1d83
 from __future__ import annotations
 
 import time as _time
@@ -28,6 +28,7 @@ from pulsemap.solvers.chain.jit import njit, prange
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain.plan import EXPLICIT_METHODS, HIGH_ORDER_METHOD, METHOD, STIFF_METHOD, compiled_kernel
 from pulsemap.solvers.chain.scaling import DIRECT_RANGE, needs_rescaling
+from pulsemap.solvers.chain.window import WindowRule, WindowSpec, resolve_rule, window_accuracy_for
 
 METHODS = ("auto",) + EXPLICIT_METHODS
 
@@ -88,8 +89,7 @@ def simulate_many(
     contacts: tuple[int, int],
     tables: Sequence[MonomialTable | None],
     *,
-    window: "str | object | None" = "auto",
-    window_accuracy: float | None = None,
+    window: "WindowSpec | str | int | WindowRule | None" = "auto",
     rtol: float = 1e-10,
     atol: float = 1e-12,
     stop: StopRules | None = None,
@@ -97,10 +97,9 @@ def simulate_many(
 ) -> list[DNSResult]:
     """One DNSResult per chain b (velocity ``velocities[b]``, on-site force ``tables[b]``, None: R = 0),
     as ``simulate(..., engine="compiled", method=method)`` gives it (the same kernel, window rule for
-    the same rtol and ``window_accuracy``, and numbers); ``method``: 'auto', 'RK45' or 'DOP853'.
+    the same rtol and window accuracy, and numbers); ``method``: 'auto', 'RK45' or 'DOP853'.
     ``wall_time_s`` is the batch's time / chains."""
     from pulsemap.solvers.chain.dns import validate
-    from pulsemap.solvers.chain.window import resolve_rule, window_accuracy_for
 
     if len(velocities) != len(tables) or not len(tables):
         raise ValueError(f"simulate_many needs one velocity per table, got {len(velocities)} and {len(tables)}")
@@ -120,7 +119,8 @@ def simulate_many(
     full = [MonomialTable(shared, np.zeros((shared.shape[0], 1))) if t is None else t for t in tables]
     if any(t.constant_term for t in full):
         raise ValueError("simulate_many: R(0, 0) != 0 (a constant term) in some chain's table")
-    rule = None if window is None else resolve_rule(window, window_accuracy_for(rtol, window_accuracy))
+    spec = WindowSpec.of(window)
+    rule = None if spec is None else resolve_rule(spec.size, window_accuracy_for(rtol, spec.accuracy))
     budget = default_max_steps(last) if stop.max_steps is None else int(stop.max_steps)
     kernels = [kernel_for(t, float(v), float(exponent), method) for v, t in zip(velocities, full)]
     runs = [prepare(int(beads), float(exponent), float(v), (first, last), t, rule=rule, rtol=rtol, atol=atol,

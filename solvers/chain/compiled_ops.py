@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 328bfcbdf9135f4f
+# numba cache stamp: 1be72224545a1d83
 from __future__ import annotations
 
 import numpy as np

@@ -34,7 +34,7 @@ from pulsemap.solvers.chain.peaks import PeakTracker, StopRules, contact_rate, s
 from pulsemap.solvers.chain.plan import plan, wants_force_data
 
 if TYPE_CHECKING:  # pragma: no cover
-    from pulsemap.solvers.chain.window import WindowRule
+    from pulsemap.solvers.chain.window import WindowRule, WindowSpec
 
 
 # ----------------------------------------------------------------------------- validation
@@ -152,9 +152,7 @@ def simulate(
     atol: float = 1e-12,
     stop: StopRules | None = None,
     progress: bool = False,
-    window: "int | str | WindowRule | None" = None,
-    window_accuracy: float | None = None,
-    window_engine: str = "auto",
+    window: "WindowSpec | int | str | WindowRule | None" = None,
     snapshots: "Sequence[int] | None" = None,
     snapshot_span: tuple[int, int] = SNAPSHOT_SPAN,
     launch: "Launch | None" = None,
@@ -167,15 +165,15 @@ def simulate(
     launch, ``velocity`` is not used: the wave's velocity scale A^((n+1)/2) takes its place in
     the thresholds, and only contacts after the centre are tracked.
 
-    ``window=None`` (default) integrates the whole chain. ``window="auto"`` integrates only a
-    moving window of beads around the leading edge (solvers/window.py), sized so that the
-    window costs less than ``window_accuracy`` relative peak error (default None: the looser of
-    rtol and 1e-8, window.window_accuracy_for; the rule's calibration: docs/dns.rst); an
-    int gives the window's
-    width in beads, a ``WindowRule`` its full geometry. The windowed cost per contact does not
-    grow with N. Its ``energy_drift`` counts the energy carried out by dropped beads.
-    ``window_engine``: "auto" (Hairer's Fortran DOP853/DOPRI5 for those methods, else the
-    scipy OdeSolver), "fortran" or "scipy".
+    ``window=None`` (default) integrates the whole chain. ``window=WindowSpec(...)``
+    (solvers/chain/window.py) integrates only a moving window of beads around the leading edge:
+    its ``size`` 'auto' is sized so that the window costs less than its ``accuracy`` in relative
+    peak error (default None: the looser of rtol and 1e-8; the rule's calibration: docs/dns.rst),
+    an int gives the window's width in beads, a ``WindowRule`` its full geometry; its ``engine``
+    is the scipy engine's window integrator ("auto": Hairer's Fortran DOP853/DOPRI5 for those
+    methods, else the scipy OdeSolver; "fortran"; "scipy"). A size alone (``window="auto"``, an
+    int, a WindowRule) stands for WindowSpec(size). The windowed cost per contact does not grow
+    with N. Its ``energy_drift`` counts the energy carried out by dropped beads.
 
     All contacts 1..last are tracked (``stop``, a peaks.StopRules, default StopRules(): each one's
     acceptance threshold is ``peak_fraction`` times the previous contact's peak; contact 1 uses the
@@ -207,15 +205,13 @@ def simulate(
     stop = StopRules() if stop is None else stop
     first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol, stop)
     beads, exponent, velocity = int(beads), float(exponent), float(velocity)
-    window_accuracy = _window.window_accuracy_for(rtol, window_accuracy)
     if launch is None and _scaling.needs_rescaling(velocity):  # a rescaled run at v0 = 1 (solvers/chain/scaling.py)
         _scaling.check_force_range(force, exponent, velocity, beads)
         scale = _scaling.Scaling(exponent, velocity)
         unit = simulate(
             beads, exponent, 1.0, (first, last), scale.force(force), method=method, rtol=rtol, atol=atol,
             stop=replace(stop, t_max=None if stop.t_max is None else float(stop.t_max) / scale.tau),
-            progress=progress, window=window, window_accuracy=window_accuracy,
-            window_engine=window_engine, snapshots=snapshots, snapshot_span=snapshot_span, engine=engine)
+            progress=progress, window=window, snapshots=snapshots, snapshot_span=snapshot_span, engine=engine)
         return scale.result(unit)
     if launch is not None:
         if not isinstance(launch, Launch):
@@ -228,8 +224,7 @@ def simulate(
         raise ValueError(f"unknown engine {engine!r}; choose one of {', '.join(ENGINES)}")
     data, force_reason = force_data(force) if wants_force_data(engine, method, bool(snapshots)) else (None, "")
     how = plan(engine=engine, method=method, force=force, velocity=velocity, exponent=exponent, rtol=rtol,
-               window=window, window_accuracy=window_accuracy, window_engine=window_engine,
-               snapshots=bool(snapshots), force_reason=force_reason)
+               window=window, snapshots=bool(snapshots), force_reason=force_reason)
     chosen = how.method
     t_limit = default_t_max(last, velocity, exponent) if stop.t_max is None else float(stop.t_max)
     budget = default_max_steps(last) if stop.max_steps is None else int(stop.max_steps)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pulsemap.solvers.chain.equations import ENGINES, STIFFNESS_RATIO, choose_method
 from pulsemap.solvers.chain.hairer import FORTRAN_CODES
 from pulsemap.solvers.chain.peaks import contact_rate
-from pulsemap.solvers.chain.window import WindowRule, resolve_rule, window_accuracy_for
+from pulsemap.solvers.chain.window import WindowRule, WindowSpec, resolve_rule, window_accuracy_for
 
 METHOD = "RK45"  # Dormand-Prince 5(4), scipy's name for it: the default explicit kernel
 HIGH_ORDER_METHOD = "DOP853"  # compiled_dop853.METHOD: taken only when asked for by name
@@ -105,21 +105,21 @@ def compiled_kernel(force, velocity: float, exponent: float, method: str) -> tup
 
 
 def plan(*, engine: str, method: str, force, velocity: float, exponent: float, rtol: float,
-         window: "int | str | WindowRule | None", window_accuracy: float | None = None,
-         window_engine: str = "auto", snapshots: bool = False, force_reason: str = "") -> Plan:
+         window: "WindowSpec | int | str | WindowRule | None", snapshots: bool = False,
+         force_reason: str = "") -> Plan:
     """The engine, kernel or method, window and reason of a run (module docstring).
 
     ``force``: anything with a ``stiffness_hint`` (an OnSiteForce, a MonomialTable) or None (R = 0);
     ``force_reason``: force_table.force_data's answer, "" when the compiled kernels can take the force
-    (asked only where ``wants_force_data``); ``window``, ``window_accuracy``: as simulate() takes them.
+    (asked only where ``wants_force_data``); ``window``: as simulate() takes it (window.WindowSpec.of).
     The compiled engine runs unless the caller asks for scipy, the method has no compiled kernel,
     snapshots are wanted or the force has no compiled form; the scipy engine's 'auto' is DOP853 or,
     for a stiff force, LSODA (equations.choose_method), on the Fortran codes where they apply.
     """
     if engine not in ENGINES:
         raise ValueError(f"unknown engine {engine!r}; choose one of {', '.join(ENGINES)}")
-    accuracy = window_accuracy_for(rtol, window_accuracy)
-    rule = None if window is None else resolve_rule(window, accuracy)
+    spec = WindowSpec.of(window)
+    rule = None if spec is None else resolve_rule(spec.size, window_accuracy_for(rtol, spec.accuracy))
     why_scipy = "engine='scipy' requested"
     if engine == "compiled":
         why_scipy = unavailable(method, snapshots) or force_reason
@@ -129,9 +129,9 @@ def plan(*, engine: str, method: str, force, velocity: float, exponent: float, r
     chosen = choose_method(force, velocity, exponent) if method == "auto" else method
     if rule is None:
         return Plan("scipy", chosen, None, "", why_scipy)
-    if window_engine not in WINDOW_ENGINES:
-        raise ValueError(f"engine {window_engine!r} cannot run method {chosen!r}; use engine='scipy'")
-    resolved = ("fortran" if chosen in FORTRAN_CODES else "scipy") if window_engine == "auto" else window_engine
+    if spec.engine not in WINDOW_ENGINES:
+        raise ValueError(f"engine {spec.engine!r} cannot run method {chosen!r}; use engine='scipy'")
+    resolved = ("fortran" if chosen in FORTRAN_CODES else "scipy") if spec.engine == "auto" else spec.engine
     if resolved == "fortran" and chosen not in FORTRAN_CODES:
-        raise ValueError(f"engine {window_engine!r} cannot run method {chosen!r}; use engine='scipy'")
+        raise ValueError(f"engine {spec.engine!r} cannot run method {chosen!r}; use engine='scipy'")
     return Plan("scipy", chosen, rule, resolved, why_scipy)

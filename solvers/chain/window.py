@@ -97,6 +97,25 @@ def rule_for_accuracy(accuracy: float) -> WindowRule:
     return WindowRule(behind=behind, threshold=max(THRESHOLD_FRACTION * float(accuracy), 1e-30))
 
 
+@dataclass(frozen=True)
+class WindowSpec:
+    """The moving window simulate() is asked for: ``size`` 'auto' (rule_for_accuracy), an int width or
+    a WindowRule; ``accuracy``: the relative peak error the 'auto' rule may cost (None: the looser of
+    rtol and DEFAULT_WINDOW_ACCURACY, window_accuracy_for); ``engine``: the scipy engine's window
+    integrator, 'auto' (Hairer's Fortran codes for DOP853 and RK45, else scipy's OdeSolver),
+    'fortran' or 'scipy'."""
+
+    size: "int | str | WindowRule" = "auto"
+    accuracy: float | None = None
+    engine: str = "auto"
+
+    @classmethod
+    def of(cls, window: "WindowSpec | int | str | WindowRule | None") -> "WindowSpec | None":
+        """simulate's ``window``: None (the full chain), a WindowSpec, or a size alone ('auto', an int
+        width, a WindowRule) with the default accuracy and engine."""
+        return window if window is None or isinstance(window, WindowSpec) else cls(size=window)
+
+
 def window_accuracy_for(rtol: float, window_accuracy: "float | None") -> float:
     """The window's accuracy: ``window_accuracy`` as given, else (None) the looser of rtol and
     DEFAULT_WINDOW_ACCURACY (the window never costs more than the integrator's tolerance asks, nor

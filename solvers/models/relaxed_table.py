@@ -106,6 +106,7 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     from pulsemap.solvers.chain.dns import simulate
     from pulsemap.solvers.chain.launch import Launch
     from pulsemap.solvers.chain.peaks import StopRules
+    from pulsemap.solvers.chain.window import WindowSpec
     from pulsemap.solvers.models.codeload import force_module
 
     names = tuple(k for k, _ in spec.params)
@@ -115,8 +116,8 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     force = chain_force(mod, beads, fp, spec.eps, dict(spec.params))
     scale = min(1.0, amplitude, amplitude ** ((spec.n + 1.0) / 2.0))
     res = simulate(beads, spec.n, 1.0, (entry, entry + CONTACTS), force, launch=Launch(float(amplitude), centre),
-                   method=spec.method, rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale, window="auto",
-                   window_accuracy=spec.window_accuracy, window_engine=spec.engine, stop=StopRules(death_fraction=DEATH),
+                   method=spec.method, rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale,
+                   window=WindowSpec("auto", spec.window_accuracy, spec.engine), stop=StopRules(death_fraction=DEATH),
                    engine="scipy")
     out = []
     for p, alive in zip(res.peaks, res.alive):

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.chain.peaks import StopRules
@@ -23,8 +24,8 @@ from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force, run_scene
 
 PEAK_TOL = 1e-7
-COMPILED = dict(rtol=1e-10, atol=1e-12, window="auto", window_accuracy=1e-8)
-REFERENCE = dict(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window="auto", window_accuracy=1e-8)
+COMPILED = dict(rtol=1e-10, atol=1e-12, window=WindowSpec(accuracy=1e-8))
+REFERENCE = dict(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window=WindowSpec(accuracy=1e-8))
 
 
 def rel(a, b) -> float:
@@ -110,7 +111,7 @@ def test_window_rule_keeps_its_accuracy(accuracy):
     scene (a decaying pulse is the window's worst case); behind is exactly the rule's count."""
     tight = dict(rtol=1e-12, atol=1e-14)
     full = scene_run("fig8-eps0.1", **tight)
-    win = scene_run("fig8-eps0.1", **tight, window="auto", window_accuracy=accuracy)
+    win = scene_run("fig8-eps0.1", **tight, window=WindowSpec(accuracy=accuracy))
     rule = rule_for_accuracy(accuracy)
     assert full.mode == "full" and win.window_rule == rule
     assert rule.behind + 2 <= win.window_beads <= rule.behind + 12 < full.window_beads

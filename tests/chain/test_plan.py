@@ -9,7 +9,7 @@ import pytest
 from pulsemap.solvers.chain import plan as P
 from pulsemap.solvers.chain.equations import STIFFNESS_RATIO
 from pulsemap.solvers.chain.peaks import contact_rate
-from pulsemap.solvers.chain.window import WindowRule, rule_for_accuracy, rule_for_width
+from pulsemap.solvers.chain.window import WindowRule, WindowSpec, rule_for_accuracy, rule_for_width
 
 RATE = contact_rate(1.0, 1.5)
 
@@ -33,7 +33,7 @@ def test_default_is_the_compiled_dormand_prince_on_the_full_chain():
 @pytest.mark.parametrize("rtol, accuracy", [(1e-10, 1e-8), (1e-6, 1e-6), (1e-12, 1e-8)])
 def test_window_auto_takes_the_accuracy_rule_of_the_looser_of_rtol_and_1e8(rtol, accuracy):
     assert make(window="auto", rtol=rtol).rule == rule_for_accuracy(accuracy)
-    assert make(window="auto", rtol=rtol, window_accuracy=1e-9).rule == rule_for_accuracy(1e-9)
+    assert make(window=WindowSpec(accuracy=1e-9), rtol=rtol).rule == rule_for_accuracy(1e-9)
 
 
 def test_window_width_and_rule_are_taken_as_given():
@@ -81,12 +81,12 @@ def test_scipy_auto_is_dop853_or_lsoda_for_a_stiff_force_on_the_fortran_window()
     assert (win.method, win.window_engine, win.rule) == ("DOP853", "fortran", rule_for_accuracy(1e-8))
     assert make(engine="scipy", window="auto", method="RK45").window_engine == "fortran"
     assert make(engine="scipy", window="auto", method="Radau").window_engine == "scipy"
-    assert make(engine="scipy", window="auto", window_engine="scipy").window_engine == "scipy"
+    assert make(engine="scipy", window=WindowSpec(engine="scipy")).window_engine == "scipy"
 
 
 def test_impossible_requests_are_refused_with_the_fix():
     with pytest.raises(ValueError, match="use engine='scipy'"):
-        make(engine="scipy", window="auto", method="LSODA", window_engine="fortran")
+        make(engine="scipy", window=WindowSpec(engine="fortran"), method="LSODA")
     with pytest.raises(ValueError, match="choose one of compiled, scipy"):
         make(engine="numba")
 
