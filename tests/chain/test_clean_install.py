@@ -1,5 +1,6 @@
 """A wheel installed into a fresh venv runs the DNS without writing into its own package, and
-uninstalls without leaving anything behind; numba's kernels land in the pulsemap cache.
+uninstalls without leaving anything behind; numba's kernels and the code generated at run time land
+in the pulsemap cache.
 
 The venv is created with ``python -m venv`` (no pip, no network) and the wheel installed into it
 with ``pip --python VENV install --no-index --no-deps``. Its dependencies (numpy, scipy, numba,
@@ -74,6 +75,13 @@ def test_wheel_runs_read_only_and_uninstalls_clean(tmp_path):
     assert "compiling" not in again.stderr, again.stderr  # warm: loaded from the cache, silently
     peaks = [json.loads((tmp_path / f"{n}.json").read_text())["peaks"]["dns"] for n in ("first", "again")]
     assert peaks[0] == peaks[1] and any(p is not None for p in peaks[0])
+
+    # an R the package ships no code for: its force and numba force modules are generated at run time
+    generated = subprocess.run(command[:-1] + ["--set", "perturbation.R=-mu*sin(u)"], env=env, capture_output=True,
+                               text=True, timeout=900)
+    assert generated.returncode == 0, generated.stderr[-2000:]
+    made = sorted(p.name for p in (cache / "generated").glob("*.py"))
+    assert any(n.startswith("jitforce_") for n in made) and any(n.startswith("force_") for n in made), made
 
     assert _files(package) == installed, sorted(_files(package) - installed)  # nothing written inside it
     numba_files = [p.name for p in (cache / "numba").rglob("*") if p.suffix in (".nbi", ".nbc")]
