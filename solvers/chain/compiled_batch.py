@@ -9,7 +9,7 @@ force call for: Dormand-Prince 5(4), DOP853 when named, Rodas4 for a stiff force
 arithmetic: identical peaks), the chains spread over the cores, one parallel call per kernel used.
 """
 
-# numba cache stamp: 1be72224545a1d83
+# numba cache stamp: f6f760c5832184af
 from __future__ import annotations
 
 import time as _time

@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 1be72224545a1d83
+# numba cache stamp: f6f760c5832184af
 from __future__ import annotations
 
 import numpy as np

@@ -17,7 +17,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: 1be72224545a1d83
+# numba cache stamp: f6f760c5832184af
 from __future__ import annotations
 
 import numpy as np

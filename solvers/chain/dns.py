@@ -135,8 +135,7 @@ def _real(value, name: str) -> None:
 def _window_energies(force: OnSiteForce | None, res: DNSResult) -> DNSResult:
     """A moving window knows the whole chain's energy only without R: the beads it dropped keep what
     they carried then (their drift is the run's accuracy check); with R they go on gaining or losing
-    energy out of sight (fig8-eps0.1: the window's count was 8-13 % off the full chain's from
-    contact 39 on), so ``total_energy`` is None. The pulse's energy (beads k-8..k+8) stays."""
+    energy out of sight (docs/dns.rst), so ``total_energy`` is None. The pulse's energy (beads k-8..k+8) stays."""
     return res if force is None or res.mode == "full" else replace(res, total_energy=None)
 
 
