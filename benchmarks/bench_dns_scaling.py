@@ -9,7 +9,7 @@ grow with N, 16 for O(N) work per contact. Note: with eps*mu = 0.01 the pulse di
 1e-3 of contact 16's) near contact 643, so both chain lengths stop there.
 
 --calibrate re-measures the error the window costs against the full chain for several numbers
-of beads kept behind the front (solvers/window.py CALIBRATION).
+of beads kept behind the front (docs/dns.rst, "Window calibration").
 """
 
 from __future__ import annotations

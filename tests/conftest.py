@@ -7,6 +7,14 @@ from pathlib import Path
 
 import pytest
 
+# numba's compiled kernels are keyed by their source, so a test session may reuse the ones an earlier
+# session compiled (the per-session cache below would otherwise compile them all again); a
+# NUMBA_CACHE_DIR set outside wins. Set before any test module imports a kernel.
+if not os.environ.get("NUMBA_CACHE_DIR"):
+    from pulsemap.symbolic.cache import cache_root
+
+    os.environ["NUMBA_CACHE_DIR"] = str(cache_root() / "numba")
+
 
 @pytest.fixture(autouse=True, scope="session")
 def _isolated_cache():

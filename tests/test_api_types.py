@@ -7,6 +7,7 @@ import pytest
 
 from pulsemap.solvers.chain import dns
 from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.data import scene_schema
 from pulsemap.solvers.data.scene import load_scene, parse_scene
 from pulsemap.solvers.studies.run import run_scene
@@ -31,9 +32,10 @@ SIMULATE = [
     ("rtol", {"rtol": "1e-8"}, TypeError),
     ("atol", {"atol": True}, TypeError),
     ("method", {"method": 3}, TypeError),
-    ("t_max", {"t_max": "10"}, TypeError),
+    ("t_max", {"stop": StopRules(t_max="10")}, TypeError),
+    ("stop", {"stop": {"t_max": 10.0}}, TypeError),
     ("progress", {"progress": "yes"}, TypeError),
-    ("max_steps", {"max_steps": 1.5}, ValueError),
+    ("max_steps", {"stop": StopRules(max_steps=1.5)}, ValueError),
 ]
 
 

@@ -4,7 +4,7 @@
 
 Dormand-Prince 5(4) with PI step control and dense output (solvers/chain/compiled_kernel.py; DOP853,
 solvers/chain/compiled_dop853.py, when asked for by name), or for a stiff force (method 'auto', above
-COMPILED_STIFFNESS_RATIO x the contact rate) Rodas4 with the exact banded Jacobian (solvers/chain/compiled_stiff.py); the
+plan.COMPILED_STIFFNESS_RATIO x the contact rate) Rodas4 with the exact banded Jacobian (solvers/chain/compiled_stiff.py); the
 same leading-edge peaks (root of delta' on the dense output) and the same stop rules and messages
 as the scipy engines (solvers/peaks.PeakTracker), and the same DNSResult.
 
@@ -23,76 +23,21 @@ from __future__ import annotations
 
 import time as _time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, STIFFNESS_RATIO, DNSResult, energy
+from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, energy
 from pulsemap.solvers.chain.force_table import JitForce, MonomialTable
-from pulsemap.solvers.chain.peaks import PeakTracker, first_threshold, primary_pulse_lost, contact_rate, velocity_scale
+from pulsemap.solvers.chain.peaks import (PeakTracker, StopRules, contact_rate, first_threshold, primary_pulse_lost,
+                                          velocity_scale)
+from pulsemap.solvers.chain.plan import HIGH_ORDER_METHOD, METHOD, explicit_reason
 
 Array = np.ndarray
-METHOD = "RK45"  # Dormand-Prince 5(4), scipy's name for it: the default explicit kernel
-HIGH_ORDER_METHOD = "DOP853"  # compiled_dop853.METHOD: taken only when asked for by name
-STIFF_METHOD = "Rodas4"  # compiled_stiff.METHOD (that module imports numba: named here for dns.py)
-EXPLICIT_METHODS = (METHOD, HIGH_ORDER_METHOD)
 ENERGY_EVERY = 4  # blow-up guard and energy drift every this many steps (as solvers/window.py)
 DELAY_FACTOR = 2.0  # peaks.primary_pulse_lost's default
 ROOM = 96  # initial buffer beyond ``behind`` (grown on demand)
-# Method 'auto' on the compiled engine runs Rodas4 when the force's stiffness hint exceeds this x the
-# contact rate; below it the explicit kernel is the cheaper at every rtol (measured: docs/dns.rst).
-COMPILED_STIFFNESS_RATIO = 300.0
 PAUSE_STEPS = 20_000  # accepted steps between progress checks (~2-20 ms of kernel time)
-
-
-def unavailable(method: str, snapshots: bool = False) -> str:
-    """Why the compiled engine cannot run this case ("" when it can; force_table.force_data says whether
-    it can take the force): the scipy engine then runs. A stiff force under method 'auto' (``is_stiff``)
-    runs the Rosenbrock kernel (``stiff_reason``)."""
-    if snapshots:
-        return "strain snapshots are recorded by the scipy engine only"
-    if method not in ("auto",) + EXPLICIT_METHODS:
-        return f"method {method} has no compiled kernel (compiled: RK45, Dormand-Prince 5(4); DOP853)"
-    return ""
-
-
-def kernel_method(method: str, stiff: bool) -> str:
-    """The compiled kernel for simulate's ``method``: the one named (RK45, DOP853), else ('auto')
-    Rodas4 for a stiff force and Dormand-Prince 5(4) for any other."""
-    if method in EXPLICIT_METHODS:
-        return method
-    return STIFF_METHOD if stiff else METHOD
-
-
-def explicit_reason(method: str) -> str:
-    """What an explicit kernel's result says ran."""
-    if method == HIGH_ORDER_METHOD:
-        return "compiled DOP853 (explicit Runge-Kutta 8(5,3)), method 'DOP853' requested"
-    return "compiled RK45 (Dormand-Prince 5(4))"
-
-
-def is_stiff(force, velocity: float, exponent: float) -> bool:
-    """Method 'auto' on the compiled engine takes Rodas4: the force's stiffness hint (an OnSiteForce's or
-    a MonomialTable's) exceeds COMPILED_STIFFNESS_RATIO x the contact rate."""
-    return force is not None and force.stiffness_hint > COMPILED_STIFFNESS_RATIO * contact_rate(velocity, exponent)
-
-
-def stiff_reason(force, velocity: float, exponent: float) -> str:
-    """Why the Rosenbrock kernel (compiled_stiff.py) runs: the stiffness hint against the contact rate."""
-    return (f"compiled Rosenbrock ({STIFF_METHOD}): stiffness hint {force.stiffness_hint:.4g} > "
-            f"{COMPILED_STIFFNESS_RATIO:g} x contact rate {contact_rate(velocity, exponent):.4g}")
-
-
-def auto_reason(force, velocity: float, exponent: float) -> str:
-    """What an 'auto' run on the compiled engine says: Rodas4 and why, or Dormand-Prince 5(4), noting a
-    force the scipy engine would call stiff (equations.STIFFNESS_RATIO) that this engine does not."""
-    if is_stiff(force, velocity, exponent):
-        return stiff_reason(force, velocity, exponent)
-    rate = contact_rate(velocity, exponent)
-    if force is not None and force.stiffness_hint > STIFFNESS_RATIO * rate:
-        return (f"{explicit_reason(METHOD)}: stiffness hint {force.stiffness_hint:.4g} <= {COMPILED_STIFFNESS_RATIO:g} x "
-                f"contact rate {rate:.4g}, where it is cheaper than {STIFF_METHOD}")
-    return explicit_reason(METHOD)
 
 
 def _reason(code: int, track: PeakTracker, fs: Array, st: Array, t_max: float, max_steps: int, method: str) -> str:
@@ -145,17 +90,18 @@ class _Run:
 
 
 def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
-            table: "MonomialTable | JitForce | None", *, rule, rtol: float, atol: float, peak_fraction: float, death_fraction: float, t_max: float,
-            stall_factor: float, overtake_factor: float, max_steps: int, method: str = METHOD,
-            launch=None) -> _Run:
+            table: "MonomialTable | JitForce | None", *, rule, rtol: float, atol: float, stop: StopRules,
+            method: str = METHOD, launch=None) -> _Run:
     """The kernel's arrays at t = 0: all beads at rest, bead 1 with velocity v0 (Eq. 1), or with
     ``launch`` (a chain/launch.Launch, checked by dns.simulate; ``velocity`` is then its velocity
     scale) the exact solitary wave with contact launch.centre at its peak, the window holding every
-    bead it moves and contacts up to the centre counted as peaked; ``method``: the kernel (RK45,
-    DOP853 or compiled_stiff.METHOD)."""
+    bead it moves and contacts up to the centre counted as peaked; ``stop``: the stop rules with t_max
+    and max_steps given; ``method``: the kernel (RK45, DOP853 or compiled_stiff.METHOD)."""
     from pulsemap.solvers.chain import compiled_track as K  # numba: only when the engine runs
 
     first, last = int(contacts[0]), int(contacts[1])
+    peak_fraction, death_fraction, overtake_factor = stop.peak_fraction, stop.death_fraction, stop.overtake_factor
+    stall_factor, t_max, max_steps = stop.stall_factor, float(stop.t_max), int(stop.max_steps)
     table = MonomialTable.zero() if table is None else table
     full = rule is None
     behind = beads + 1 if full else int(rule.behind)
@@ -189,6 +135,23 @@ def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, i
                 np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f, method)
 
 
+def kernel_for(method: str):
+    """The numba dispatcher of a kernel (its module imported, so compiled or loaded, only when a run needs it)."""
+    if method == METHOD:
+        from pulsemap.solvers.chain.compiled_kernel import run as kernel
+    elif method == HIGH_ORDER_METHOD:
+        from pulsemap.solvers.chain.compiled_dop853 import run as kernel
+    else:
+        from pulsemap.solvers.chain.compiled_stiff import run as kernel
+    return kernel
+
+
+def kernel_args(run: _Run) -> tuple:
+    """The kernel's arguments for ``run`` (compiled_kernel.run's order)."""
+    return (run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e, run.total_e,
+            *run.table.kernel_args)
+
+
 def drive(run: _Run, code: int | None = None, report=None) -> int:
     """Run the kernel until a stop rule fires (``code``: the kernel's last answer, if it ran already),
     growing the window's buffer whenever it asks for room. With ``report`` (a dns_progress.DNSProgress)
@@ -196,13 +159,7 @@ def drive(run: _Run, code: int | None = None, report=None) -> int:
     changes no number (the kernel's state is complete between calls)."""
     from pulsemap.solvers.chain import compiled_track as K
 
-    if run.method == METHOD:
-        from pulsemap.solvers.chain.compiled_kernel import run as kernel
-    elif run.method == HIGH_ORDER_METHOD:
-        from pulsemap.solvers.chain.compiled_dop853 import run as kernel
-    else:
-        from pulsemap.solvers.chain.compiled_stiff import run as kernel
-
+    kernel = kernel_for(run.method)
     if report is not None and report.enabled:
         run.ci[K.PAUSE_EVERY] = PAUSE_STEPS
     while True:
@@ -220,8 +177,7 @@ def drive(run: _Run, code: int | None = None, report=None) -> int:
             run.y, run.f = y, f
         with warnings.catch_warnings():  # numba calls C function pointers (JitForce) 'experimental'
             warnings.filterwarnings("ignore", "First-class function type feature is experimental")
-            code = int(kernel(run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e,
-                              run.total_e, *run.table.kernel_args))
+            code = int(kernel(*kernel_args(run)))
 
 
 def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSResult:
@@ -252,12 +208,14 @@ def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tu
                       table: "MonomialTable | JitForce | None", *, engine_reason: str = "", progress: bool = False,
                       **settings) -> DNSResult:
     """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it; ``settings``:
-    rule, rtol, atol, peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps, method,
-    launch).
+    rule, rtol, atol, stop, method, launch: prepare's).
     ``progress``: a line on stderr at most every 5 s (dns_progress.DNSProgress), as the scipy engines."""
     from pulsemap.solvers.chain.dns_progress import DNSProgress
 
+    from pulsemap.solvers.chain.jit import ready
+
     run = prepare(beads, exponent, velocity, contacts, table, **settings)
+    compile_s = ready(kernel_for(run.method), kernel_args(run))
     wall0 = _time.perf_counter()
     code = drive(run, report=DNSProgress("dns", run.last, enabled=progress) if progress else None)
-    return result(run, code, _time.perf_counter() - wall0, engine_reason)
+    return replace(result(run, code, _time.perf_counter() - wall0, engine_reason), compile_s=compile_s)

@@ -9,24 +9,26 @@ force call for: Dormand-Prince 5(4), DOP853 when named, Rodas4 for a stiff force
 arithmetic: identical peaks), the chains spread over the cores, one parallel call per kernel used.
 """
 
-# numba cache stamp: 8355ae96e33cf052
+# numba cache stamp: f6f760c5832184af
 from __future__ import annotations
 
 import time as _time
+from dataclasses import replace
 from typing import Sequence
 
 import numpy as np
-from numba import njit, prange
 
-from pulsemap.solvers.chain.compiled import (
-    EXPLICIT_METHODS, HIGH_ORDER_METHOD, METHOD, STIFF_METHOD, auto_reason, drive, explicit_reason, is_stiff,
-    kernel_method, prepare, result)
+from pulsemap.solvers.chain.compiled import drive, prepare, result
 from pulsemap.solvers.chain.compiled_dop853 import run as run_dop853
 from pulsemap.solvers.chain.compiled_kernel import run
 from pulsemap.solvers.chain.compiled_stiff import run as run_rodas4
 from pulsemap.solvers.chain.equations import DNSResult, default_max_steps, default_t_max
 from pulsemap.solvers.chain.force_table import MonomialTable
+from pulsemap.solvers.chain.jit import njit, prange
+from pulsemap.solvers.chain.peaks import StopRules
+from pulsemap.solvers.chain.plan import EXPLICIT_METHODS, HIGH_ORDER_METHOD, METHOD, STIFF_METHOD, compiled_kernel
 from pulsemap.solvers.chain.scaling import DIRECT_RANGE, needs_rescaling
+from pulsemap.solvers.chain.window import WindowRule, WindowSpec, resolve_rule, window_accuracy_for
 
 METHODS = ("auto",) + EXPLICIT_METHODS
 
@@ -59,11 +61,8 @@ BATCH_KERNELS = {METHOD: run_many, HIGH_ORDER_METHOD: run_many_dop853, STIFF_MET
 
 
 def kernel_for(table: MonomialTable, velocity: float, exponent: float, method: str) -> tuple[str, str]:
-    """The kernel simulate would run for this chain (compiled.kernel_method: Rodas4 when 'auto' finds
-    the force stiff, compiled.is_stiff) and the reason its result gives."""
-    auto = method == "auto"
-    kernel = kernel_method(method, auto and is_stiff(table, velocity, exponent))
-    why = auto_reason(table, velocity, exponent) if auto else explicit_reason(kernel)
+    """The kernel simulate would run for this chain (plan.compiled_kernel) and the reason its result gives."""
+    kernel, why = compiled_kernel(table, velocity, exponent, method)
     return kernel, f"{why}, batch of chains"
 
 
@@ -90,24 +89,17 @@ def simulate_many(
     contacts: tuple[int, int],
     tables: Sequence[MonomialTable | None],
     *,
-    window: "str | object | None" = "auto",
-    window_accuracy: float | None = None,
+    window: "WindowSpec | str | int | WindowRule | None" = "auto",
     rtol: float = 1e-10,
     atol: float = 1e-12,
-    peak_fraction: float = 1e-2,
-    death_fraction: float = 1e-3,
-    t_max: float | None = None,
-    stall_factor: float = 5.0,
-    overtake_factor: float = 1.25,
-    max_steps: int | None = None,
+    stop: StopRules | None = None,
     method: str = "auto",
 ) -> list[DNSResult]:
     """One DNSResult per chain b (velocity ``velocities[b]``, on-site force ``tables[b]``, None: R = 0),
     as ``simulate(..., engine="compiled", method=method)`` gives it (the same kernel, window rule for
-    the same rtol and ``window_accuracy``, and numbers); ``method``: 'auto', 'RK45' or 'DOP853'.
+    the same rtol and window accuracy, and numbers); ``method``: 'auto', 'RK45' or 'DOP853'.
     ``wall_time_s`` is the batch's time / chains."""
     from pulsemap.solvers.chain.dns import validate
-    from pulsemap.solvers.chain.window import resolve_rule, window_accuracy_for
 
     if len(velocities) != len(tables) or not len(tables):
         raise ValueError(f"simulate_many needs one velocity per table, got {len(velocities)} and {len(tables)}")
@@ -115,9 +107,9 @@ def simulate_many(
         raise ValueError(f"simulate_many runs the compiled kernels: method must be one of {', '.join(METHODS)}, "
                          f"got {method!r} (for {method!r} call simulate once per chain)")
     first, last = 0, 0
+    stop = StopRules() if stop is None else stop
     for v in velocities:
-        first, last = validate(beads, exponent, v, contacts, METHOD, rtol, atol, peak_fraction, death_fraction,
-                               t_max, stall_factor, overtake_factor, max_steps)
+        first, last = validate(beads, exponent, v, contacts, METHOD, rtol, atol, stop)
         if needs_rescaling(float(v)):
             lo, hi = DIRECT_RANGE
             raise ValueError(f"simulate_many: velocity {v!r} lies outside {lo:g}..{hi:g}, where simulate runs the chain "
@@ -127,13 +119,13 @@ def simulate_many(
     full = [MonomialTable(shared, np.zeros((shared.shape[0], 1))) if t is None else t for t in tables]
     if any(t.constant_term for t in full):
         raise ValueError("simulate_many: R(0, 0) != 0 (a constant term) in some chain's table")
-    rule = None if window is None else resolve_rule(window, window_accuracy_for(rtol, window_accuracy))
-    budget = default_max_steps(last) if max_steps is None else int(max_steps)
+    spec = WindowSpec.of(window)
+    rule = None if spec is None else resolve_rule(spec.size, window_accuracy_for(rtol, spec.accuracy))
+    budget = default_max_steps(last) if stop.max_steps is None else int(stop.max_steps)
     kernels = [kernel_for(t, float(v), float(exponent), method) for v, t in zip(velocities, full)]
     runs = [prepare(int(beads), float(exponent), float(v), (first, last), t, rule=rule, rtol=rtol, atol=atol,
-                    peak_fraction=peak_fraction, death_fraction=death_fraction,
-                    t_max=default_t_max(last, float(v), float(exponent)) if t_max is None else float(t_max),
-                    stall_factor=stall_factor, overtake_factor=overtake_factor, max_steps=budget, method=k)
+                    stop=replace(stop, max_steps=budget, t_max=default_t_max(last, float(v), float(exponent))
+                                 if stop.t_max is None else float(stop.t_max)), method=k)
             for v, t, (k, _) in zip(velocities, tables, kernels)]
     codes = np.zeros(len(runs), dtype=np.int64)
     wall0 = _time.perf_counter()

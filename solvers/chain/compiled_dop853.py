@@ -18,11 +18,11 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: 8355ae96e33cf052
+# numba cache stamp: f6f760c5832184af
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from pulsemap.solvers.chain.jit import njit
 
 from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, rhs

@@ -12,10 +12,10 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 8355ae96e33cf052
+# numba cache stamp: f6f760c5832184af
 from __future__ import annotations
 
-from numba import types
+from pulsemap.solvers.chain.jit import types
 from numba.extending import overload
 
 

@@ -7,11 +7,11 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 8355ae96e33cf052
+# numba cache stamp: f6f760c5832184af
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from pulsemap.solvers.chain.jit import njit
 
 from pulsemap.solvers.chain.compiled_force import add_onsite
 
@@ -47,11 +47,9 @@ def _no_nrt_options() -> dict:
 
 
 #: numba options of every kernel function that allocates nothing: cached, and compiled without
-#: reference counting. With it, numba increfs every array argument on entry to a function (and to
-#: each inlined helper) and decrefs it on every way out: atomic operations that took 24 % of the
-#: Dormand-Prince kernel's time on vdp-mu3-v2.3 (perf), 1.38 ms per run against 0.97-1.04 ms
-#: without (same steps, same numbers). Only each kernel's ``run`` allocates (its scratch arrays)
-#: and then calls its loop, compiled with these options.
+#: reference counting (numba's increfs and decrefs of every array argument cost about a quarter of a
+#: run: docs/dns.rst). Only each kernel's ``run`` allocates (its scratch arrays) and then calls its
+#: loop, compiled with these options.
 NO_NRT = _no_nrt_options()
 
 

@@ -18,11 +18,11 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 8355ae96e33cf052
+# numba cache stamp: f6f760c5832184af
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from pulsemap.solvers.chain.jit import njit
 
 from pulsemap.solvers.chain.compiled_force import onsite_slopes
 from pulsemap.solvers.chain.compiled_kernel import start
@@ -31,7 +31,7 @@ from pulsemap.solvers.chain.compiled_track import (
     ATOL, CAPACITY, EXP, H, NFEV, NJEV, REJECTED, RTOL, T,
     finish_step, next_step, peak_in_step, track_step, window_now)
 
-METHOD = "Rodas4"  # compiled.STIFF_METHOD
+METHOD = "Rodas4"  # plan.STIFF_METHOD
 ORDER = 4  # of the step (the embedded one: 3); the dense output is a cubic Hermite (order 3)
 # --- the tableau (module docstring); a and c strictly lower triangular, row i = stage i + 1
 GAMMA = 0.25

@@ -17,11 +17,11 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: 8355ae96e33cf052
+# numba cache stamp: f6f760c5832184af
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from pulsemap.solvers.chain.jit import njit
 
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, _pow, pulse_lost, rhs, segment_energy, window_energy
 
@@ -158,7 +158,7 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
                 pk[i] = dense_value(theta, i, y, rc)
             kl = k - 1 - lo
             pulse_e[k - first] = segment_energy(pk, max(0, kl - PULSE_HALF_WIDTH), min(w, kl + PULSE_HALF_WIDTH + 1), n)
-            total_e[k - first] = segment_energy(pk, 0, w, n) + fs[E_GONE]
+            total_e[k - first] = segment_energy(pk, w - w, w, n) + fs[E_GONE]  # w - w: not a literal 0 (one compile)
         fs[STALL] = cf[STALL_FAC] * (t_pk - fs[LAST_PEAK_T])
         fs[LAST_PEAK_T] = t_pk
         fs[THRESH] = cf[PEAK_FRAC] * value
@@ -250,7 +250,8 @@ def shift_window(t, y, f, w, st, fs, cf, ci, exps, coef):
     """drop_behind (f re-evaluated when the chain got a free end), then add_ahead: the new w."""
     w, refresh = drop_behind(t, y, f, w, st, fs, cf, ci)
     if refresh:  # free: the first bead lost its left contact
-        rhs(t, y, f, w, st[LO], cf[EXP], False, 0.0, 0.0, 0.0, st[HI] < ci[BEADS], exps, coef)
+        # has_left as st[HAS_LEFT] == 1 (False here), not a literal False: rhs is compiled once
+        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, 0.0, 0.0, 0.0, st[HI] < ci[BEADS], exps, coef)
         st[NFEV] += 1
     return add_ahead(y, f, w, st, cf, ci)
 

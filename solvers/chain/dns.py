@@ -30,10 +30,11 @@ from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the 
 from pulsemap.solvers.chain.force_table import force_data
 from pulsemap.solvers.chain.front import SNAPSHOT_SPAN, FrontRecorder, check_snapshot_contacts, memo, state_at
 from pulsemap.solvers.chain.launch import Launch
-from pulsemap.solvers.chain.peaks import PeakTracker, contact_rate, scan_step, velocity_scale  # noqa: F401
+from pulsemap.solvers.chain.peaks import PeakTracker, StopRules, contact_rate, scan_step, velocity_scale  # noqa: F401
+from pulsemap.solvers.chain.plan import plan, wants_force_data
 
 if TYPE_CHECKING:  # pragma: no cover
-    from pulsemap.solvers.chain.window import WindowRule
+    from pulsemap.solvers.chain.window import WindowRule, WindowSpec
 
 
 # ----------------------------------------------------------------------------- validation
@@ -53,15 +54,14 @@ def validate(
     method: str,
     rtol: float,
     atol: float,
-    peak_fraction: float,
-    death_fraction: float,
-    t_max: float | None,
-    stall_factor: float = 5.0,
-    overtake_factor: float = 1.25,
-    max_steps: int | None = None,
+    stop: StopRules = StopRules(),
 ) -> tuple[int, int]:
     """Check simulate()'s arguments; return the contact range. One-line ValueErrors (TypeErrors for
-    a value of the wrong type), each naming the argument."""
+    a value of the wrong type), each naming the argument (a stop rule by its StopRules field)."""
+    if not isinstance(stop, StopRules):
+        raise TypeError(f"stop must be a StopRules (solvers.chain.peaks) or None, got {type(stop).__name__}")
+    peak_fraction, death_fraction, stall_factor = stop.peak_fraction, stop.death_fraction, stop.stall_factor
+    overtake_factor, t_max, max_steps = stop.overtake_factor, stop.t_max, stop.max_steps
     for name, value in (("exponent", exponent), ("velocity", velocity), ("rtol", rtol), ("atol", atol),
                         ("peak_fraction", peak_fraction), ("death_fraction", death_fraction),
                         ("stall_factor", stall_factor), ("overtake_factor", overtake_factor)):
@@ -135,8 +135,7 @@ def _real(value, name: str) -> None:
 def _window_energies(force: OnSiteForce | None, res: DNSResult) -> DNSResult:
     """A moving window knows the whole chain's energy only without R: the beads it dropped keep what
     they carried then (their drift is the run's accuracy check); with R they go on gaining or losing
-    energy out of sight (fig8-eps0.1: the window's count was 8-13 % off the full chain's from
-    contact 39 on), so ``total_energy`` is None. The pulse's energy (beads k-8..k+8) stays."""
+    energy out of sight (docs/dns.rst), so ``total_energy`` is None. The pulse's energy (beads k-8..k+8) stays."""
     return res if force is None or res.mode == "full" else replace(res, total_energy=None)
 
 
@@ -150,16 +149,9 @@ def simulate(
     method: str = "auto",
     rtol: float = 1e-10,
     atol: float = 1e-12,
-    peak_fraction: float = 1e-2,
-    death_fraction: float = 1e-3,
-    t_max: float | None = None,
-    stall_factor: float = 5.0,
+    stop: StopRules | None = None,
     progress: bool = False,
-    overtake_factor: float = 1.25,
-    window: "int | str | WindowRule | None" = None,
-    window_accuracy: float | None = None,
-    window_engine: str = "auto",
-    max_steps: int | None = None,
+    window: "WindowSpec | int | str | WindowRule | None" = None,
     snapshots: "Sequence[int] | None" = None,
     snapshot_span: tuple[int, int] = SNAPSHOT_SPAN,
     launch: "Launch | None" = None,
@@ -172,21 +164,21 @@ def simulate(
     launch, ``velocity`` is not used: the wave's velocity scale A^((n+1)/2) takes its place in
     the thresholds, and only contacts after the centre are tracked.
 
-    ``window=None`` (default) integrates the whole chain. ``window="auto"`` integrates only a
-    moving window of beads around the leading edge (solvers/window.py), sized so that the
-    window costs less than ``window_accuracy`` relative peak error (default None: the looser of
-    rtol and 1e-8, window.window_accuracy_for; the rule's calibration: window.CALIBRATION); an
-    int gives the window's
-    width in beads, a ``WindowRule`` its full geometry. The windowed cost per contact does not
-    grow with N. Its ``energy_drift`` counts the energy carried out by dropped beads.
-    ``window_engine``: "auto" (Hairer's Fortran DOP853/DOPRI5 for those methods, else the
-    scipy OdeSolver), "fortran" or "scipy".
+    ``window=None`` (default) integrates the whole chain. ``window=WindowSpec(...)``
+    (solvers/chain/window.py) integrates only a moving window of beads around the leading edge:
+    its ``size`` 'auto' is sized so that the window costs less than its ``accuracy`` in relative
+    peak error (default None: the looser of rtol and 1e-8; the rule's calibration: docs/dns.rst),
+    an int gives the window's width in beads, a ``WindowRule`` its full geometry; its ``engine``
+    is the scipy engine's window integrator ("auto": Hairer's Fortran DOP853/DOPRI5 for those
+    methods, else the scipy OdeSolver; "fortran"; "scipy"). A size alone (``window="auto"``, an
+    int, a WindowRule) stands for WindowSpec(size). The windowed cost per contact does not grow
+    with N. Its ``energy_drift`` counts the energy carried out by dropped beads.
 
-    All contacts 1..last are tracked (each one's acceptance threshold is ``peak_fraction``
-    times the previous contact's peak; contact 1 uses the scale v0^(2/(n+1))). The run stops
-    when the last contact has peaked, when the pulse dies (a peak below ``death_fraction``
-    times the first requested contact's peak), when no new contact peaks within
-    ``stall_factor`` times the last inter-peak delay, at ``t_max``, or when the state becomes
+    All contacts 1..last are tracked (``stop``, a peaks.StopRules, default StopRules(): each one's
+    acceptance threshold is ``peak_fraction`` times the previous contact's peak; contact 1 uses the
+    scale v0^(2/(n+1))). The run stops when the last contact has peaked, when the pulse dies (a peak
+    below ``death_fraction`` times the first requested contact's peak), when no new contact peaks
+    within ``stall_factor`` times the last inter-peak delay, at ``t_max``, or when the state becomes
     non-finite or the energy grows beyond 1e6 times its initial value. A contact whose first
     maximum exceeds ``overtake_factor`` times the previous contact's no longer carries the
     primary pulse (the wake overtook the front): the run stops there too. ``max_steps``
@@ -209,20 +201,16 @@ def simulate(
         raise TypeError(f"force must be an OnSiteForce or None, got {type(force).__name__}")
     if not isinstance(progress, bool):
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
-    first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol,
-                           peak_fraction, death_fraction, t_max, stall_factor, overtake_factor, max_steps)
+    stop = StopRules() if stop is None else stop
+    first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol, stop)
     beads, exponent, velocity = int(beads), float(exponent), float(velocity)
-    window_accuracy = _window.window_accuracy_for(rtol, window_accuracy)
     if launch is None and _scaling.needs_rescaling(velocity):  # a rescaled run at v0 = 1 (solvers/chain/scaling.py)
         _scaling.check_force_range(force, exponent, velocity, beads)
         scale = _scaling.Scaling(exponent, velocity)
         unit = simulate(
             beads, exponent, 1.0, (first, last), scale.force(force), method=method, rtol=rtol, atol=atol,
-            peak_fraction=peak_fraction, death_fraction=death_fraction,
-            t_max=None if t_max is None else float(t_max) / scale.tau, stall_factor=stall_factor, progress=progress,
-            overtake_factor=overtake_factor, window=window, window_accuracy=window_accuracy,
-            window_engine=window_engine, max_steps=max_steps, snapshots=snapshots, snapshot_span=snapshot_span,
-            engine=engine)
+            stop=replace(stop, t_max=None if stop.t_max is None else float(stop.t_max) / scale.tau),
+            progress=progress, window=window, snapshots=snapshots, snapshot_span=snapshot_span, engine=engine)
         return scale.result(unit)
     if launch is not None:
         if not isinstance(launch, Launch):
@@ -233,46 +221,31 @@ def simulate(
                           _check_span(snapshot_span))
     if engine not in ENGINES:
         raise ValueError(f"unknown engine {engine!r}; choose one of {', '.join(ENGINES)}")
-    chosen = choose_method(force, velocity, exponent) if method == "auto" else method
-    t_limit = default_t_max(last, velocity, exponent) if t_max is None else float(t_max)
-    why_scipy = "engine='scipy' requested"
-    if engine == "compiled":
+    data, force_reason = force_data(force) if wants_force_data(engine, method, bool(snapshots)) else (None, "")
+    how = plan(engine=engine, method=method, force=force, velocity=velocity, exponent=exponent, rtol=rtol,
+               window=window, snapshots=bool(snapshots), force_reason=force_reason)
+    chosen = how.method
+    t_limit = default_t_max(last, velocity, exponent) if stop.t_max is None else float(stop.t_max)
+    budget = default_max_steps(last) if stop.max_steps is None else int(stop.max_steps)
+    rules = replace(stop, t_max=t_limit, max_steps=budget)
+    if how.engine == "compiled":
         from pulsemap.solvers.chain import compiled  # numba: imported only when used
 
-        why_scipy = compiled.unavailable(method, bool(snapshots))
-        data = None
-        if not why_scipy:
-            data, why_scipy = force_data(force)
-        if not why_scipy:
-            stiff = method == "auto" and compiled.is_stiff(force, velocity, exponent)
-            return _window_energies(force, compiled.simulate_compiled(
-                beads, exponent, velocity, (first, last), data,
-                rule=None if window is None else _window.resolve_rule(window, window_accuracy), rtol=rtol,
-                atol=atol, peak_fraction=peak_fraction, death_fraction=death_fraction, t_max=t_limit,
-                stall_factor=stall_factor, overtake_factor=overtake_factor,
-                max_steps=default_max_steps(last) if max_steps is None else int(max_steps),
-                method=compiled.kernel_method(method, stiff),
-                engine_reason=compiled.auto_reason(force, velocity, exponent) if method == "auto" else "",
-                progress=progress,
-                launch=launch))
-    if window is not None:
+        return _window_energies(force, compiled.simulate_compiled(
+            beads, exponent, velocity, (first, last), data, rule=how.rule, rtol=rtol, atol=atol, stop=rules,
+            method=how.method, engine_reason=how.reason, progress=progress, launch=launch))
+    if how.rule is not None:
         return _window_energies(force, replace(_window.simulate_windowed(
-            beads, exponent, velocity, (first, last), force, rule=_window.resolve_rule(window, window_accuracy),
-            method=chosen, rtol=rtol, atol=atol, peak_fraction=peak_fraction,
-            death_fraction=death_fraction, t_max=t_limit, stall_factor=stall_factor,
-            progress=progress, engine=window_engine, overtake_factor=overtake_factor,
-            max_steps=default_max_steps(last) if max_steps is None else int(max_steps), front=front,
-            launch=launch), engine="scipy", engine_reason=why_scipy))
+            beads, exponent, velocity, (first, last), force, rule=how.rule, method=chosen, rtol=rtol, atol=atol,
+            stop=rules, progress=progress, engine=how.window_engine, front=front, launch=launch),
+            engine="scipy", engine_reason=how.reason))
     y0 = initial_state(beads, velocity) if launch is None else launch.state(exponent, beads)
     e0 = energy(y0[0::2], y0[1::2], exponent)
 
     wall0 = _time.perf_counter()
     solver = make_solver(chosen, beads, exponent, force, y0, t_limit, rtol, atol)
-    track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
-                              death_fraction=death_fraction, overtake_factor=overtake_factor,
-                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1,
-                              method=chosen)
-    budget = default_max_steps(last) if max_steps is None else max_steps
+    track = PeakTracker.start(first, last, velocity, exponent, rules,
+                              next_contact=1 if launch is None else launch.centre + 1, method=chosen)
     drift = 0.0
     report = DNSProgress("dns", last, enabled=progress)
 
@@ -284,7 +257,7 @@ def simulate(
             return True
         drift = max(drift, abs(e - e0) / e0)
         dense = memo(dense_factory)
-        found = scan_step(y_old, y_new, t_old, t_new, dense, track.next_contact, last, track.threshold, peak_fraction)
+        found = scan_step(y_old, y_new, t_old, t_new, dense, track.next_contact, last, track.threshold, stop.peak_fraction)
         track.record(found)
         if found:
             front.record(found, state_at(dense()))
@@ -304,7 +277,7 @@ def simulate(
         track, front, method=chosen, rtol=float(rtol), atol=float(atol), beads=beads, nfev=int(solver.nfev),
         njev=int(getattr(solver, "njev", 0)), wall_time_s=wall, energy_drift=drift if force is None else None,
         exponent=exponent, velocity=velocity, t_end=float(solver.t), window_beads=beads, energy_initial=e0,
-        engine="scipy", engine_reason=why_scipy,
+        engine="scipy", engine_reason=how.reason,
     )
 
 

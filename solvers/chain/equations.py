@@ -77,6 +77,8 @@ class DNSResult:
     chosen contacts (front.Snapshot). An engine that does not record them leaves the defaults.
     ``speed`` (a property): contacts per unit time from the peak times.
     ``engine``: "compiled" (chain/compiled.py) or "scipy"; ``engine_reason``: why that engine ran.
+    ``compile_s``: seconds spent compiling the kernel or loading it from numba's cache (the first run
+    of a kernel in a process; 0.0 otherwise and on the scipy engine), not counted in ``wall_time_s``.
     """
 
     contacts: Array
@@ -107,6 +109,7 @@ class DNSResult:
     snapshots: tuple = ()
     engine: str = "scipy"
     engine_reason: str = ""
+    compile_s: float = 0.0
 
     @property
     def speed(self) -> Array:

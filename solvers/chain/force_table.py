@@ -7,9 +7,8 @@ monomial_coefficients, derive/monomials.py), so a new polynomial R costs no comp
 non-polynomial R as a generated numba force (JitForce: derive/codegen_jitforce.py, in the cache),
 compiled once per R. A table whose monomials are u^a v^b with a <= 3, b <= 1 (every R of the paper:
 damping, linear and cubic foundations, Van der Pol) reaches the kernels in its dense form
-P_0(u) + v P_1(u), two cubics by Horner (MonomialTable.kernel_args): 43 ns against 98 ns per
-right-hand side on a 21-bead window, the general loop over monomials being the kernels' most
-expensive part.
+P_0(u) + v P_1(u), two cubics by Horner (MonomialTable.kernel_args): the general loop over monomials
+is the kernels' most expensive part (docs/dns.rst).
 """
 
 from __future__ import annotations

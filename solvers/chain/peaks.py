@@ -237,6 +237,23 @@ def budget_advice(method: str) -> str:
     return "too stiff for the method? try method='LSODA'"
 
 
+@dataclass(frozen=True)
+class StopRules:
+    """When a DNS run stops before its last contact peaks, and what counts as a peak (PeakTracker):
+    a contact's first maximum counts above ``peak_fraction`` x the previous contact's peak; the pulse
+    has died below ``death_fraction`` x the first requested contact's peak, been overtaken by its wake
+    above ``overtake_factor`` x the previous peak, stalled when no contact peaks within
+    ``stall_factor`` x the last inter-peak delay; ``t_max`` and ``max_steps`` (accepted steps) bound
+    the run (None: dns.simulate's defaults, equations.default_t_max and default_max_steps)."""
+
+    peak_fraction: float = 1e-2
+    death_fraction: float = 1e-3
+    overtake_factor: float = 1.25
+    stall_factor: float = 5.0
+    t_max: float | None = None
+    max_steps: int | None = None
+
+
 @dataclass
 class PeakTracker:
     """Peaks found so far and the stop rules of one DNS run (full chain or moving window).
@@ -267,17 +284,16 @@ class PeakTracker:
     method: str = ""  # the integrator, for the advice when the step budget runs out
 
     @classmethod
-    def start(cls, first: int, last: int, velocity: float, exponent: float, *, peak_fraction: float,
-              death_fraction: float, overtake_factor: float, stall_factor: float,
+    def start(cls, first: int, last: int, velocity: float, exponent: float, stop: StopRules, *,
               next_contact: int = 1, method: str = "") -> "PeakTracker":
-        """Tracker at t = 0; the first stall window is stall_factor contact times (~A^-s).
+        """Tracker at t = 0 under ``stop``; the first stall window is stall_factor contact times (~A^-s).
 
         ``next_contact``: the first contact still to peak (1 for an impact on bead 1; past the
         centre of a launched solitary wave, solvers/chain/launch.py)."""
-        return cls(first, last, peak_fraction, death_fraction, overtake_factor, stall_factor,
+        return cls(first, last, stop.peak_fraction, stop.death_fraction, stop.overtake_factor, stop.stall_factor,
                    np.full(last, np.nan), np.full(last, np.nan),
-                   first_threshold(velocity, exponent, peak_fraction),
-                   stall_factor / contact_rate(velocity, exponent), next_contact=int(next_contact),
+                   first_threshold(velocity, exponent, stop.peak_fraction),
+                   stop.stall_factor / contact_rate(velocity, exponent), next_contact=int(next_contact),
                    method=str(method))
 
     def record(self, found: list[Peak], offset: int = 0) -> None:

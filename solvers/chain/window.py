@@ -20,8 +20,8 @@ shift costs one or two right-hand-side evaluations. The cost per contact is inde
 chain length N (the full chain costs O(N) per contact, O(N^2) per run).
 
 The window rule (``rule_for_accuracy``) was calibrated against the full chain (peaks at every
-contact, n = 1.5 and n = 3, v0 = 1, unperturbed and damped from bead 16); see
-``CALIBRATION`` below and benchmarks/bench_dns_scaling.py.
+contact, n = 1.5 and n = 3, v0 = 1, unperturbed and damped from bead 16); see docs/dns.rst
+("Window calibration") and benchmarks/bench_dns_scaling.py.
 """
 
 from __future__ import annotations
@@ -36,20 +36,16 @@ from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, energy, m
 from pulsemap.solvers.chain.front import memo, state_at
 from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.hairer import FORTRAN_CODES, run_fortran
-from pulsemap.solvers.chain.peaks import PeakTracker, scan_step, velocity_scale
+from pulsemap.solvers.chain.peaks import PeakTracker, StopRules, scan_step, velocity_scale
 
 Array = np.ndarray
 BOUNDARIES = ("coast", "free")
 
-# Worst max relative peak error the window costs against the full chain, by beads kept behind the
-# front, over the built-in and suite scenes (how it was measured: docs/dns.rst).
-CALIBRATION: dict[int, float] = {12: 2.6e-6, 13: 2.4e-4, 14: 4.4e-7, 15: 3.3e-8, 16: 2.9e-8, 18: 7.4e-10,
-                                 20: 2.6e-10, 22: 9.5e-11, 24: 8.9e-11}
-#: (accuracy floor, behind) of rule_for_accuracy: the fewest beads behind whose measured worst
-#: (CALIBRATION) is at least 3x below the accuracy (10x from 1e-8 on) and past the cliff at 13;
-#: below 1e-9 the integrator's floor.
+#: (accuracy floor, behind) of rule_for_accuracy: the fewest beads behind whose measured worst peak
+#: error against the full chain is at least 3x below the accuracy (10x from 1e-8 on) and past the
+#: cliff at 13; below 1e-9 the integrator's floor (the calibration: docs/dns.rst, "Window calibration").
 BEHIND_FOR: tuple[tuple[float, int], ...] = ((1e-7, 16), (1e-8, 18), (1e-9, 22), (0.0, 24))
-THRESHOLD_FRACTION = 1e-2  # ahead threshold = accuracy x this (CALIBRATION: ~5x threshold at most)
+THRESHOLD_FRACTION = 1e-2  # ahead threshold = accuracy x this (it moves the peaks by ~5x itself at most)
 DEFAULT_WINDOW_ACCURACY = 1e-8  # simulate's window accuracy unless rtol asks for less (window_accuracy_for)
 
 
@@ -91,15 +87,33 @@ def validate_rule(rule: WindowRule) -> WindowRule:
 def rule_for_accuracy(accuracy: float) -> WindowRule:
     """Window rule whose truncation error stays below ``accuracy`` (relative peak error).
 
-    Calibrated rule (CALIBRATION, BEHIND_FOR): 16 beads behind down to 1e-7 (measured worst
-    2.9e-8), 18 down to 1e-8 (7.4e-10), 22 down to 1e-9 (9.5e-11), 24 below (the integrator's
-    floor, ~1e-10); ahead, a bead is added when the last one moves by accuracy / 100 of the
+    Calibrated rule (BEHIND_FOR; docs/dns.rst, "Window calibration"): 16 beads behind down to 1e-7,
+    18 down to 1e-8, 22 down to 1e-9, 24 below (the integrator's floor); ahead, a bead is added when the last one moves by accuracy / 100 of the
     scales v0^(2/(n+1)) and v0.
     """
     if not (np.isfinite(accuracy) and 0.0 < accuracy < 1.0):
         raise ValueError(f"window_accuracy must lie in (0, 1), got {accuracy!r}")
     behind = next(b for floor, b in BEHIND_FOR if accuracy >= floor)
     return WindowRule(behind=behind, threshold=max(THRESHOLD_FRACTION * float(accuracy), 1e-30))
+
+
+@dataclass(frozen=True)
+class WindowSpec:
+    """The moving window simulate() is asked for: ``size`` 'auto' (rule_for_accuracy), an int width or
+    a WindowRule; ``accuracy``: the relative peak error the 'auto' rule may cost (None: the looser of
+    rtol and DEFAULT_WINDOW_ACCURACY, window_accuracy_for); ``engine``: the scipy engine's window
+    integrator, 'auto' (Hairer's Fortran codes for DOP853 and RK45, else scipy's OdeSolver),
+    'fortran' or 'scipy'."""
+
+    size: "int | str | WindowRule" = "auto"
+    accuracy: float | None = None
+    engine: str = "auto"
+
+    @classmethod
+    def of(cls, window: "WindowSpec | int | str | WindowRule | None") -> "WindowSpec | None":
+        """simulate's ``window``: None (the full chain), a WindowSpec, or a size alone ('auto', an int
+        width, a WindowRule) with the default accuracy and engine."""
+        return window if window is None or isinstance(window, WindowSpec) else cls(size=window)
 
 
 def window_accuracy_for(rtol: float, window_accuracy: "float | None") -> float:
@@ -239,18 +253,14 @@ def simulate_windowed(
     method: str = "DOP853",
     rtol: float = 1e-10,
     atol: float = 1e-12,
-    peak_fraction: float = 1e-2,
-    death_fraction: float = 1e-3,
-    t_max: float,
-    stall_factor: float = 5.0,
+    stop: StopRules,
     progress: bool = False,
     engine: str = "auto",
-    overtake_factor: float = 1.25,
-    max_steps: int = 10**9,
     front=None,
     launch=None,
 ):
-    """Moving-window integration of Eq. 1 (arguments validated by dns.simulate, which calls it).
+    """Moving-window integration of Eq. 1 (arguments validated by dns.simulate, which calls it; ``stop``
+    with t_max and max_steps given).
 
     ``launch`` (a solvers.chain.launch.Launch, checked by dns.simulate): start from that exact
     solitary wave instead of the impact v0 on bead 1 (``velocity`` is then its velocity scale).
@@ -269,10 +279,9 @@ def simulate_windowed(
     moving = 1 if launch is None else launch.front(exponent)  # beads in motion at t = 0
     run = _Run(lo=0, hi=min(beads, moving + rule.ahead + rule.chunk + 1))
     report = DNSProgress("dns-window", last, enabled=progress)
-    track = PeakTracker.start(first, last, velocity, exponent, peak_fraction=peak_fraction,
-                              death_fraction=death_fraction, overtake_factor=overtake_factor,
-                              stall_factor=stall_factor, next_contact=1 if launch is None else launch.centre + 1,
-                              method=method)
+    track = PeakTracker.start(first, last, velocity, exponent, stop,
+                              next_contact=1 if launch is None else launch.centre + 1, method=method)
+    t_max, max_steps = float(stop.t_max), int(stop.max_steps)
     if launch is None:
         y = np.zeros(2 * run.hi)
         y[1] = velocity
@@ -300,7 +309,7 @@ def simulate_windowed(
         local_last = min(last, run.hi - 1) - run.lo
         dense = memo(dense_factory)
         found = scan_step(y_old, y_new, t_old, t_new, dense, track.next_contact - run.lo,
-                          local_last, track.threshold, peak_fraction)
+                          local_last, track.threshold, stop.peak_fraction)
         track.record(found, offset=run.lo)
         if found and front is not None:
             front.record(found, state_at(dense()), offset=run.lo, extra_energy=run.e_gone)

@@ -137,9 +137,14 @@ def jit_force_module(R_text: str, params) -> ModuleType:
     generating it if missing; imported once per process (``_exec`` registers it in sys.modules, where
     a later call finds it; numba compiles its functions the first time and loads them from its cache
     afterwards). CodegenError (a RuntimeError) when R has no such form."""
+    from pulsemap.solvers.chain import jit  # numba's cache folder set before the module's functions exist
+
     source = JitForceSource.of(R_text, params)
     loaded = sys.modules.get(_module_key(module_name(source)))
-    return loaded if loaded is not None else _ensure(source)
+    if loaded is not None:
+        return loaded
+    jit.configure()
+    return _ensure(source)
 
 
 def balance_module(R_text: str, params, n: float, profile: str = "exact", model: str = "energy",

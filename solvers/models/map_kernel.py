@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from pulsemap.solvers.chain.jit import njit, prange
 
 Array = np.ndarray
 

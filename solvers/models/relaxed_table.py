@@ -101,6 +101,8 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     last contact, its pulse's death or a blow-up."""
     from pulsemap.solvers.chain.dns import simulate
     from pulsemap.solvers.chain.launch import Launch
+    from pulsemap.solvers.chain.peaks import StopRules
+    from pulsemap.solvers.chain.window import WindowSpec
     from pulsemap.solvers.models.codeload import force_module
     from pulsemap.solvers.models.onsite import onsite_force
 
@@ -118,8 +120,8 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     force = onsite_force(force_module(spec.R, names), beads, fp, eps, values)
     scale = min(1.0, amplitude, amplitude ** ((spec.n + 1.0) / 2.0))
     res = simulate(beads, spec.n, 1.0, (entry, entry + CONTACTS), force, launch=Launch(float(amplitude), centre),
-                   rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale, window="auto",
-                   window_accuracy=spec.window_accuracy, death_fraction=DEATH)
+                   rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale,
+                   window=WindowSpec("auto", spec.window_accuracy), stop=StopRules(death_fraction=DEATH))
     if not res.stop_reason.startswith(PULSE_ENDS):
         raise SegmentRunError(f"segment run of R = {spec.R} (eps {spec.eps:g}) launched at amplitude {amplitude:.6g} "
                               f"ended early: {res.stop_reason} [{res.engine}: {res.engine_reason}]")

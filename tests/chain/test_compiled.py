@@ -13,8 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain.window import rule_for_accuracy
 from pulsemap.solvers.data import scene as scene_module
 from pulsemap.solvers.data.scene import load_scene
@@ -22,8 +24,8 @@ from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force, run_scene
 
 PEAK_TOL = 1e-7
-COMPILED = dict(rtol=1e-10, atol=1e-12, window="auto", window_accuracy=1e-8)
-REFERENCE = dict(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window="auto", window_accuracy=1e-8)
+COMPILED = dict(rtol=1e-10, atol=1e-12, window=WindowSpec(accuracy=1e-8))
+REFERENCE = dict(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window=WindowSpec(accuracy=1e-8))
 
 
 def rel(a, b) -> float:
@@ -109,7 +111,7 @@ def test_window_rule_keeps_its_accuracy(accuracy):
     scene (a decaying pulse is the window's worst case); behind is exactly the rule's count."""
     tight = dict(rtol=1e-12, atol=1e-14)
     full = scene_run("fig8-eps0.1", **tight)
-    win = scene_run("fig8-eps0.1", **tight, window="auto", window_accuracy=accuracy)
+    win = scene_run("fig8-eps0.1", **tight, window=WindowSpec(accuracy=accuracy))
     rule = rule_for_accuracy(accuracy)
     assert full.mode == "full" and win.window_rule == rule
     assert rule.behind + 2 <= win.window_beads <= rule.behind + 12 < full.window_beads
@@ -168,7 +170,7 @@ def test_blow_up_and_step_budget_stop_like_scipy():
     ref = simulate(beads, 1.5, 1.0, span, force, rtol=1e-8, atol=1e-10, window="auto", engine="scipy", method="RK45")
     assert fast.engine == "compiled" and fast.blew_up and ref.blew_up
     assert rule_of(fast.stop_reason) == rule_of(ref.stop_reason)
-    budget = simulate(200, 1.5, 1.0, (1, 190), max_steps=50, window="auto")
+    budget = simulate(200, 1.5, 1.0, (1, 190), stop=StopRules(max_steps=50), window="auto")
     assert budget.steps == 50 and budget.stop_reason.startswith("step budget of 50 steps used up")
     assert budget.alive.sum() < 190 and np.all(np.isfinite(budget.peaks[budget.alive]))
 
@@ -257,15 +259,14 @@ def test_extreme_velocity_runs_compiled_in_the_unit_frame(name, v0):
 def test_progress_lines_pause_the_kernel_without_changing_a_number(monkeypatch, stiff):
     """With progress the compiled kernels (explicit and Rosenbrock) pause every PAUSE_STEPS accepted
     steps for a line on stderr; the peaks, times and counts equal those of an unpaused run bit for bit."""
-    from pulsemap.solvers.chain import compiled
+    from pulsemap.solvers.chain import compiled, plan
     from pulsemap.solvers.chain.dns_progress import DNSProgress
 
     scene = load_scene("fig8-eps0.1")
     beads, span = dns_span(scene)
     table = make_force(scene, beads).monomials
-    method = compiled.STIFF_METHOD if stiff else compiled.METHOD
-    kw = dict(rule=rule_of_window(), rtol=1e-8, atol=1e-10, peak_fraction=1e-2, death_fraction=1e-3, t_max=1e4,
-              stall_factor=5.0, overtake_factor=1.25, max_steps=10**6, method=method)
+    method = plan.STIFF_METHOD if stiff else plan.METHOD
+    kw = dict(rule=rule_of_window(), rtol=1e-8, atol=1e-10, stop=StopRules(t_max=1e4, max_steps=10**6), method=method)
     plain = compiled.prepare(beads, 1.5, 1.0, span, table, **kw)
     code_plain = compiled.drive(plain)
     monkeypatch.setattr(compiled, "PAUSE_STEPS", 50)

@@ -14,6 +14,7 @@ import re
 import numpy as np
 import pytest
 
+from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain import compiled_dop853 as dop
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.data.scene import load_scene
@@ -21,8 +22,8 @@ from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force
 
 PEAK_TOL = 1e-7
-COMPILED = dict(method="DOP853", rtol=1e-11, atol=1e-13, window="auto", window_accuracy=1e-8)
-REFERENCE = dict(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window="auto", window_accuracy=1e-8)
+COMPILED = dict(method="DOP853", rtol=1e-11, atol=1e-13, window=WindowSpec(accuracy=1e-8))
+REFERENCE = dict(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window=WindowSpec(accuracy=1e-8))
 
 
 def scene_run(name: str, **kw):

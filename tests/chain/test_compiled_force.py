@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.data.scene import load_scene
@@ -84,9 +85,9 @@ def test_general_table_runs_agree_with_scipy():
     force = make_force(scene, beads)
     assert force.monomials.kernel_args[1].ndim == 2 and force.monomials.describe == "monomial table"
     args = (beads, scene.exponent, scene.velocity, (span[0], min(span[1], 60)), force)
-    fast = simulate(*args, rtol=1e-10, atol=1e-12, window="auto", window_accuracy=1e-8)
-    ref = simulate(*args, engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window="auto",
-                   window_accuracy=1e-8)
+    fast = simulate(*args, rtol=1e-10, atol=1e-12, window=WindowSpec(accuracy=1e-8))
+    ref = simulate(*args, engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13,
+                   window=WindowSpec(accuracy=1e-8))
     assert fast.engine == "compiled" and np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 10
     assert fast.engine_reason.endswith(", monomial table")
     assert np.max(np.abs(fast.peaks[fast.alive] / ref.peaks[ref.alive] - 1.0)) < 1e-7

@@ -14,6 +14,7 @@ import re
 import numpy as np
 import pytest
 
+from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.symbolic.cache import cache_dir
 from pulsemap.symbolic.codegen import PACKAGE_DIR, regenerate_text
 from pulsemap.solvers.chain.dns import simulate
@@ -67,7 +68,7 @@ def test_stiff_non_polynomial_R_runs_rosenbrock_with_the_numba_jacobian():
 @pytest.mark.parametrize("R", ["-mu*sign(v)", "-mu*abs(v)*v"])
 def test_non_smooth_R_stays_on_the_scipy_engine_with_the_reason(R):
     scene, beads, _, force = scene_with(R, mu=1.0)
-    res = simulate(beads, scene.exponent, scene.velocity, (15, 25), force, window="auto", max_steps=200_000)
+    res = simulate(beads, scene.exponent, scene.velocity, (15, 25), force, window="auto", stop=StopRules(max_steps=200_000))
     assert res.engine == "scipy" and res.engine_reason.startswith("non-smooth R")
 
 

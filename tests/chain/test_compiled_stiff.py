@@ -49,7 +49,7 @@ def test_stiff_suite_scenes_agree_with_radau(name, stiffer):
     """'auto' takes Rodas4 above COMPILED_STIFFNESS_RATIO x the contact rate (the suite's damp-1000, and
     each scene made stiffer), Dormand-Prince below (the suite's damp-100 and stiff-foundation, where it is
     cheaper); either way the peaks converge to Radau's."""
-    from pulsemap.solvers.chain.compiled import is_stiff
+    from pulsemap.solvers.chain.plan import is_stiff
 
     ref = stiff_run(name, stiffer, **RADAU)
     scene = load_scene(resolve(name)).with_overrides(**(STIFFER[name] if stiffer else {}))

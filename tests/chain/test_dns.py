@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.chain.equations import (
     DNSResult,
@@ -142,7 +143,7 @@ def test_noisy_rest_state_gives_no_early_peaks():
     clean = OnSiteForce(lambda x, v: -0.05 * x)
     ref = simulate(beads, 1.5, 1.0, (1, 30), clean)
     for fraction in (1e-2, 1e-300):
-        res = simulate(beads, 1.5, 1.0, (1, 30), noisy, peak_fraction=fraction)
+        res = simulate(beads, 1.5, 1.0, (1, 30), noisy, stop=StopRules(peak_fraction=fraction))
         assert res.alive.all()
         assert np.all(np.diff(res.peak_times) > 0.5)
         assert rel(res.peaks, ref.peaks) < 1e-6
@@ -194,7 +195,7 @@ def test_damped_peaks_decrease_and_pulse_dies():
 def test_amplitude_death_keeps_the_dying_peak():
     """A peak below death_fraction x the first requested peak ends the run at that contact."""
     beads = chain_length_for(40)
-    res = simulate(beads, 1.5, 1.0, (16, 40), damping(0.3, beads), death_fraction=0.5)
+    res = simulate(beads, 1.5, 1.0, (16, 40), damping(0.3, beads), stop=StopRules(death_fraction=0.5))
     assert res.stop_reason.startswith("pulse died at contact")
     k = int(res.stop_reason.split()[4])
     i = k - 16
@@ -290,7 +291,7 @@ def test_nonfinite_force_stops_run():
 
 
 def test_t_max_keeps_measured_peaks():
-    res = simulate(20, 1.5, 1.0, (1, 9), t_max=3.0)
+    res = simulate(20, 1.5, 1.0, (1, 9), stop=StopRules(t_max=3.0))
     assert res.stop_reason.startswith("t_max reached")
     assert res.alive[:2].all() and not res.alive[2:].any()
     assert np.isnan(res.peaks[2:]).all() and np.isfinite(res.peaks[:2]).all()
@@ -333,6 +334,9 @@ def test_reports_only_requested_range():
 def test_bad_arguments(kwargs, pattern):
     args = dict(beads=20, exponent=1.5, velocity=1.0, contacts=(1, 5))
     args.update(kwargs)
+    stop = {k: args.pop(k) for k in ("peak_fraction", "death_fraction", "t_max", "stall_factor") if k in args}
+    if stop:
+        args["stop"] = StopRules(**stop)
     with pytest.raises(ValueError, match=pattern):
         simulate(**args)
 
@@ -377,18 +381,18 @@ def test_blow_up_stops_with_reason_and_keeps_measured_peaks(window, velocity_ter
 
 
 def test_step_budget_bounds_a_run():
-    res = simulate(60, 1.5, 1.0, (1, 50), max_steps=40, engine="scipy")
+    res = simulate(60, 1.5, 1.0, (1, 50), stop=StopRules(max_steps=40), engine="scipy")
     assert res.stop_reason.startswith("step budget of 40 steps")
     assert res.steps == 40 and not res.blew_up
     assert 0 < res.alive.sum() < 50 and np.isfinite(res.peaks[res.alive]).all()
-    win = simulate(60, 1.5, 1.0, (1, 50), max_steps=40, window="auto")
+    win = simulate(60, 1.5, 1.0, (1, 50), stop=StopRules(max_steps=40), window="auto")
     assert win.stop_reason.startswith("step budget")
 
 
 @pytest.mark.parametrize("bad", [0, -3, 2.5, True])
 def test_bad_step_budget(bad):
     with pytest.raises(ValueError, match="max_steps"):
-        simulate(20, 1.5, 1.0, (1, 5), max_steps=bad)
+        simulate(20, 1.5, 1.0, (1, 5), stop=StopRules(max_steps=bad))
 
 
 def test_run_output_of_an_unstable_scene_has_a_warning_and_no_nan(tmp_path):

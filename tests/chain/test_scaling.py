@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain import scaling
 from pulsemap.solvers.chain.dns import MIN_RTOL, OnSiteForce, simulate
 from pulsemap.solvers.chain.scaling import FORCE_LIMIT, Scaling, ScalingError
@@ -71,7 +72,7 @@ def test_a_perturbed_chain_is_refused_where_its_unit_frame_force_is_too_large():
     lo = float(message.split("v0 in [")[1].split(",")[0])
     # damping mu in the unit frame is mu * tau = mu * v0^(-1/5) (n = 3/2): the limit at v0 = (0.3 / 1e8)^5
     assert lo == pytest.approx((0.3 / FORCE_LIMIT) ** 5, rel=1e-6)
-    simulate(N, 1.5, lo * 1.01, (10, 11), force, max_steps=50)  # inside: accepted (and bounded)
+    simulate(N, 1.5, lo * 1.01, (10, 11), force, stop=StopRules(max_steps=50))  # inside: accepted (and bounded)
     with pytest.raises(ScalingError):
         simulate(N, 1.5, lo / 1.01, (10, 11), force)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain.dns import OnSiteForce, make_rhs, simulate
 from pulsemap.solvers.chain.window import (
     MIN_WIDTH,
@@ -43,7 +44,7 @@ def rel(a, b) -> float:
 @pytest.fixture(scope="module")
 def unperturbed():
     full = simulate(BEADS, 1.5, 1.0, (1, LAST), **TIGHT)
-    win = simulate(BEADS, 1.5, 1.0, (1, LAST), **TIGHT, window="auto", window_accuracy=1e-8)
+    win = simulate(BEADS, 1.5, 1.0, (1, LAST), **TIGHT, window=WindowSpec(accuracy=1e-8))
     return full, win
 
 
@@ -94,7 +95,7 @@ def test_engines_and_methods_agree(method, engine):
     beads = 80
     ref = simulate(beads, 1.5, 1.0, (16, 70), damping(0.05, beads), **TIGHT)
     res = simulate(beads, 1.5, 1.0, (16, 70), damping(0.05, beads), method=method, rtol=1e-10,
-                   atol=1e-12, window="auto", window_engine=engine)
+                   atol=1e-12, window=WindowSpec(engine=engine))
     assert res.mode == f"window/{'scipy' if method == 'LSODA' else engine}"
     assert res.alive.all() and rel(res.peaks, ref.peaks) < 1e-6
 
@@ -205,7 +206,7 @@ def test_scene_force_is_restricted_to_the_window():
     assert np.allclose(part.force(x[20:30], v[20:30]), force.force(x, v)[20:30])
     assert np.allclose(part.dforce_dv(x[20:30], v[20:30]), force.dforce_dv(x, v)[20:30])
     full = simulate(80, 1.5, 1.0, (10, 60), force, **TIGHT)
-    win = simulate(80, 1.5, 1.0, (10, 60), force, **TIGHT, window="auto", window_accuracy=1e-8)
+    win = simulate(80, 1.5, 1.0, (10, 60), force, **TIGHT, window=WindowSpec(accuracy=1e-8))
     assert np.array_equal(full.alive, win.alive) and rel(win.peaks[win.alive], full.peaks[full.alive]) < 1e-8
 
 

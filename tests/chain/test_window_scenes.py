@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import pytest
 
+from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.data.scene import builtin_scenes, load_scene
 from pulsemap.solvers.data.scene_files import suite_scene_names
@@ -30,7 +31,7 @@ def test_the_window_rule_holds_on_every_scene(name):
     ref = {c: p for c, p, a in zip(full.contacts, full.peaks, full.alive) if a}
     assert full.mode == "full" and ref, "no live contact: nothing to compare"
     for accuracy in ACCURACIES:
-        win = simulate(beads, sc.exponent, sc.velocity, span, force, window="auto", window_accuracy=accuracy, **tight)
+        win = simulate(beads, sc.exponent, sc.velocity, span, force, window=WindowSpec(accuracy=accuracy), **tight)
         got = {c: p for c, p, a in zip(win.contacts, win.peaks, win.alive) if a}
         assert win.mode.startswith("window")
         assert set(got) == set(ref), f"the window for {accuracy:g} changed where the pulse dies"

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.symbolic.balance import BalanceError, balance_expand
 from pulsemap.symbolic.codegen_force import DELTA
 from pulsemap.symbolic.expansion import ExpansionError, expand
@@ -47,7 +48,7 @@ def test_coulomb_friction_dns_runs_loses_energy_and_the_pulse_dies():
                         dforce_dv=lambda x, v: mod.force_dv(x, v, *args),
                         stiffness_hint=float(np.max(np.abs(mod.force_dv(0 * idx, 0 * idx, *args)))))
     assert choose_method(force, 1.0, 1.5) == "LSODA"  # the ramp is stiff: 'auto' goes implicit
-    run = simulate(beads, 1.5, 1.0, (first, 40), force, max_steps=200_000)
+    run = simulate(beads, 1.5, 1.0, (first, 40), force, stop=StopRules(max_steps=200_000))
     live = np.isfinite(run.peaks)
     peaks = run.peaks[live]
     assert 6 <= live.sum() < len(run.peaks)  # the pulse decays to nothing at a finite contact
