@@ -1,4 +1,4 @@
-"""numba's on-disk cache of compiled kernels (``cache=True``): recognising and removing damaged files.
+"""numba's on-disk cache of compiled kernels: recognising and removing damaged files.
 
 numba unpickles its index (``.nbi``) and data (``.nbc``) files and lets an error from a damaged one
 through to the caller, on every run until the files are deleted. They are only a cache: removing
