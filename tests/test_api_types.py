@@ -7,7 +7,7 @@ import pytest
 
 from pulsemap.solvers.chain import dns
 from pulsemap.solvers.chain.dns import simulate
-from pulsemap.solvers.data import scene_schema
+from pulsemap.solvers.data.scene import schema as scene_schema
 from pulsemap.solvers.data.scene import load_scene, parse_scene
 from pulsemap.solvers.studies.run import run_scene
 

@@ -17,7 +17,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from pulsemap.solvers.data.overrides import check_key, parse_assignment, with_sets
+from pulsemap.solvers.data.scene.overrides import check_key, parse_assignment, with_sets
 from pulsemap.solvers.data.scene import Scene, SceneError, parse_scene
 
 MAX_POINTS = 10_000
