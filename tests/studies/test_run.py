@@ -143,8 +143,6 @@ def test_a_misspelt_dns_mode_is_refused_with_the_choices():
 
     with pytest.raises(SceneError, match="mode 'wind'.*window, full"):
         with_sets(load_scene("fig8-eps0.1"), ["dns.mode=wind"])
-    with pytest.raises(ValueError, match="dns_window"):
-        run_scene(load_scene("fig8-eps0.1"), methods=["dns"], dns_window="everything")
 
 
 def test_an_unperturbed_chain_warns_that_the_paper_map_drifts_and_the_corrected_one_is_constant():
