@@ -120,7 +120,7 @@ def add_set_option(p: argparse.ArgumentParser) -> None:
 
 
 def load_scene_with_sets(ref: str, sets: Sequence[str] = ()):
-    """The scene ``ref`` (a file or any named scene) with the --set assignments applied (data/overrides.py)."""
+    """The scene ``ref`` (a file or any named scene) with the --set assignments applied (data/scene/overrides.py)."""
     from pulsemap.solvers.data.scene.overrides import with_sets
     from pulsemap.solvers.data.scene import load_scene
 

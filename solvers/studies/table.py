@@ -93,7 +93,7 @@ def _scene(name: str, eps: float | None, sets: tuple = ()):
 def scene_row(name: str, progress: bool = False, columns=COLUMNS, eps: float | None = None,
               sets: tuple = (), scene=None) -> dict:
     """Errors of every column for one scene (one DNS, reused by every model); ``eps`` overrides the
-    scene's, ``sets`` are --set assignments ('key=value', data/overrides.py); ``scene``: the scene
+    scene's, ``sets`` are --set assignments ('key=value', data/scene/overrides.py); ``scene``: the scene
     already loaded so (else loaded here)."""
     scene = _scene(name, eps, sets) if scene is None else scene
     t0 = time.perf_counter()

@@ -1,4 +1,4 @@
-"""--set key=value (data/overrides.py): any scene key from the command line, checked like a file."""
+"""--set key=value (data/scene/overrides.py): any scene key from the command line, checked like a file."""
 
 from __future__ import annotations
 

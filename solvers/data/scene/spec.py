@@ -64,7 +64,7 @@ class Scene:
         }
 
     def with_overrides(self, **kw: Any) -> "Scene":
-        """A copy with some fields replaced, validated like a scene file (data/overrides.apply_overrides).
+        """A copy with some fields replaced, validated like a scene file (data/scene/overrides.apply_overrides).
 
         Keys are the field names; also ``R``, ``eps`` and ``params`` (raw values, as in a scene
         file) to rebuild the perturbation (a new ``R`` without ``params`` keeps the current
