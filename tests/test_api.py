@@ -363,7 +363,7 @@ def test_every_method_is_in_the_method_lists_of_help_and_run_help(capsys):
     import pydoc
 
     from pulsemap.solvers.cli.main import main
-    from pulsemap.solvers.data.scene_schema import METHODS
+    from pulsemap.solvers.data.scene.schema import METHODS
 
     doc = pydoc.render_doc(pulsemap.run, renderer=pydoc.plaintext)
     with pytest.raises(SystemExit):

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import pytest
 
+import pulsemap
 from pulsemap.solvers.chain import dns
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.chain.peaks import StopRules
-from pulsemap.solvers.data import scene_schema
+from pulsemap.solvers.data.scene import schema as scene_schema
 from pulsemap.solvers.data.scene import load_scene, parse_scene
-from pulsemap.solvers.studies.run import run_scene
 
 
 @pytest.fixture(scope="module")
@@ -53,15 +53,11 @@ def test_the_chain_limit_is_the_scene_limit():
 
 
 RUN = [
-    ("scene", lambda s: run_scene([s]), TypeError),
-    ("scene", lambda s: run_scene("fig8-eps0.1"), TypeError),
-    ("methods", lambda s: run_scene(s, methods="map"), TypeError),
-    ("profile", lambda s: run_scene(s, profile=3), TypeError),
-    ("variant", lambda s: run_scene(s, variant=["1d"]), TypeError),
-    ("seed_peak", lambda s: run_scene(s, seed_peak="1"), TypeError),
-    ("progress", lambda s: run_scene(s, progress=None), TypeError),
-    ("dns_window", lambda s: run_scene(s, dns_window=[40]), TypeError),
-    ("reuse_dns", lambda s: run_scene(s, reuse_dns=[1]), TypeError),
+    ("scene", lambda s: pulsemap.run([s]), TypeError),
+    ("methods", lambda s: pulsemap.run(s, methods=("map", 3)), TypeError),
+    ("profile", lambda s: pulsemap.run(s, profile=3), TypeError),
+    ("variant", lambda s: pulsemap.run(s, variant=["1d"]), TypeError),
+    ("progress", lambda s: pulsemap.run(s, progress=None), TypeError),
     ("ref", lambda s: load_scene(["fig8-eps0.1"]), TypeError),
     ("ref", lambda s: load_scene(None), TypeError),
     ("source", lambda s: parse_scene(s.as_dict(), None), TypeError),
@@ -74,8 +70,3 @@ def test_run_and_scene_functions_name_the_bad_argument(name, call, error, scene)
     with pytest.raises(error) as info:
         call(scene)
     assert str(info.value).startswith(name) and "\n" not in str(info.value)
-
-
-def test_methods_given_as_one_string_says_how_to_write_it(scene):
-    with pytest.raises(TypeError, match=r"write \['map'\]"):
-        run_scene(scene, methods="map")

@@ -11,15 +11,15 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from pulsemap.solvers.api.checks import closest
-from pulsemap.solvers.data.overrides import apply_overrides
+from pulsemap.solvers.data.scene.overrides import apply_overrides
 from pulsemap.solvers.data.scene import Scene, SceneError, builtin_scenes, load_scene, parse_scene
-from pulsemap.solvers.data.scene_files import suite_scene_names
-from pulsemap.solvers.data.scene_schema import _SCHEMA, _TABLES
+from pulsemap.solvers.data.scene.files import suite_scene_names
+from pulsemap.solvers.data.scene.schema import SCHEMA, TABLES
 
 __all__ = ["scene", "scenes"]
 
 #: Every key of a scene file, dotted (the scene file's schema), except the parameters of R.
-KEYS = ("name",) + tuple(f"{table}.{key}" for table in _TABLES for key in _SCHEMA[table])
+KEYS = ("name",) + tuple(f"{table}.{key}" for table in TABLES for key in SCHEMA[table])
 #: Short names: the last part of each dotted key.
 SHORT = {key.rsplit(".", 1)[-1]: key for key in KEYS}
 

@@ -40,7 +40,7 @@ if TYPE_CHECKING:  # pragma: no cover
 # ----------------------------------------------------------------------------- validation
 
 MAX_BEADS = 1_000_000
-"""Longest chain simulate() accepts (the scene files' limit, data/scene_schema.MAX_BEADS)."""
+"""Longest chain simulate() accepts (the scene files' limit, data/scene/schema.MAX_BEADS)."""
 MIN_RTOL = 100 * float(np.finfo(float).eps)
 """Smallest rtol float64 can deliver (scipy raises a smaller one to this silently)."""
 

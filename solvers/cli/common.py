@@ -147,8 +147,8 @@ def add_set_option(p: argparse.ArgumentParser) -> None:
 
 
 def load_scene_with_sets(ref: str, sets: Sequence[str] = ()):
-    """The scene ``ref`` (a file or any named scene) with the --set assignments applied (data/overrides.py)."""
-    from pulsemap.solvers.data.overrides import with_sets
+    """The scene ``ref`` (a file or any named scene) with the --set assignments applied (data/scene/overrides.py)."""
+    from pulsemap.solvers.data.scene.overrides import with_sets
     from pulsemap.solvers.data.scene import load_scene
 
     return with_sets(load_scene(ref), sets)

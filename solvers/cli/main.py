@@ -267,7 +267,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(Starosvetsky's amplitude map, long-wave law, stationary shocks, checked by DNS).",
     )
     from pulsemap.solvers import __version__
-    from pulsemap.solvers.data.scene_schema import METHODS
+    from pulsemap.solvers.data.scene.schema import METHODS
 
     parser.add_argument("--version", action="version", version=f"pulsemap {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")

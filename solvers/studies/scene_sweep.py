@@ -2,7 +2,7 @@
 
 ``--over perturbation.eps=0.05:0.5:10`` (10 values from 0.05 to 0.5, ends included) or
 ``--over excitation.velocity=0.5,1,2`` (a list); several ``--over`` make the product grid. Each
-point is the scene with those keys set (data/overrides.py, checked like a scene file before
+point is the scene with those keys set (data/scene/overrides.py, checked like a scene file before
 anything runs), run by ``run_scene`` on sweep.run_sweep (process pool, Dask, resumable --out).
 The report has, per point, the values set, the DNS's live contacts and stop reason, and each
 model's error against the DNS as ``run`` reports it (studies/errors.py: RMS and max in percent over
@@ -17,7 +17,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from pulsemap.solvers.data.overrides import check_key, parse_assignment, with_sets
+from pulsemap.solvers.data.scene.overrides import check_key, parse_assignment, with_sets
 from pulsemap.solvers.data.scene import Scene, SceneError, parse_scene
 
 MAX_POINTS = 10_000

@@ -22,7 +22,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from pulsemap.solvers.data.overrides import with_sets
+from pulsemap.solvers.data.scene.overrides import with_sets
 from pulsemap.solvers.data.records import append_record, read_keyed
 from pulsemap.solvers.studies.progress import Progress
 from pulsemap.solvers.studies.run import run_scene
@@ -93,7 +93,7 @@ def _scene(name: str, eps: float | None, sets: tuple = ()):
 def scene_row(name: str, progress: bool = False, columns=COLUMNS, eps: float | None = None,
               sets: tuple = (), scene=None) -> dict:
     """Errors of every column for one scene (one DNS, reused by every model); ``eps`` overrides the
-    scene's, ``sets`` are --set assignments ('key=value', data/overrides.py); ``scene``: the scene
+    scene's, ``sets`` are --set assignments ('key=value', data/scene/overrides.py); ``scene``: the scene
     already loaded so (else loaded here)."""
     scene = _scene(name, eps, sets) if scene is None else scene
     t0 = time.perf_counter()

@@ -18,7 +18,7 @@ from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain.window import rule_for_accuracy
-from pulsemap.solvers.data import scene as scene_module
+import pulsemap.solvers.data as data_package
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force, run_scene
@@ -37,7 +37,7 @@ def rule_of(reason: str) -> str:
     return re.sub(r"[-+]?\d[\d.]*(e[-+]?\d+)?", "#", reason)
 
 
-SUITE = Path(scene_module.__file__).parent / "scenes" / "suite"
+SUITE = Path(data_package.__file__).parent / "scenes" / "suite"
 
 
 def scene_run(name: str, **kw):

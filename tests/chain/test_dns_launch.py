@@ -31,7 +31,7 @@ def test_launched_wave_keeps_its_peak_and_speed(window, amplitude, engine):
 def test_a_launch_into_a_perturbed_chain_agrees_on_both_engines(R, stiff):
     """A launched wave entering a perturbed segment (the relaxed map's segment runs): the compiled engine
     (explicit, or Rodas4 when stiff) gives the scipy engine's peaks within the tolerances, same live range."""
-    from pulsemap.solvers.data.overrides import with_sets
+    from pulsemap.solvers.data.scene.overrides import with_sets
     from pulsemap.solvers.data.scene import load_scene
     from pulsemap.solvers.studies.forcing import make_force
 

@@ -10,7 +10,7 @@ import pytest
 from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.data.scene import builtin_scenes, load_scene
-from pulsemap.solvers.data.scene_files import suite_scene_names
+from pulsemap.solvers.data.scene.files import suite_scene_names
 from pulsemap.solvers.studies.forcing import make_force
 from pulsemap.solvers.studies.points import dns_span
 

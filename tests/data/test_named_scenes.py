@@ -6,9 +6,9 @@ from __future__ import annotations
 import pytest
 
 from pulsemap.solvers.cli.main import main
-from pulsemap.solvers.data.overrides import with_sets
+from pulsemap.solvers.data.scene.overrides import with_sets
 from pulsemap.solvers.data.scene import SceneError, load_scene
-from pulsemap.solvers.data.scene_files import suite_scene_names
+from pulsemap.solvers.data.scene.files import suite_scene_names
 from pulsemap.solvers.studies.run import run_scene
 
 

@@ -1,4 +1,4 @@
-"""--set key=value (data/overrides.py): any scene key from the command line, checked like a file."""
+"""--set key=value (data/scene/overrides.py): any scene key from the command line, checked like a file."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 
 from conftest import scene_toml, write_scene
 from pulsemap.solvers.cli.main import main
-from pulsemap.solvers.data.overrides import parse_assignment, scene_keys, with_sets
+from pulsemap.solvers.data.scene.overrides import parse_assignment, scene_keys, with_sets
 from pulsemap.solvers.data.scene import SceneError, load_scene
 
 

@@ -1,4 +1,4 @@
-"""A scene file's record (solvers/data/scene_record.py): read back without sympy, the same scene and run."""
+"""A scene file's record (solvers/data/scene/record.py): read back without sympy, the same scene and run."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 
 from conftest import scene_toml, write_scene
 from pulsemap.solvers.data.scene import load_scene, parse_scene
-from pulsemap.solvers.data.scene_record import CachedPerturbation
+from pulsemap.solvers.data.scene.record import CachedPerturbation
 from pulsemap.solvers.studies.run import run_scene
 
 

@@ -1,16 +1,16 @@
-"""Bounds on scene files checked before parsing (solvers/data/toml_bounds.py)."""
+"""Bounds on scene files checked before parsing (solvers/data/scene/toml_bounds.py)."""
 
 from __future__ import annotations
 
-from pulsemap.solvers.data.scene_files import tomllib  # tomllib or, on Python 3.10, tomli
+from pulsemap.solvers.data.scene.files import tomllib  # tomllib or, on Python 3.10, tomli
 from importlib import resources
 
 import pytest
 
 from conftest import scene_toml, write_scene
-from pulsemap.solvers.data import toml_bounds
+from pulsemap.solvers.data.scene import toml_bounds
 from pulsemap.solvers.data.scene import SceneError, load_scene
-from pulsemap.solvers.data.toml_bounds import (MAX_DEPTH, MAX_KEY_CHARS, MAX_KEY_PARTS, TomlBoundsError,
+from pulsemap.solvers.data.scene.toml_bounds import (MAX_DEPTH, MAX_KEY_CHARS, MAX_KEY_PARTS, TomlBoundsError,
                                                check_toml_bounds)
 
 BASE = scene_toml("bounds", beads=40)

@@ -12,7 +12,7 @@ import re
 import pytest
 
 from pulsemap.solvers.api.result import Result
-from pulsemap.solvers.data.overrides import with_sets
+from pulsemap.solvers.data.scene.overrides import with_sets
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.ranking import add_ranking, label
 from pulsemap.solvers.studies.run import run_scene

@@ -123,7 +123,7 @@ def test_run_uses_the_moving_window_unless_the_scene_asks_for_the_full_chain():
     integrator's tolerance."""
     import numpy as np
 
-    from pulsemap.solvers.data.overrides import with_sets
+    from pulsemap.solvers.data.scene.overrides import with_sets
 
     scene = with_sets(load_scene("fig8-eps0.1"), ["output.contacts=[16, 60]"])
     win = run_scene(scene, methods=["dns"])
@@ -138,19 +138,17 @@ def test_run_uses_the_moving_window_unless_the_scene_asks_for_the_full_chain():
 
 
 def test_a_misspelt_dns_mode_is_refused_with_the_choices():
-    from pulsemap.solvers.data.overrides import with_sets
+    from pulsemap.solvers.data.scene.overrides import with_sets
     from pulsemap.solvers.data.scene import SceneError
 
     with pytest.raises(SceneError, match="mode 'wind'.*window, full"):
         with_sets(load_scene("fig8-eps0.1"), ["dns.mode=wind"])
-    with pytest.raises(ValueError, match="dns_window"):
-        run_scene(load_scene("fig8-eps0.1"), methods=["dns"], dns_window="everything")
 
 
 def test_an_unperturbed_chain_warns_that_the_paper_map_drifts_and_the_corrected_one_is_constant():
     """R = 0: the DNS keeps the soliton (energy conserved), the corrected and 1d maps are constant,
     the paper's map drifts by its erratum and the run says so."""
-    from pulsemap.solvers.data.overrides import with_sets
+    from pulsemap.solvers.data.scene.overrides import with_sets
 
     scene = with_sets(load_scene("fig8-eps0.1"), ["perturbation.R=0", "output.contacts=[16, 60]"])
     paper = run_scene(scene, methods=["map", "dns"])

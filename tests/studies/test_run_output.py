@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pulsemap.solvers.cli.main import main
-from pulsemap.solvers.data.overrides import with_sets
+from pulsemap.solvers.data.scene.overrides import with_sets
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.ranking import add_ranking, rank_models
 from pulsemap.solvers.studies.run import run_scene

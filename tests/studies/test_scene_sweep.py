@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from pulsemap.solvers.cli.main import main
-from pulsemap.solvers.data.overrides import with_sets
+from pulsemap.solvers.data.scene.overrides import with_sets
 from pulsemap.solvers.data.scene import SceneError, load_scene
 from pulsemap.solvers.studies.run import run_scene
 from pulsemap.solvers.studies.scene_sweep import SceneSweepError, parse_over, scene_sweep, sweep_points, to_text

@@ -170,7 +170,7 @@ def summarize(points: list[Point], costs: dict, default_dns: float | None, targe
 def run_bench(names: Sequence[str], ladder: Ladder, log: Callable[[str], None] = lambda s: None,
               sets: Sequence[str] = ()) -> list[dict]:
     """Benchmark each scene (names or TOML paths, with the --set assignments ``sets``) in turn."""
-    from pulsemap.solvers.data.overrides import with_sets
+    from pulsemap.solvers.data.scene.overrides import with_sets
     from pulsemap.solvers.data.scene import load_scene
     from pulsemap.solvers.studies.progress import Progress
 

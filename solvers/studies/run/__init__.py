@@ -62,18 +62,13 @@ __all__ = [
 
 def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, variant: str | None,
               seed_peak: float | None, snapshots: Sequence[int] = ()) -> RunState:
-    """Check every choice before anything runs (one-line error with the closest name) and lay out the result."""
-    if not isinstance(scene, Scene):
-        raise TypeError(f"scene must be a Scene (load_scene(name or path), parse_scene(table, source)), "
-                        f"got {type(scene).__name__}")
-    if isinstance(methods, str) or not (methods is None or isinstance(methods, (list, tuple))):
-        raise TypeError(f"methods must be a list of names such as ['map', 'dns'] or None, got {type(methods).__name__}"
-                        + (f" {methods!r}: write [{methods!r}]" if isinstance(methods, str) else ""))
-    for name, value in (("profile", profile), ("variant", variant)):
-        if value is not None and not isinstance(value, str):
-            raise TypeError(f"{name} must be a string or None, got {type(value).__name__}")
-    if seed_peak is not None and (isinstance(seed_peak, bool) or not isinstance(seed_peak, numbers.Real)):
-        raise TypeError(f"seed_peak must be a number or None, got {type(seed_peak).__name__}")
+    """Check every choice before anything runs (one-line error with the closest name) and lay out the result.
+
+    The types were checked where the input entered (``pulsemap.run``, the CLI's parser): asserted here."""
+    assert isinstance(scene, Scene), type(scene)
+    assert methods is None or (isinstance(methods, (list, tuple)) and all(isinstance(m, str) for m in methods)), methods
+    assert all(value is None or isinstance(value, str) for value in (profile, variant)), (profile, variant)
+    assert seed_peak is None or (isinstance(seed_peak, numbers.Real) and not isinstance(seed_peak, bool)), seed_peak
     if seed_peak is not None and not (isinstance(seed_peak, (int, float)) and math.isfinite(seed_peak) and seed_peak > 0):
         raise RunError(f"seed peak must be a finite number > 0, got {seed_peak!r}")
     methods = tuple(methods) if methods is not None else tuple(scene.methods)
@@ -243,14 +238,9 @@ def run_scene(
     ``dns_window``: "scene" (default: the scene's [dns] mode, the moving window unless it says
     "full"), "auto" (the moving window), an int (its width in beads) or None (the full chain).
     """
-    if not isinstance(progress, bool):
-        raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
-    if dns_window is not None and (isinstance(dns_window, bool) or not isinstance(dns_window, (int, str))):
-        raise TypeError(f"dns_window must be 'scene', 'auto', None or a number of beads, got {type(dns_window).__name__}")
-    if isinstance(dns_window, str) and dns_window not in ("scene", "auto"):
-        raise ValueError(f"dns_window must be 'scene', 'auto', None or a number of beads, got {dns_window!r}")
-    if reuse_dns is not None and not (isinstance(reuse_dns, dict) and isinstance(reuse_dns.get("peaks"), dict)):
-        raise TypeError("reuse_dns must be the result (a dict) of an earlier run_scene of the same scene with the DNS")
+    assert isinstance(progress, bool), progress  # callers validated their input: pulsemap.run, the CLI
+    assert dns_window in ("scene", "auto", None) or (isinstance(dns_window, int) and not isinstance(dns_window, bool)), dns_window
+    assert reuse_dns is None or (isinstance(reuse_dns, dict) and isinstance(reuse_dns.get("peaks"), dict)), reuse_dns
     state = start_run(scene, methods, profile, variant, seed_peak, snapshots)
     if "dns" in state.methods:
         run_dns(state, progress, dns_window)

@@ -26,16 +26,18 @@ Built-in scenes (the paper's figures) live in ``solvers/data/scenes/*.toml``; ``
 of :data:`DEFAULT_SCENE`. ``pulsemap.symbolic.perturbation`` pulls in sympy, so it is imported lazily:
 ``import pulsemap.solvers.data.scene`` stays light.
 
-The format (tables, keys, defaults) is :mod:`~pulsemap.solvers.data.scene_schema`, the field checks
-:mod:`~pulsemap.solvers.data.scene_checks`, the [perturbation] table and its parameter forms
-:mod:`~pulsemap.solvers.data.scene_params`, the :class:`Scene` :mod:`~pulsemap.solvers.data.scene_spec`
-and loading :mod:`~pulsemap.solvers.data.scene_files`; this module gathers their public names.
+The package, by job: :mod:`~pulsemap.solvers.data.scene.schema` (the format: tables, keys,
+defaults, :class:`SceneError`), :mod:`~pulsemap.solvers.data.scene.spec` (the frozen :class:`Scene`),
+:mod:`~pulsemap.solvers.data.scene.parse` (TOML -> validated Scene, the one place scene input is
+checked), :mod:`~pulsemap.solvers.data.scene.files` (built-in and suite scenes by name, reading a
+file within :mod:`~pulsemap.solvers.data.scene.toml_bounds`), :mod:`~pulsemap.solvers.data.scene.record`
+(the parsed scene kept on disk) and :mod:`~pulsemap.solvers.data.scene.overrides` (``--set`` and
+``with_overrides``). This module exposes the entry points.
 """
 
-from pulsemap.symbolic.frozenmap import FrozenMap
-from pulsemap.solvers.data.scene_checks import check_choice
-from pulsemap.solvers.data.scene_files import builtin_scene_path, builtin_scenes, load_scene, parse_scene
-from pulsemap.solvers.data.scene_schema import (
+from pulsemap.solvers.data.scene.files import builtin_scene_path, builtin_scenes, load_scene
+from pulsemap.solvers.data.scene.parse import check_choice, parse_scene
+from pulsemap.solvers.data.scene.schema import (
     ALIASES,
     DEFAULT_EXPONENT,
     DEFAULT_FIRST_PERTURBED,
@@ -49,7 +51,7 @@ from pulsemap.solvers.data.scene_schema import (
     VARIANTS,
     SceneError,
 )
-from pulsemap.solvers.data.scene_spec import Scene
+from pulsemap.solvers.data.scene.spec import Scene
 
 __all__ = [
     "ALIASES",
@@ -63,7 +65,6 @@ __all__ = [
     "METHODS",
     "PROFILES",
     "VARIANTS",
-    "FrozenMap",
     "Scene",
     "SceneError",
     "builtin_scene_path",

@@ -24,7 +24,7 @@ from pulsemap.symbolic import __version__
 from pulsemap.symbolic.cache import load, store
 from pulsemap.symbolic.frozenmap import FrozenMap
 from pulsemap.symbolic.param_forms import ParamMap, RandomDraw, param_data
-from pulsemap.solvers.data.scene_spec import Scene
+from pulsemap.solvers.data.scene.spec import Scene
 
 if TYPE_CHECKING:  # pragma: no cover
     import numpy as np

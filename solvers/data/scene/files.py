@@ -1,4 +1,4 @@
-"""Loading scenes: built-in scene files, TOML decoding and the structure check of a parsed table."""
+"""Finding scenes: built-in and suite scene lookup by name, and the bounded reading and TOML decoding of a file."""
 
 from __future__ import annotations
 
@@ -7,38 +7,19 @@ import os
 import re
 from importlib import resources
 from pathlib import Path
-from typing import Any, Mapping
 
 try:  # Python >= 3.11
     import tomllib
 except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (pyproject pulls in tomli)
     import tomli as tomllib  # type: ignore[no-redef]
 
-from pulsemap.solvers.data.scene_checks import _check_consistency, _check_dns_table, _check_fields, _check_name
-from pulsemap.solvers.data.scene_params import _build_perturbation
-from pulsemap.solvers.data.scene_schema import (
-    _EXAMPLES,
-    _REQUIRED_KEYS,
-    _REQUIRED_TABLES,
-    _SCHEMA,
-    _TABLES,
-    ALIASES,
-    DEFAULT_EXPONENT,
-    DEFAULT_FIRST_PERTURBED,
-    DEFAULT_METHODS,
-    DNS_DEFAULTS,
-    SceneError,
-    _as_table,
-    _prefix,
-    _Problem,
-    _suggest,
-    _type_name,
-    _unknown,
-)
-from pulsemap.solvers.data.scene_record import load_record, save_record
-from pulsemap.solvers.data.scene_spec import Scene
-from pulsemap.solvers.data.toml_bounds import MAX_SCENE_BYTES, TomlBoundsError, check_size, check_toml_bounds
+from pulsemap.solvers.data.scene.parse import parse_scene, suggest
+from pulsemap.solvers.data.scene.record import load_record, save_record
+from pulsemap.solvers.data.scene.schema import ALIASES, SceneError
+from pulsemap.solvers.data.scene.spec import Scene
+from pulsemap.solvers.data.scene.toml_bounds import MAX_SCENE_BYTES, TomlBoundsError, check_size, check_toml_bounds
 from pulsemap.symbolic.files import FileKindError, TooLargeError, read_bounded
+
 
 
 def builtin_scenes() -> list[str]:
@@ -66,7 +47,7 @@ def builtin_scene_path(name: str):
     names = builtin_scenes()
     if resolved not in names:
         raise SceneError(
-            f"unknown built-in scene {name!r}{_suggest(name, names + list(ALIASES))}: "
+            f"unknown built-in scene {name!r}{suggest(name, names + list(ALIASES))}: "
             f"choose one of {', '.join(names)} or default"
         )
     return resources.files("pulsemap.solvers.data").joinpath("scenes", f"{resolved}.toml")
@@ -116,7 +97,7 @@ def load_scene(ref: str | Path) -> Scene:
 
 def _parse_file(data: bytes, source: str) -> Scene:
     """The Scene of a scene file's bytes: its record when this text was parsed before (no sympy,
-    data/scene_record.py), else parsed, validated and recorded."""
+    data/scene/record.py), else parsed, validated and recorded."""
     scene = load_record(data, source)
     if scene is None:
         scene = parse_scene(_decode(data, source), source)
@@ -151,92 +132,3 @@ def _toml_reason(message: str) -> str:
             '(strings in quotes, e.g. R = "-mu*v"; arrays as [16, 120])'
         )
     return f"TOML syntax error: {message}: fix the syntax"
-
-
-def parse_scene(data: Mapping[str, Any], source: str) -> Scene:
-    """Validate an already-parsed TOML table (or :meth:`Scene.as_dict`) and return the Scene."""
-    if not isinstance(source, (str, os.PathLike)):
-        raise TypeError(f"source must be a string naming where the scene came from (a path or builtin:NAME), "
-                        f"got {type(source).__name__}")
-    source = str(source)
-    name = _default_name(source)
-    try:
-        if not isinstance(data, Mapping):
-            raise _Problem(f"a scene must be a table of tables, got {_type_name(data)}")
-        if "name" in data:
-            name = _check_name(data["name"])
-        _check_structure(data)
-        tables = {key: _as_table(data.get(key, {}), key) for key in _TABLES}
-        chain, output = tables["chain"], tables["output"]
-        raw = {
-            "name": name,
-            "beads": chain.get("beads"),
-            "exponent": chain.get("exponent", DEFAULT_EXPONENT),
-            "first_perturbed": chain.get("first_perturbed", DEFAULT_FIRST_PERTURBED),
-            "velocity": tables["excitation"]["velocity"],
-            "contacts": output["contacts"],
-            "methods": output.get("methods", list(DEFAULT_METHODS)),
-            "profile": tables["model"].get("profile", "exact"),
-            "variant": tables["model"].get("variant", "paper"),
-            "dns": _check_dns_table({**DNS_DEFAULTS, **tables["dns"]}),
-            "source": source,
-        }
-        fields = _check_fields(raw)
-        fields["perturbation"] = _build_perturbation(tables["perturbation"], name)
-        scene = Scene(**fields)
-        _check_consistency(scene)
-    except _Problem as exc:
-        raise SceneError(_prefix(source, name) + str(exc)) from None
-    return scene
-
-
-def _default_name(source: str) -> str:
-    if source.startswith("builtin:"):
-        return source[len("builtin:"):]
-    stem = Path(source).name
-    return stem[: -len(".toml")] if stem.endswith(".toml") else (stem or "scene")
-
-
-def _check_structure(data: Mapping[str, Any]) -> None:
-    """Unknown tables and keys (with suggestions), tables given as values, missing keys."""
-    for key, value in data.items():
-        if key not in _SCHEMA[""]:
-            if isinstance(value, Mapping):
-                raise _Problem(
-                    f"unknown table [{key}]{_suggest(key, _TABLES, '[', ']')}: "
-                    f"known tables are {', '.join(f'[{t}]' for t in _TABLES)}"
-                )
-            raise _Problem(_unknown(key, _SCHEMA[""], "at the top level"))
-    for table in _TABLES:
-        if table not in data:
-            if table in _REQUIRED_TABLES:
-                key = _REQUIRED_KEYS[table][0]
-                raise _Problem(
-                    f"missing table [{table}]: add it with at least "
-                    f"{_EXAMPLES.get(f'{table}.{key}', key + ' = ...')}"
-                )
-            continue
-        content = _as_table(data[table], table)
-        for key, value in content.items():
-            if key not in _SCHEMA[table]:
-                if isinstance(value, Mapping):
-                    raise _Problem(
-                        f"unknown table [{table}.{key}]{_suggest(key, _SCHEMA[table], f'[{table}.', ']')}: "
-                        f"[{table}] holds {', '.join(_SCHEMA[table])}"
-                    )
-                if key in _SCHEMA[""]:
-                    raise _Problem(
-                        f"key {key!r} is inside [{table}] but belongs at the top level: move it above "
-                        f"the first table header{' or write [' + key + '] on its own line' if key in _TABLES else ''}"
-                    )
-                raise _Problem(_unknown(key, _SCHEMA[table], f"in [{table}]"))
-        for key in _REQUIRED_KEYS.get(table, ()):
-            if key not in content:
-                raise _Problem(
-                    f"missing key {key!r} in [{table}]: add {_EXAMPLES.get(f'{table}.{key}', key + ' = ...')}"
-                )
-    params = _as_table(data["perturbation"], "perturbation").get("params", {})
-    if not isinstance(params, Mapping):
-        raise _Problem(
-            f"[perturbation] params must be a table [perturbation.params] of NAME = VALUE, got {_type_name(params)}"
-        )

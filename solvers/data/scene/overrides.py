@@ -20,18 +20,16 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-from pulsemap.solvers.data.scene import Scene, SceneError, parse_scene
+from pulsemap.solvers.data.scene.parse import parse_scene
+from pulsemap.solvers.data.scene.schema import SceneError
+from pulsemap.solvers.data.scene.spec import Scene
 
 PARAMS_PREFIX = "perturbation.params."
 #: Keys that name the scene rather than set it (not overridable).
 FIXED = ("source",)
 #: Keys a scene may set that have no default value in it (absent: the documented default applies).
 OPTIONAL = ("dns.engine", "dns.mode")
-#: Fields of a Scene (Scene.with_overrides) by their dotted key in the scene file.
-FIELD_KEYS = {"beads": "chain.beads", "exponent": "chain.exponent", "first_perturbed": "chain.first_perturbed",
-              "velocity": "excitation.velocity", "contacts": "output.contacts", "methods": "output.methods",
-              "profile": "model.profile", "variant": "model.variant", "R": "perturbation.R",
-              "eps": "perturbation.eps", "params": "perturbation.params", "name": "name"}
+
 
 
 def _flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:

@@ -8,8 +8,7 @@ from typing import TYPE_CHECKING, Any, Mapping
 
 from pulsemap.symbolic.frozenmap import FrozenMap
 from pulsemap.symbolic.param_forms import param_data
-from pulsemap.solvers.data.scene_params import _check_perturbation_object
-from pulsemap.solvers.data.scene_schema import DNS_DEFAULTS, SceneError, _as_table, _prefix, _Problem, _unknown
+from pulsemap.solvers.data.scene.schema import DNS_DEFAULTS
 
 if TYPE_CHECKING:  # pragma: no cover
     from pulsemap.symbolic.perturbation import Perturbation
@@ -65,30 +64,13 @@ class Scene:
         }
 
     def with_overrides(self, **kw: Any) -> "Scene":
-        """A copy with some fields replaced, validated like a scene file (data/overrides.apply_overrides).
+        """A copy with some fields replaced, validated like a scene file (data/scene/overrides.apply_overrides).
 
         Keys are the field names; also ``R``, ``eps`` and ``params`` (raw values, as in a scene
         file) to rebuild the perturbation (a new ``R`` without ``params`` keeps the current
         parameters it uses and drops the others). ``dns`` is merged over the current DNS options.
         """
-        from pulsemap.solvers.data.overrides import FIELD_KEYS, apply_overrides  # it rebuilds Scenes: imported here
+        from pulsemap.solvers.data.scene.overrides import apply_overrides  # both rebuild Scenes: imported here
+        from pulsemap.solvers.data.scene.parse import override_changes
 
-        allowed = sorted(FIELD_KEYS.keys() | {"dns", "perturbation"})
-        changes: list[tuple[str, Any]] = []
-        try:
-            for key, value in kw.items():
-                if key not in allowed:
-                    raise _Problem(_unknown(key, allowed, "in with_overrides()"))
-                if key == "dns":
-                    changes += [(f"dns.{k}", v) for k, v in _as_table(value, "dns").items()]
-                elif key == "perturbation":
-                    if {"R", "eps", "params"} & kw.keys():
-                        raise _Problem("give either perturbation or R/eps/params, not both")
-                    pert = _check_perturbation_object(value)
-                    changes += [("perturbation.R", pert.text), ("perturbation.eps", pert.eps),
-                                ("perturbation.params", {k: param_data(v) for k, v in pert.params.items()})]
-                else:
-                    changes.append((FIELD_KEYS[key], value))
-        except _Problem as exc:
-            raise SceneError(_prefix(self.source, self.name) + str(exc)) from None
-        return apply_overrides(self, changes)
+        return apply_overrides(self, override_changes(self, kw))
