@@ -26,7 +26,7 @@ import sympy
 
 from pulsemap.symbolic.bead_values import _bead_values, _check_beads, _evaluate, _frozen_bead_values, _numeric
 from pulsemap.symbolic.expression import SYMBOLS, ExpressionError, check_parameter_name, parse_expression, symbol
-from pulsemap.symbolic.rtokens import _tokenize
+from pulsemap.symbolic.expression.tokens import tokenize
 from pulsemap.symbolic.param_values import (DRAW_KEYS, IndexExpression, ParamMap, ParamValue, PerturbationError,
                                           RandomDraw, _check_name, _exact, _finite_float, _is_scalar, _kind,
                                           _to_float, param_data, parse_cli_param, parse_param_value)
@@ -240,7 +240,7 @@ def _check_eps_sign(eps: float) -> float:
 def _free_names(text: str, values: Mapping[str, object]) -> list[str]:
     """Names in ``text`` that may name a parameter and have no value (the parser reports the others)."""
     found = []
-    for token in _tokenize(text):
+    for token in tokenize(text):
         if token.kind == "name" and token.text not in values and token.text not in found:
             try:
                 check_parameter_name(token.text)
