@@ -9,7 +9,7 @@ from typing import Callable, Iterable
 
 import mpmath
 
-from .integrals import Constant, _scalar_funcs, cached_constants
+from .integrals import Constant, cached_constants, scalar_funcs
 from .profile import check_exponent, exact_profile
 from .sources import BALANCE_METHOD
 from .sources import BALANCE_MODELS as MODELS
@@ -69,7 +69,7 @@ def _bead_motion(S: Callable, dS: Callable, L: int) -> tuple[Callable, Callable]
 
 
 def _compute(profile, name: str, dps: int, L: int) -> tuple[float, float]:
-    S, dS, _ = _scalar_funcs(profile)
+    S, dS, _ = scalar_funcs(profile)
     X, dX = _bead_motion(S, dS, L)
     n = mpmath.mpf(profile.n)
     kind, a, b = _parse_name(name)

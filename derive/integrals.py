@@ -102,7 +102,7 @@ def _memo(f: Callable) -> Callable:
     return memo
 
 
-def _scalar_funcs(profile: Profile) -> tuple[Callable, Callable, Callable]:
+def scalar_funcs(profile: Profile) -> tuple[Callable, Callable, Callable]:
     """(S, S', S'') as functions of an mpf/float argument, in the profile's own arithmetic (memoized)."""
     key = (profile.kind, float(profile.n))
     if key not in _FUNCS:
@@ -164,7 +164,7 @@ def _quad(profile: Profile, integrand: Callable, shift_min: int, dps: int) -> tu
 
 def _compute(profile: Profile, name: str, dps: int) -> tuple[float, float]:
     """Evaluate the integral called ``name`` (f1..f7, g1_klmq, g2_pr) for ``profile``."""
-    S, dS, d2S = _scalar_funcs(profile)
+    S, dS, d2S = scalar_funcs(profile)
     n = mpmath.mpf(profile.n)
     pos = lambda x: x**n if x > 0 else mpmath.mpf(0)  # noqa: E731
     if name in F_NAMES:

@@ -1,6 +1,7 @@
 """Values of the perturbation's parameters (docs/perturbation.rst, "Parameters"): a scalar, a per-bead list, a
 seeded uniform draw or an expression of the bead index i; parsed from scene, TOML and command-line
-forms with one-line errors naming the parameter."""
+forms with one-line errors naming the parameter, and evaluated with numpy for beads 1..N
+(derive/perturbation.py's Perturbation.bead_values and rest_force)."""
 
 from __future__ import annotations
 
@@ -8,12 +9,13 @@ import difflib
 import math
 import numbers
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any, Mapping, Union
 
 import numpy as np
 import sympy
 
-from pulsemap.symbolic.expression import ExpressionError, check_parameter_name, parse_expression
+from pulsemap.symbolic.expression import ExpressionError, check_parameter_name, parse_expression, symbol
 from pulsemap.symbolic.param_forms import ParamMap, RandomDraw, param_data  # noqa: F401 (their home; names kept here)
 
 class PerturbationError(ValueError):
@@ -44,7 +46,7 @@ ParamValue = Union[float, tuple[float, ...], RandomDraw, IndexExpression]
 
 def parse_param_value(name: str, raw: object) -> ParamValue:
     """A parameter value from a scene/TOML/CLI value (see the module docstring for the forms)."""
-    _check_name(name)
+    check_name(name)
     if raw is None:
         raise PerturbationError(f"parameter '{name}' has no value: give {_VALUE_FORMS}")
     if isinstance(raw, bool) or isinstance(raw, np.bool_):
@@ -54,7 +56,7 @@ def parse_param_value(name: str, raw: object) -> ParamValue:
     if isinstance(raw, IndexExpression):
         return _index_expression(name, raw.text)
     if isinstance(raw, numbers.Real):
-        return _finite_float(f"parameter '{name}'", raw)
+        return finite_float(f"parameter '{name}'", raw)
     if isinstance(raw, str):
         return _parse_string_value(name, raw)
     if isinstance(raw, Mapping):
@@ -74,20 +76,20 @@ def parse_cli_param(text: str) -> tuple[str, ParamValue]:
         )
     name, _, value = text.partition("=")
     name = name.strip()
-    _check_name(name)
+    check_name(name)
     if not value.strip():
         raise PerturbationError(f"parameter '{name}' has no value: write {name}=VALUE")
     return name, parse_param_value(name, value)
 
 
-def _check_name(name: object) -> None:
+def check_name(name: object) -> None:
     try:
         check_parameter_name(name)
     except ExpressionError as exc:
         raise PerturbationError(str(exc)) from exc
 
 
-def _finite_float(what: str, raw: object) -> float:
+def finite_float(what: str, raw: object) -> float:
     if isinstance(raw, (bool, np.bool_)):
         raise PerturbationError(f"{what} = {raw} is a boolean: give a number")
     if not isinstance(raw, numbers.Real):
@@ -102,23 +104,23 @@ def _finite_float(what: str, raw: object) -> float:
     return value
 
 
-def _to_float(expr: sympy.Expr, what: str) -> float:
+def to_float(expr: sympy.Expr, what: str) -> float:
     value = complex(sympy.N(expr))
     if value.imag != 0 or not math.isfinite(value.real):
         raise PerturbationError(f"{what} = {expr} is not a finite real number")
     return value.real
 
 
-def _exact(value: float) -> sympy.Rational:
+def exact(value: float) -> sympy.Rational:
     """The shortest decimal that round-trips ``value``, as an exact Rational (0.1 -> 1/10)."""
     return sympy.Rational(repr(float(value)))
 
 
-def _is_scalar(value: ParamValue) -> bool:
+def is_scalar(value: ParamValue) -> bool:
     return isinstance(value, float)
 
 
-def _kind(value: ParamValue) -> str:
+def value_kind(value: ParamValue) -> str:
     if isinstance(value, tuple):
         return f"a per-bead list of {len(value)} values"
     if isinstance(value, RandomDraw):
@@ -148,7 +150,7 @@ def _constant(name: str, text: str, position: int) -> float:
         raise PerturbationError(f"{where}: {exc}") from exc
     if expr.free_symbols:
         raise PerturbationError(f"{where} = {text!r} must be a number in a list of per-bead values")
-    return _to_float(expr, where)
+    return to_float(expr, where)
 
 
 def _index_expression(name: str, text: str) -> ParamValue:
@@ -162,7 +164,7 @@ def _index_expression(name: str, text: str) -> ParamValue:
             f"parameter '{name}' = {text!r} may depend only on the bead index i, not on {', '.join(others)}"
         )
     if not expr.free_symbols:
-        return _finite_float(f"parameter '{name}'", _to_float(expr, f"parameter '{name}'"))
+        return finite_float(f"parameter '{name}'", to_float(expr, f"parameter '{name}'"))
     return IndexExpression(text=text.strip(), expr=expr)
 
 
@@ -179,7 +181,7 @@ def _parse_list(name: str, raw: Any) -> tuple[float, ...]:
                 f"parameter '{name}' element {k + 1} = {item!r} is not a number "
                 "(per-bead lists hold numbers only)"
             )
-        values.append(_finite_float(f"parameter '{name}' element {k + 1}", item))
+        values.append(finite_float(f"parameter '{name}' element {k + 1}", item))
     return tuple(values)
 
 
@@ -207,8 +209,8 @@ def _parse_draw(name: str, raw: Mapping) -> RandomDraw:
 def _check_draw(name: str, low: object, high: object, seed: object, distribution: str) -> RandomDraw:
     if distribution != "uniform":
         raise PerturbationError(f"parameter '{name}': only uniform random draws are supported, got {distribution!r}")
-    lo = _finite_float(f"parameter '{name}' uniform low", low)
-    hi = _finite_float(f"parameter '{name}' uniform high", high)
+    lo = finite_float(f"parameter '{name}' uniform low", low)
+    hi = finite_float(f"parameter '{name}' uniform high", high)
     if lo > hi:
         raise PerturbationError(f"parameter '{name}': uniform = [{lo}, {hi}] has low > high; swap them")
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral) or int(seed) < 0:
@@ -216,3 +218,87 @@ def _check_draw(name: str, low: object, high: object, seed: object, distribution
             f"parameter '{name}': seed must be a non-negative integer, got {seed!r} (e.g. {_DRAW_EXAMPLE})"
         )
     return RandomDraw(low=lo, high=hi, seed=int(seed), distribution="uniform")
+
+
+def check_beads(beads: object) -> int:
+    if isinstance(beads, bool) or not isinstance(beads, numbers.Integral) or int(beads) < 1:
+        raise PerturbationError(f"beads must be a positive integer, got {beads!r}")
+    return int(beads)
+
+
+def values_per_bead(name: str, value: ParamValue, beads: int) -> np.ndarray:
+    if isinstance(value, float):
+        return np.full(beads, value, dtype=np.float64)
+    if isinstance(value, tuple):
+        if len(value) != beads:
+            raise PerturbationError(
+                f"parameter '{name}' has {len(value)} per-bead values but the chain has {beads} beads: "
+                f"give exactly {beads}"
+            )
+        return np.asarray(value, dtype=np.float64)
+    if isinstance(value, RandomDraw):
+        return value.values(beads)
+    if isinstance(value, IndexExpression):
+        return evaluate_per_bead(value.expr, {}, beads, f"parameter '{name}' = {value.text!r}")
+    raise PerturbationError(f"parameter '{name}' has an unsupported value {value!r}")
+
+
+@lru_cache(maxsize=64)
+def frozen_values_per_bead(name: str, value: ParamValue, beads: int) -> np.ndarray:
+    """values_per_bead, read-only and kept (a law's right-hand side reads a random draw's bead at every
+    evaluation: drawing the chain again each time was most of the cost)."""
+    arr = values_per_bead(name, value, beads)
+    arr.flags.writeable = False
+    return arr
+
+
+_NUMPY_FUNCTIONS = (
+    (sympy.sin, np.sin),
+    (sympy.cos, np.cos),
+    (sympy.tan, np.tan),
+    (sympy.exp, np.exp),
+    (sympy.log, np.log),
+    (sympy.tanh, np.tanh),
+    (sympy.sinh, np.sinh),
+    (sympy.cosh, np.cosh),
+    (sympy.Abs, np.abs),
+    (sympy.sign, np.sign),
+    (sympy.Heaviside, lambda x: np.heaviside(x, 0.5)),
+)
+
+
+def evaluate_per_bead(expr: sympy.Expr, env: Mapping[sympy.Symbol, np.ndarray], beads: int, what: str) -> np.ndarray:
+    """Evaluate an expression of i (and per-bead parameter arrays) for beads 1..beads."""
+    index = np.arange(1, beads + 1, dtype=np.float64)
+    full_env = {symbol("i"): index, **env}
+    with np.errstate(all="ignore"):
+        values = np.broadcast_to(numeric_value(expr, full_env, what), (beads,)).astype(np.float64)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        raise PerturbationError(f"{what} is not finite (or not real) at bead {int(bad[0]) + 1}")
+    return values
+
+
+def numeric_value(expr: sympy.Expr, env: Mapping[sympy.Symbol, np.ndarray], what: str) -> Any:
+    if expr.is_Symbol:
+        if expr in env:
+            return env[expr]
+        raise PerturbationError(f"{what} depends on {expr}, which has no per-bead value here")
+    if expr.is_number:
+        value = complex(sympy.N(expr))
+        return value.real if value.imag == 0 else np.nan
+    args = [numeric_value(arg, env, what) for arg in expr.args]
+    if expr.is_Add:
+        return sum(args[1:], args[0])
+    if expr.is_Mul:
+        result = args[0]
+        for arg in args[1:]:
+            result = result * arg
+        return result
+    if expr.is_Pow:
+        base = np.asarray(args[0], dtype=np.float64)
+        return np.power(base, args[1])
+    for sympy_func, numpy_func in _NUMPY_FUNCTIONS:
+        if expr.func == sympy_func:
+            return numpy_func(args[0])
+    raise PerturbationError(f"{what}: cannot evaluate {expr.func.__name__} numerically")

@@ -24,12 +24,12 @@ from typing import Any, Mapping
 import numpy as np
 import sympy
 
-from pulsemap.symbolic.bead_values import _bead_values, _check_beads, _evaluate, _frozen_bead_values, _numeric
 from pulsemap.symbolic.expression import SYMBOLS, ExpressionError, check_parameter_name, parse_expression, symbol
-from pulsemap.symbolic.rtokens import _tokenize
+from pulsemap.symbolic.expression.tokens import tokenize
 from pulsemap.symbolic.param_values import (DRAW_KEYS, IndexExpression, ParamMap, ParamValue, PerturbationError,
-                                          RandomDraw, _check_name, _exact, _finite_float, _is_scalar, _kind,
-                                          _to_float, param_data, parse_cli_param, parse_param_value)
+                                          RandomDraw, check_beads, check_name, evaluate_per_bead, exact, finite_float,
+                                          frozen_values_per_bead, is_scalar, numeric_value, param_data,
+                                          parse_cli_param, parse_param_value, to_float, value_kind, values_per_bead)
 
 __all__ = [
     "DRAW_KEYS",
@@ -82,7 +82,7 @@ class Perturbation:
     def site_dependent(self) -> tuple[str, ...]:
         """Parameters of R whose values vary along the chain (lists, draws, expressions of i)."""
         return tuple(name for name in self.used_parameters
-                     if name in self.params and not _is_scalar(self.params[name]))
+                     if name in self.params and not is_scalar(self.params[name]))
 
     @property
     def is_uniform(self) -> bool:
@@ -102,7 +102,7 @@ class Perturbation:
 
     def scalar_values(self) -> dict[sympy.Symbol, sympy.Rational]:
         """Exact values of the parameters that are scalars (per-bead ones left out), for substitution."""
-        return {symbol(name): _exact(value) for name, value in self.params.items() if _is_scalar(value)}
+        return {symbol(name): exact(value) for name, value in self.params.items() if is_scalar(value)}
 
     def bead_values(self, name: str, beads: int) -> np.ndarray:
         """Values of parameter ``name`` for beads 1..beads, shape (beads,), float64."""
@@ -110,7 +110,7 @@ class Perturbation:
             close = difflib.get_close_matches(name, list(self.params), n=1)
             hint = f" (did you mean '{close[0]}'?)" if close else ""
             raise PerturbationError(f"no parameter named '{name}'{hint}; known: {', '.join(self.params) or 'none'}")
-        return _bead_values(name, self.params[name], _check_beads(beads))
+        return values_per_bead(name, self.params[name], check_beads(beads))
 
     def values_at(self, name: str, positions) -> np.ndarray:
         """Parameter ``name`` at continuous bead positions (for laws in the contact index): an
@@ -124,14 +124,14 @@ class Perturbation:
             return np.full(pos.shape, value)
         if isinstance(value, IndexExpression):
             with np.errstate(all="ignore"):
-                out = np.broadcast_to(_numeric(value.expr, {symbol("i"): pos}, f"parameter '{name}'"), pos.shape)
+                out = np.broadcast_to(numeric_value(value.expr, {symbol("i"): pos}, f"parameter '{name}'"), pos.shape)
             out = np.asarray(out, dtype=np.float64)
             if not np.all(np.isfinite(out)):
                 raise PerturbationError(f"parameter '{name}' = {value.text!r} is not finite at bead position "
                                         f"{float(pos[~np.isfinite(out)][0]):g}")
             return out
         beads = len(value) if isinstance(value, tuple) else int(max(1, np.ceil(pos.max() + 0.5)))
-        arr = _frozen_bead_values(name, value, beads)
+        arr = frozen_values_per_bead(name, value, beads)
         if pos.size == 1 and math.isfinite(pos[0]):  # one position (a law's right-hand side, at every evaluation): no array arithmetic
             return np.array([arr[min(max(math.floor(float(pos[0]) + 0.5), 1), arr.size) - 1]]).reshape(pos.shape)
         k = np.clip(np.floor(pos + 0.5).astype(int), 1, arr.size)
@@ -139,10 +139,10 @@ class Perturbation:
 
     def rest_force(self, beads: int) -> np.ndarray:
         """R_i(0, 0) for beads 1..beads, evaluated with the per-bead parameter values."""
-        beads = _check_beads(beads)
+        beads = check_beads(beads)
         at_rest = self.R.subs({symbol("u"): 0, symbol("v"): 0})
         env = {symbol(name): self.bead_values(name, beads) for name in self.used_parameters}
-        return _evaluate(at_rest, env, beads, "R(0,0)")
+        return evaluate_per_bead(at_rest, env, beads, "R(0,0)")
 
     def check_at_rest(self, beads: int, tol: float = 1e-12) -> None:
         """Raise PerturbationError unless R_i(0, 0) = 0 for every bead (the chain starts at rest)."""
@@ -160,8 +160,8 @@ class Perturbation:
             return "R depends on i"
         for name in self.site_dependent:
             value = self.params[name]
-            if not _is_scalar(value):
-                return f"parameter '{name}' is {_kind(value)}"
+            if not is_scalar(value):
+                return f"parameter '{name}' is {value_kind(value)}"
         return "uniform"
 
 
@@ -176,7 +176,7 @@ def make_perturbation(
     raw_params = dict(params or {})
     values: dict[str, ParamValue] = {}
     for name, raw in raw_params.items():
-        _check_name(name)
+        check_name(name)
         values[name] = parse_param_value(name, raw)
     eps_value = _parse_eps(eps)
     if isinstance(R, str):
@@ -189,7 +189,7 @@ def make_perturbation(
         expr = _from_sympy(R, values.keys(), free)
         text = str(expr)
     elif isinstance(R, numbers.Real) and not isinstance(R, bool):
-        expr = _exact(_finite_float("R", R))
+        expr = exact(finite_float("R", R))
         text = str(expr)
     else:
         raise PerturbationError(f"R must be a string or a sympy expression, got {type(R).__name__}")
@@ -224,8 +224,8 @@ def _parse_eps(eps: object) -> float:
             raise PerturbationError(f"eps: {exc}") from exc
         if expr.free_symbols:
             raise PerturbationError(f"eps = {eps!r} must be a number, not an expression of u, v or i")
-        return _check_eps_sign(_finite_float("eps", _to_float(expr, "eps")))
-    return _check_eps_sign(_finite_float("eps", eps))
+        return _check_eps_sign(finite_float("eps", to_float(expr, "eps")))
+    return _check_eps_sign(finite_float("eps", eps))
 
 
 def _check_eps_sign(eps: float) -> float:
@@ -240,7 +240,7 @@ def _check_eps_sign(eps: float) -> float:
 def _free_names(text: str, values: Mapping[str, object]) -> list[str]:
     """Names in ``text`` that may name a parameter and have no value (the parser reports the others)."""
     found = []
-    for token in _tokenize(text):
+    for token in tokenize(text):
         if token.kind == "name" and token.text not in values and token.text not in found:
             try:
                 check_parameter_name(token.text)

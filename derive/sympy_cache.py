@@ -14,7 +14,7 @@ from typing import Any, Callable
 import sympy
 
 from . import cache
-from .rnames import UserSymbol
+from .expression.names import UserSymbol
 from .timebox import bounded
 
 NAMESPACE = "sympy-bounded"

@@ -1,4 +1,4 @@
-"""Recursive-descent parser of a perturbation expression (grammar in derive/expression.py): builds
+"""Recursive-descent parser of a perturbation expression (grammar in derive/expression/expression.py): builds
 sympy objects itself from tokens; user text never reaches eval, sympify or parse_expr."""
 
 from __future__ import annotations
@@ -7,14 +7,14 @@ import difflib
 
 import sympy
 
-from .rnames import FUNCTIONS, MAX_DEPTH, MAX_EXPONENT, MAX_POWER_BITS, SYMBOLS, ExpressionError, symbol
-from .rtokens import _context, _number, _printable, _show, _Token
+from .names import FUNCTIONS, MAX_DEPTH, MAX_EXPONENT, MAX_POWER_BITS, SYMBOLS, ExpressionError, symbol
+from .tokens import Token, context, number, printable, show
 
-class _Parser:
+class Parser:
     """Recursive-descent parser over a token list; builds sympy objects."""
 
     def __init__(
-        self, text: str, tokens: list[_Token], params: frozenset[str], state: tuple[str, ...]
+        self, text: str, tokens: list[Token], params: frozenset[str], state: tuple[str, ...]
     ) -> None:
         self.state = state
         self.text = text
@@ -25,10 +25,10 @@ class _Parser:
 
     # -- token helpers
     @property
-    def tok(self) -> _Token:
+    def tok(self) -> Token:
         return self.tokens[self.index]
 
-    def advance(self) -> _Token:
+    def advance(self) -> Token:
         token = self.tokens[self.index]
         self.index += 1
         return token
@@ -44,7 +44,7 @@ class _Parser:
     def unexpected(self, expected: str) -> ExpressionError:
         token = self.tok
         if token.kind == "end":
-            return ExpressionError(f"unexpected end of {_context(self.text)}: expected {expected}")
+            return ExpressionError(f"unexpected end of {context(self.text)}: expected {expected}")
         previous = self.tokens[self.index - 1] if self.index else None
         if (
             previous is not None
@@ -52,17 +52,17 @@ class _Parser:
             and token.kind in ("num", "name")
         ) or (previous is not None and previous.text == ")" and token.kind in ("num", "name")):
             return ExpressionError(
-                f"unexpected {_show(token.text)} after {_show(previous.text)} at position "
-                f"{token.pos} in {_context(self.text)}: use '*' for multiplication"
+                f"unexpected {show(token.text)} after {show(previous.text)} at position "
+                f"{token.pos} in {context(self.text)}: use '*' for multiplication"
             )
         if token.text == ",":
             return ExpressionError(
-                f"unexpected ',' at position {token.pos} in {_context(self.text)}: "
+                f"unexpected ',' at position {token.pos} in {context(self.text)}: "
                 "functions take one argument and tuples are not allowed"
             )
         return ExpressionError(
-            f"unexpected {_show(token.text)} at position {token.pos} in "
-            f"{_context(self.text)}: expected {expected}"
+            f"unexpected {show(token.text)} at position {token.pos} in "
+            f"{context(self.text)}: expected {expected}"
         )
 
     # -- grammar
@@ -92,7 +92,7 @@ class _Parser:
             else:
                 if right.is_zero:
                     raise ExpressionError(
-                        f"division by zero at position {op_token.pos} in {_context(self.text)}"
+                        f"division by zero at position {op_token.pos} in {context(self.text)}"
                     )
                 result = result / right
         return result
@@ -116,12 +116,12 @@ class _Parser:
             return self.make_power(base, exponent, op_token)
         return base
 
-    def make_power(self, base: sympy.Expr, exponent: sympy.Expr, op_token: _Token) -> sympy.Expr:
-        where = f"at position {op_token.pos} in {_context(self.text)}"
+    def make_power(self, base: sympy.Expr, exponent: sympy.Expr, op_token: Token) -> sympy.Expr:
+        where = f"at position {op_token.pos} in {context(self.text)}"
         if exponent.is_Number:
             if abs(exponent) > MAX_EXPONENT:
                 raise ExpressionError(
-                    f"exponent {_printable(str(exponent))[:40]} is too large {where}: "
+                    f"exponent {printable(str(exponent))[:40]} is too large {where}: "
                     f"|exponent| must be at most {MAX_EXPONENT}"
                 )
             if base.is_Number:
@@ -137,7 +137,7 @@ class _Parser:
         token = self.tok
         if token.kind == "num":
             self.advance()
-            return _number(token, self.text)
+            return number(token, self.text)
         if token.kind == "name":
             self.advance()
             if self.tok.kind == "op" and self.tok.text == "(":
@@ -147,7 +147,7 @@ class _Parser:
             self.advance()
             self.enter()
             if self.tok.kind == "op" and self.tok.text == ")":
-                raise ExpressionError(f"empty parentheses '()' at position {token.pos} in {_context(self.text)}")
+                raise ExpressionError(f"empty parentheses '()' at position {token.pos} in {context(self.text)}")
             inner = self.expr()
             self.depth -= 1
             if not (self.tok.kind == "op" and self.tok.text == ")"):
@@ -156,12 +156,12 @@ class _Parser:
             return inner
         raise self.unexpected("a number, a symbol, a function or '('")
 
-    def name(self, token: _Token) -> sympy.Expr:
+    def name(self, token: Token) -> sympy.Expr:
         name = token.text
         if name in self.state or name in self.params:
             return symbol(name)
         if name in FUNCTIONS:
-            raise ExpressionError(f"{_show(name)} is a function: write {name}(...)")
+            raise ExpressionError(f"{show(name)} is a function: write {name}(...)")
         if name == "eps":
             raise ExpressionError(
                 "'eps' must not appear in R: eps is the small parameter and is given "
@@ -170,27 +170,27 @@ class _Parser:
         if self.state != SYMBOLS:
             allowed = ", ".join(self.state) or "no symbols"
             raise ExpressionError(
-                f"unknown symbol {_show(name)} in {_context(self.text)}: only {allowed} "
+                f"unknown symbol {show(name)} in {context(self.text)}: only {allowed} "
                 "may appear here (a number or an expression of the bead index i)"
             )
         close = difflib.get_close_matches(name, sorted(self.params), n=1)
-        hint = f"did you mean {_show(close[0])}? " if close else ""
+        hint = f"did you mean {show(close[0])}? " if close else ""
         raise ExpressionError(
-            f"unknown symbol {_show(name)} in {_context(self.text)}: {hint}declare it as a "
-            f"parameter (--param {_printable(name)}=VALUE) or use u, v, i"
+            f"unknown symbol {show(name)} in {context(self.text)}: {hint}declare it as a "
+            f"parameter (--param {printable(name)}=VALUE) or use u, v, i"
         )
 
-    def call(self, token: _Token) -> sympy.Expr:
+    def call(self, token: Token) -> sympy.Expr:
         name = token.text
         if name not in FUNCTIONS:
             if name in SYMBOLS or name in self.params:
                 raise ExpressionError(
-                    f"{_show(name)} is not a function (position {token.pos} in "
-                    f"{_context(self.text)}): use '*' for multiplication"
+                    f"{show(name)} is not a function (position {token.pos} in "
+                    f"{context(self.text)}): use '*' for multiplication"
                 )
             close = difflib.get_close_matches(name, list(FUNCTIONS), n=1)
-            hint = f"did you mean {_show(close[0])}?" if close else "allowed: " + ", ".join(FUNCTIONS)
-            raise ExpressionError(f"unknown function {_show(name)} ({hint})")
+            hint = f"did you mean {show(close[0])}?" if close else "allowed: " + ", ".join(FUNCTIONS)
+            raise ExpressionError(f"unknown function {show(name)} ({hint})")
         open_token = self.advance()
         self.enter()
         if self.tok.kind == "op" and self.tok.text == ")":

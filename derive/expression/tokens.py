@@ -1,4 +1,4 @@
-"""Tokens of a perturbation expression and the one-line messages about them (derive/expression.py)."""
+"""Tokens of a perturbation expression and the one-line messages about them (derive/expression/expression.py)."""
 
 from __future__ import annotations
 
@@ -9,55 +9,55 @@ from dataclasses import dataclass
 
 import sympy
 
-from .rnames import MAX_DECIMAL_EXPONENT, NON_FINITE_NAMES, ExpressionError
+from .names import MAX_DECIMAL_EXPONENT, NON_FINITE_NAMES, ExpressionError
 
 _NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-_PARAM_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
+PARAM_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
 _NUMBER_RE = re.compile(r"(?:[0-9]+\.[0-9]*|\.[0-9]+|[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _DIGITS = "0123456789"
-_WHITESPACE = " \t\r\n"
+WHITESPACE = " \t\r\n"
 _HINT = "R is a formula in u, v, i and parameters, not Python code"
 
 
 @dataclass(frozen=True)
-class _Token:
+class Token:
     kind: str  # "num", "name", "op", "end"
     text: str
     pos: int
 
 
-def _show(token: str) -> str:
+def show(token: str) -> str:
     """Quote a token (shortened) for a one-line message."""
     if len(token) > 40:
         token = token[:37] + "..."
-    return "'" + _printable(token) + "'"
+    return "'" + printable(token) + "'"
 
 
-def _printable(text: str) -> str:
+def printable(text: str) -> str:
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
-def _context(text: str) -> str:
+def context(text: str) -> str:
     """The source, quoted and shortened, for a one-line message."""
-    short = text.strip(_WHITESPACE)
+    short = text.strip(WHITESPACE)
     if len(short) > 60:
         short = short[:57] + "..."
-    return '"' + _printable(short) + '"'
+    return '"' + printable(short) + '"'
 
 
-def _tokenize(text: str) -> list[_Token]:
-    tokens: list[_Token] = []
+def tokenize(text: str) -> list[Token]:
+    tokens: list[Token] = []
     pos = 0
     n = len(text)
     while pos < n:
         c = text[pos]
-        if c in _WHITESPACE:
+        if c in WHITESPACE:
             pos += 1
             continue
         if c in _DIGITS or (c == "." and pos + 1 < n and text[pos + 1] in _DIGITS):
             m = _NUMBER_RE.match(text, pos)
             assert m is not None
-            tokens.append(_Token("num", m.group(), pos))
+            tokens.append(Token("num", m.group(), pos))
             pos = m.end()
             continue
         if c.isascii() and (c.isalpha() or c == "_"):
@@ -65,41 +65,41 @@ def _tokenize(text: str) -> list[_Token]:
             assert m is not None
             name = m.group()
             _check_name_token(name, text)
-            tokens.append(_Token("name", name, pos))
+            tokens.append(Token("name", name, pos))
             pos = m.end()
             continue
         two = text[pos : pos + 2]
         if two == "**":
-            tokens.append(_Token("op", "**", pos))
+            tokens.append(Token("op", "**", pos))
             pos += 2
             continue
         if two == "//":
-            raise ExpressionError(f"'//' (floor division) is not allowed in {_context(text)}: use '/'")
+            raise ExpressionError(f"'//' (floor division) is not allowed in {context(text)}: use '/'")
         if two in ("==", "!=", "<=", ">="):
-            raise ExpressionError(f"comparisons are not allowed ({_show(two)}): {_HINT}")
+            raise ExpressionError(f"comparisons are not allowed ({show(two)}): {_HINT}")
         if c in "+-*/^(),":
-            tokens.append(_Token("op", "**" if c == "^" else c, pos))
+            tokens.append(Token("op", "**" if c == "^" else c, pos))
             pos += 1
             continue
         raise ExpressionError(_bad_character(c, text))
-    tokens.append(_Token("end", "", n))
+    tokens.append(Token("end", "", n))
     return tokens
 
 
 def _bad_character(c: str, text: str) -> str:
     if c == ".":
-        return f"attribute access is not allowed ('.' in {_context(text)}): {_HINT}"
+        return f"attribute access is not allowed ('.' in {context(text)}): {_HINT}"
     if c in "[]":
         return (
-            f"{_show(c)} is not allowed: lists and subscripts are not supported "
+            f"{show(c)} is not allowed: lists and subscripts are not supported "
             "(give per-bead values as a parameter)"
         )
     if c in "{}":
-        return f"{_show(c)} is not allowed: sets and dicts are not supported; {_HINT}"
+        return f"{show(c)} is not allowed: sets and dicts are not supported; {_HINT}"
     if c in "'\"":
-        return f"strings are not allowed ({_show(c)} in {_context(text)}): {_HINT}"
+        return f"strings are not allowed ({show(c)} in {context(text)}): {_HINT}"
     if c in "<>":
-        return f"comparisons are not allowed ({_show(c)}): {_HINT}"
+        return f"comparisons are not allowed ({show(c)}): {_HINT}"
     if c == "=":
         return (
             "'=' is not allowed: no assignments or keyword arguments; "
@@ -112,24 +112,24 @@ def _bad_character(c: str, text: str) -> str:
     if c == "\\":
         return "'\\\\' is not allowed: write the expression on one line or in plain text"
     return (
-        f"unexpected character {_show(c)} in {_context(text)}: "
+        f"unexpected character {show(c)} in {context(text)}: "
         "use numbers, u, v, i, parameters, + - * / ** ^, parentheses and sin, cos, ..."
     )
 
 
 def _check_name_token(name: str, text: str) -> None:
     if name.startswith("__"):
-        raise ExpressionError(f"{_show(name)} is not allowed: {_HINT}")
+        raise ExpressionError(f"{show(name)} is not allowed: {_HINT}")
     if keyword.iskeyword(name):
         extra = "; use sign() or abs() for piecewise terms" if name in ("if", "else") else ""
-        raise ExpressionError(f"{_show(name)} is not allowed: {_HINT}{extra}")
+        raise ExpressionError(f"{show(name)} is not allowed: {_HINT}{extra}")
     if name in NON_FINITE_NAMES:
         raise ExpressionError(
-            f"non-finite number {_show(name)} is not allowed in {_context(text)}: use a finite value"
+            f"non-finite number {show(name)} is not allowed in {context(text)}: use a finite value"
         )
 
 
-def _number(token: _Token, text: str) -> sympy.Rational:
+def number(token: Token, text: str) -> sympy.Rational:
     lexeme = token.text
     mantissa, _, exponent = lexeme.lower().partition("e")
     exp10 = int(exponent) if exponent else 0
@@ -138,12 +138,12 @@ def _number(token: _Token, text: str) -> sympy.Rational:
         return sympy.Integer(0)
     if exp10 > MAX_DECIMAL_EXPONENT or not math.isfinite(float(lexeme)):
         raise ExpressionError(
-            f"number {_show(lexeme)} is not finite as a float (too large) in {_context(text)}: "
+            f"number {show(lexeme)} is not finite as a float (too large) in {context(text)}: "
             "use a value below 1e308"
         )
     if exp10 < -MAX_DECIMAL_EXPONENT or float(lexeme) == 0.0:
         raise ExpressionError(
-            f"number {_show(lexeme)} is too small (it underflows to 0.0 as a float): "
+            f"number {show(lexeme)} is too small (it underflows to 0.0 as a float): "
             "use 0 or a value above 1e-308"
         )
     if exp10:

@@ -24,44 +24,27 @@ from typing import Iterable
 
 import sympy
 
-from .rnames import (FUNCTIONS, MAX_DECIMAL_EXPONENT, MAX_DEPTH, MAX_EXPONENT, MAX_LENGTH, MAX_POWER_BITS,
-                     NON_FINITE_NAMES, NON_SMOOTH, RESERVED, SYMBOLS, ExpressionError, UserSymbol, symbol)
-from .rparser import _Parser
-from .rtokens import _PARAM_RE, _WHITESPACE, _context, _printable, _show, _tokenize
+from .names import FUNCTIONS, MAX_EXPONENT, MAX_LENGTH, NON_FINITE_NAMES, SYMBOLS, ExpressionError, symbol
+from .parser import Parser
+from .tokens import PARAM_RE, WHITESPACE, context, printable, show, tokenize
 
-__all__ = [
-    "ExpressionError",
-    "FUNCTIONS",
-    "MAX_DECIMAL_EXPONENT",
-    "MAX_DEPTH",
-    "MAX_EXPONENT",
-    "MAX_LENGTH",
-    "MAX_POWER_BITS",
-    "NON_SMOOTH",
-    "RESERVED",
-    "SYMBOLS",
-    "UserSymbol",
-    "check_parameter_name",
-    "is_polynomial_in_state",
-    "parse_expression",
-    "symbol",
-]
+__all__ = ["check_parameter_name", "is_polynomial_in_state", "parse_expression", "singular_terms", "total_degree"]
 
 
 def check_parameter_name(name: object) -> str:
     """Return ``name`` if it may name a parameter, else raise ExpressionError."""
     if not isinstance(name, str):
         raise ExpressionError(f"parameter names must be strings, got {type(name).__name__}")
-    if not _PARAM_RE.match(name):
+    if not PARAM_RE.match(name):
         raise ExpressionError(
-            f"invalid parameter name {_show(name)}: use letters, digits and '_', "
+            f"invalid parameter name {show(name)}: use letters, digits and '_', "
             "starting with a letter (e.g. mu, k2)"
         )
     if keyword.iskeyword(name) or keyword.issoftkeyword(name):
-        raise ExpressionError(f"invalid parameter name {_show(name)}: it is a Python keyword")
+        raise ExpressionError(f"invalid parameter name {show(name)}: it is a Python keyword")
     if name in SYMBOLS:
         raise ExpressionError(
-            f"invalid parameter name {_show(name)}: u, v, i are the displacement, velocity "
+            f"invalid parameter name {show(name)}: u, v, i are the displacement, velocity "
             "and bead index; choose another name"
         )
     if name == "eps":
@@ -71,10 +54,10 @@ def check_parameter_name(name: object) -> str:
         )
     if name in FUNCTIONS:
         raise ExpressionError(
-            f"invalid parameter name {_show(name)}: it is a function name; choose another name"
+            f"invalid parameter name {show(name)}: it is a function name; choose another name"
         )
     if name in NON_FINITE_NAMES:
-        raise ExpressionError(f"invalid parameter name {_show(name)}: it reads as a non-finite number")
+        raise ExpressionError(f"invalid parameter name {show(name)}: it reads as a non-finite number")
     return name
 
 
@@ -98,10 +81,10 @@ def parse_expression(
             f"expression too long ({len(text)} characters, at most {MAX_LENGTH}): "
             "simplify it or split constants into parameters"
         )
-    if not text.strip(_WHITESPACE):
+    if not text.strip(WHITESPACE):
         raise ExpressionError("empty expression: write R in u, v, i, e.g. \"-mu*v\"")
-    tokens = _tokenize(text)
-    expr = _Parser(text, tokens, frozenset(params), state).parse()
+    tokens = tokenize(text)
+    expr = Parser(text, tokens, frozenset(params), state).parse()
     return _check_result(expr, text)
 
 
@@ -144,18 +127,18 @@ def _check_result(expr: sympy.Expr, text: str) -> sympy.Expr:
     degree = total_degree(expr)
     if degree > MAX_EXPONENT:
         raise ExpressionError(
-            f"{_context(text)} has total degree {degree} in u, v, i, more than {MAX_EXPONENT}: "
+            f"{context(text)} has total degree {degree} in u, v, i, more than {MAX_EXPONENT}: "
             "lower the powers (repeated products and powers of powers multiply the degree)"
         )
     bad = (sympy.zoo, sympy.oo, -sympy.oo, sympy.nan)
     if expr.has(*bad):
         raise ExpressionError(
-            f"{_context(text)} is not finite (it contains {_printable(str(expr))[:60]}): "
+            f"{context(text)} is not finite (it contains {printable(str(expr))[:60]}): "
             "check for division by zero or log(0)"
         )
     if expr.has(sympy.I):
         raise ExpressionError(
-            f"{_context(text)} is complex ({_printable(str(expr))[:60]}): R must be real, "
+            f"{context(text)} is complex ({printable(str(expr))[:60]}): R must be real, "
             "e.g. avoid sqrt or log of a negative constant"
         )
     return expr
