@@ -99,7 +99,7 @@ class Result:
     def plot(self, path: str | None = None, *, log_y: bool = False):
         """The peaks against the contact index in the paper's style (DNS +, map dots, law a line);
         saved to ``path`` when given. Returns the matplotlib Figure. Needs matplotlib."""
-        from pulsemap.solvers.data.plotting import figures, peaks_figure
+        from pulsemap.solvers.data.plotting import figures, peaks_figure, save
 
         try:
             plt = figures(ImportError)
@@ -107,7 +107,7 @@ class Result:
             raise ImportError(f"Result.plot() needs matplotlib: {NOTEBOOK_HINT}") from None
         fig = peaks_figure(self.data, plt, log_y)
         if path is not None:
-            fig.savefig(path, dpi=120)
+            save(fig, path)
         return fig
 
     def __str__(self) -> str:

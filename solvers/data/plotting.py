@@ -112,4 +112,13 @@ def peaks_figure(result: dict, plt, log_y: bool = False):
 
 
 def save(fig, path: str) -> None:
-    fig.savefig(path, dpi=120)
+    """Write ``fig`` to ``path`` atomically (its format from the suffix, PNG without one): a failed
+    write leaves an earlier file whole and no temporary behind."""
+    import io
+    from pathlib import Path
+
+    from pulsemap.symbolic.files import write_atomic
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format=Path(path).suffix[1:].lower() or "png", dpi=120)
+    write_atomic(path, buf.getvalue())

@@ -206,7 +206,7 @@ def _pct(x, scale: float = 100) -> str:
 
 def plot(report: dict, path: str) -> None:
     """Mean and spread (one standard deviation) of the DNS and map peaks per contact (Fig. 13)."""
-    from pulsemap.solvers.data.plotting import figures
+    from pulsemap.solvers.data.plotting import figures, save
 
     plt = figures(EnsembleError)
     st = report["statistics"]
@@ -223,5 +223,5 @@ def plot(report: dict, path: str) -> None:
     ax.set_title(f"{report['scene']['name']}: {report['realisations']} realisations")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save(fig, path)
     plt.close(fig)

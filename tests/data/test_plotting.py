@@ -106,3 +106,23 @@ def test_run_plot_writes_a_png(tmp_path):
     path = tmp_path / "run.png"
     plot(_run_result([True] * 5 + [False] * 3), str(path), log_y=True)
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_failed_figure_write_leaves_the_old_file_whole_and_no_temporary(tmp_path):
+    pytest.importorskip("matplotlib")
+    from pulsemap.solvers.data.plotting import figures, save
+
+    fig, ax = figures().subplots()
+    ax.plot([1, 2, 3])
+    path = tmp_path / "peaks.png"
+    save(fig, str(path))
+    good = path.read_bytes()
+    assert good.startswith(b"\x89PNG")
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("renderer failed half-way")
+
+    fig.savefig = broken
+    with pytest.raises(RuntimeError):
+        save(fig, str(path))
+    assert path.read_bytes() == good and sorted(p.name for p in tmp_path.iterdir()) == ["peaks.png"]

@@ -94,7 +94,7 @@ def to_csv(reports: list[dict]) -> str:
 
 def plot(reports: list[dict], path: str) -> None:
     """Log-log error against time, one panel per scene (matplotlib, optional)."""
-    from pulsemap.solvers.data.plotting import figures
+    from pulsemap.solvers.data.plotting import figures, save
 
     plt = figures(BenchError)
     fig, axes = plt.subplots(1, len(reports), figsize=(6.5 * len(reports), 4.8), squeeze=False)
@@ -119,5 +119,5 @@ def plot(reports: list[dict], path: str) -> None:
         ax.set_title(r["scene"])
         ax.legend(fontsize=6)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save(fig, path)
     plt.close(fig)

@@ -77,7 +77,7 @@ def fixed_column(x, width: int, prec: int) -> str:
 def plot(report: dict, path: str) -> None:
     """A Fig. 12-like plot: stationary peaks against the parameter, stable solid, unstable
     dashed, the fold, the DNS's settled amplitudes and the thresholds found. Needs matplotlib."""
-    from pulsemap.solvers.data.plotting import figures
+    from pulsemap.solvers.data.plotting import figures, save
 
     plt = figures(BifurcationError)
     name = report["param"]
@@ -120,5 +120,5 @@ def plot(report: dict, path: str) -> None:
     ax.set_title(f"{report['scene']['name']}: stationary shocks")
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save(fig, path)
     plt.close(fig)
