@@ -83,6 +83,17 @@ def note_damaged(namespace: str, key: str, problem: str) -> None:
           file=sys.stderr, flush=True)
 
 
+def _usable_entry_path(namespace: str, key: str) -> Path | None:
+    """The entry's file, or None (noted once) when its namespace folder is a file or cannot be made."""
+    try:
+        return _entry_path(namespace, key)
+    except CacheDirError:
+        raise
+    except OSError as exc:
+        _note_bypassed(cache_root() / namespace, f"cannot be used ({exc.strerror or exc})")
+        return None
+
+
 def _note_bypassed(path: Path | str, problem: str) -> None:
     """One line on stderr (once per path and process): the cache cannot be used there, the run goes on."""
     if str(path) in _NOTED:
@@ -100,12 +111,8 @@ def load(namespace: str, key: str, check: Callable[[Any], str | None] | None = N
     The value must match the entry's sha256 digest; then ``check(value)`` names what is wrong with a
     value read back (schema, finiteness), or returns None.
     """
-    try:
-        path = _entry_path(namespace, key)
-    except CacheDirError:
-        raise
-    except OSError as exc:  # the namespace folder is a file, or cannot be made
-        _note_bypassed(cache_root() / namespace, f"cannot be used ({exc.strerror or exc})")
+    path = _usable_entry_path(namespace, key)
+    if path is None:
         return None
     try:
         raw = read_bounded(path, MAX_ENTRY_BYTES)
@@ -154,12 +161,8 @@ def store(namespace: str, key: str, value: Any) -> None:
     goes) is one note on stderr and the run goes on; no temporary file is left behind.
     """
     plain = json.loads(json.dumps(value))  # tuples -> lists, number keys -> strings: as it reads back
-    try:
-        path = _entry_path(namespace, key)
-    except CacheDirError:
-        raise
-    except OSError as exc:  # the namespace folder is a file, or cannot be made
-        _note_bypassed(cache_root() / namespace, f"cannot be used ({exc.strerror or exc})")
+    path = _usable_entry_path(namespace, key)
+    if path is None:
         return
     try:
         mode = os.lstat(path).st_mode
