@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -148,6 +149,6 @@ def test_a_segment_run_that_stops_early_is_an_error_not_a_dead_pulse(monkeypatch
     from pulsemap.solvers.chain import dns
 
     real = dns.simulate
-    monkeypatch.setattr(dns, "simulate", lambda *a, **kw: real(*a, **{**kw, "max_steps": 20}))
+    monkeypatch.setattr(dns, "simulate", lambda *a, **kw: real(*a, **{**kw, "stop": replace(kw["stop"], max_steps=20)}))
     with pytest.raises(rt.SegmentRunError, match="ended early: step budget of 20 steps"):
         rt.segment_peaks(rt.SegmentSpec("-u^1", (), 1.0, N), 1.0)
