@@ -1,7 +1,7 @@
 """The DNS ratios of the compiled engine (solvers/chain/compiled.py), measured in one run.
 
 Run: PULSEMAP_CACHE_DIR=... python benchmarks/bench_compiled.py [--quick] [--skip-process]
-     [--only accuracy,scaling,million,batch,process]
+     [--only accuracy,scaling,million,process]
 
 Paper Eq. 1, x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i'), on the scenes
 vdp-mu3-v2.3 and fig8-eps0.1 (contacts first_perturbed - 1 .. 120). Reference: the scipy engine,
@@ -20,8 +20,7 @@ is interpolated log-log between the runs that bracket it (studies.bench.cost_at)
 3. time(contacts 4000) / time(contacts 1000), compiled window, vdp;
 4. beads = 1_000_000 vs 140, 120 contacts: the simulate call (time, tracemalloc peak) and a whole
    `pulsemap run --methods dns` process (wall time, max RSS);
-5. 32 VdP chains in one compiled_batch.simulate_many call vs 32 single runs;
-6. whole-process `pulsemap run vdp-mu3-v2.3 --methods dns`: cold (empty numba cache: JIT) and warm,
+5. whole-process `pulsemap run vdp-mu3-v2.3 --methods dns`: cold (empty numba cache: JIT) and warm,
    wall and CPU time (the CPU time is what to read on a shared machine).
 """
 
@@ -150,26 +149,6 @@ def million(repeats: int) -> None:
           f"memory {out[1_000_000][1] / out[140][1]:.2f}x")
 
 
-def batch(repeats: int) -> None:
-    """32 VdP chains (mu 2.5..3.5) in one simulate_many call vs 32 single compiled runs."""
-    from pulsemap.solvers.chain.compiled_batch import simulate_many
-
-    base = load_scene("vdp-mu3-v2.3")
-    tables = [make_force(base.with_overrides(params={"mu": float(mu)}), 140).monomials
-              for mu in np.linspace(2.5, 3.5, 32)]
-    forces = [make_force(base.with_overrides(params={"mu": float(mu)}), 140) for mu in np.linspace(2.5, 3.5, 32)]
-    kw = dict(rtol=1e-7, atol=1e-9)
-    _, many, many_cpu = best_time(lambda: simulate_many(140, 1.5, [2.3] * 32, (15, 120), tables, **kw),
-                                  max(1, repeats // 4), cpu=True)
-    _, single, single_cpu = best_time(
-        lambda: [simulate(140, 1.5, 2.3, (15, 120), f, window="auto", **kw) for f in forces], max(1, repeats // 4),
-        cpu=True)
-    print(f"  32 VdP chains: one simulate_many call {many * 1e3:.1f} ms wall ({many_cpu * 1e3:.1f} ms CPU), "
-          f"32 single runs {single * 1e3:.1f} ms wall ({single_cpu * 1e3:.1f} ms CPU); numba threads "
-          f"{__import__('numba').get_num_threads()}, load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
-    print(f"  RATIO 32 single runs / one batch call: {single / many:.2f}x wall, {single_cpu / many_cpu:.2f}x CPU")
-
-
 def process(args: list[str], env: dict) -> tuple[float, float, float]:
     """Wall time (s), max RSS (MB) and CPU time (user + system, s) of one child process (the CPU
     time is the one to read on a shared machine: the wall time includes waiting for a core)."""
@@ -208,7 +187,7 @@ def vdp_scene_text(beads: int) -> str:
         "[perturbation.params]", "mu = 3.0", "[output]", "contacts = [16, 120]", 'methods = ["dns"]', ""])
 
 
-SECTIONS = ("accuracy", "scaling", "million", "batch", "process")
+SECTIONS = ("accuracy", "scaling", "million", "process")
 
 
 def main(argv: list[str]) -> None:
@@ -230,9 +209,6 @@ def main(argv: list[str]) -> None:
     if "million" in only:
         print("\n== beads = 1_000_000 vs 140")
         million(repeats)
-    if "batch" in only:
-        print("\n== batch of chains")
-        batch(repeats)
     if "process" in only:
         print("\n== whole process")
         whole_process()

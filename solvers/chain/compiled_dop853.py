@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: f6f760c5832184af
+# numba cache stamp: 4ce79f585b950456
 from __future__ import annotations
 
 import numpy as np

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from types import ModuleType
-from typing import Mapping, Sequence
+from typing import Mapping
 
 import numpy as np
 
@@ -30,27 +30,6 @@ def _coefficient_rows(module: ModuleType, args: tuple, rows: int) -> tuple[Array
         return table[:1] if all(np.ndim(k) == 0 for k in ks) else np.ascontiguousarray(table)
 
     return stack(k1), stack(k2)
-
-
-def _coefficient_tables(module: ModuleType, params: Sequence[Mapping[str, object]], contacts: Array) -> tuple[Array, Array]:
-    """K1, K2 of shape (chains, contacts or 1, terms): one vectorised call of the generated
-    coefficients when every chain's parameters are uniform, else one call per chain."""
-    per_chain = [contact_params_table(module, p, contacts) for p in params]
-    if all(np.ndim(v) == 0 for args in per_chain for v in args):
-        columns = tuple(np.array([args[k] for args in per_chain], dtype=float) for k in range(len(module.ARGS)))
-        k1, k2 = module.map_power_coefficients(*columns)
-        chains = len(params)
-
-        def table(ks) -> Array:
-            cols = [np.broadcast_to(np.asarray(k, dtype=float), (chains,)) for k in ks]
-            return np.ascontiguousarray(np.stack(cols, axis=1)[:, None, :]) if cols else np.zeros((chains, 1, 0))
-
-        return table(k1), table(k2)
-    tables = [_coefficient_rows(module, args, contacts.size) for args in per_chain]
-    rows = max(max(k1.shape[0], k2.shape[0]) for k1, k2 in tables)
-    K1 = np.stack([np.broadcast_to(k1, (rows, k1.shape[1])) for k1, _ in tables])
-    K2 = np.stack([np.broadcast_to(k2, (rows, k2.shape[1])) for _, k2 in tables])
-    return np.ascontiguousarray(K1), np.ascontiguousarray(K2)
 
 
 def _iterate_compiled(module: ModuleType, seed_A: float, seed_contact: int, last_contact: int, eps: float,

@@ -13,18 +13,16 @@ term, |eps sum_j c_j g_j A_i^e_j| / (f1 A_i^P) (= |F1(A_i, A_i, A_i)| / (f1 A_i^
 contact terms cancel at equal amplitudes): the map assumes it is small.
 
 This module is the front: ``iterate_map`` picks the engine, the reference Newton
-(map_step.py) or the compiled kernel (map_compiled.py), and ``iterate_map_many`` runs many chains.
+(map_step.py) or the compiled kernel (map_compiled.py).
 """
 
 from __future__ import annotations
 
 import math
 from types import ModuleType
-from typing import Mapping, Sequence
+from typing import Mapping
 
-import numpy as np
-
-from pulsemap.solvers.models.map_compiled import _coefficient_tables, _iterate_compiled, has_power_table
+from pulsemap.solvers.models.map_compiled import _iterate_compiled, has_power_table
 from pulsemap.solvers.models.map_step import (  # noqa: F401  (re-exported: the map's public names)
     Array, MapIterationError, MapRun, _no_root, _run, check_seed, contact_params, contact_params_table, eps0_ratio,
     forcing_ratio, step)
@@ -101,57 +99,3 @@ def _iterate_python(module: ModuleType, seed_A: float, seed_contact: int, last_c
         guess = tuple(s * ratio for s in sol)
         a_prev = a_i
     return _run(module, seed_A, seed_contact, contacts, amps, ratios, status, message, fallbacks, "python")
-
-
-def iterate_map_many(
-    module: ModuleType,
-    seed_A: Array,
-    seed_contact: int,
-    last_contact: int,
-    eps: Array | float,
-    params: Sequence[Mapping[str, object]],
-    death_fraction: float = 1e-6,
-) -> list[MapRun]:
-    """Eq. 23 for many chains in one compiled call (threads over chains): chain c starts from
-    seed_A[c] with eps[c] and params[c]. A chain whose Newton fails somewhere is redone by
-    :func:`iterate_map` (which finishes such contacts with the bracketing fallback), so every
-    MapRun equals the single-chain one."""
-    from pulsemap.solvers.models import map_kernel
-
-    if not has_power_table(module):
-        raise MapIterationError("this generated map module has no power-term table: regenerate it")
-    seeds = np.asarray(seed_A, dtype=float).ravel()
-    chains = seeds.size
-    for a in seeds:
-        check_seed(float(a), MapIterationError, "every seed amplitude", seed_contact, last_contact)
-    eps_arr = np.broadcast_to(np.asarray(eps, dtype=float), (chains,)).copy()
-    if len(params) != chains:
-        raise MapIterationError(f"params has {len(params)} entries for {chains} seed amplitudes: give one per chain")
-    contacts = np.arange(seed_contact + 1, last_contact + 1)
-    steps = contacts.size
-    K1, K2 = _coefficient_tables(module, params, contacts)
-    A = np.empty((chains, steps))
-    ratio = np.empty((chains, steps))
-    done = np.zeros(chains, dtype=np.int64)
-    status = np.zeros(chains, dtype=np.int64)
-    f1, f2, f3 = (float(getattr(module, k)) for k in ("f1", "f2", "f3"))
-    map_kernel.iterate_table_batch(seeds, steps, module.VARIANT != "1d", float(module.P), f1, f2, f3,
-                                   float(module.ALPHA), float(module.BETA), eps_arr,
-                                   np.asarray(module.MAP_POWERS1, dtype=float), K1,
-                                   np.asarray(module.MAP_POWERS2, dtype=float), K2, death_fraction, A, ratio,
-                                   done, status)
-    out = []
-    for c in range(chains):
-        k = int(done[c])
-        if status[c] == 1:  # Newton failed at a contact: the single-chain path finishes it by bracketing
-            out.append(iterate_map(module, seeds[c], seed_contact, last_contact, eps_arr[c], params[c], death_fraction))
-            continue
-        if status[c] == 0:
-            state, message = "ok", f"reached contact {last_contact}"
-        elif status[c] == 3:
-            state, message = "died", f"pulse died at contact {contacts[k]}: A fell below {death_fraction:g} of its seed"
-        else:
-            state, message = "no root", _no_root(int(contacts[k]), A[c, k - 1] if k else seeds[c], module, last_contact)
-        out.append(_run(module, seeds[c], seed_contact, contacts[:k], A[c, :k], ratio[c, :k], state, message, 0,
-                        "compiled"))
-    return out

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pulsemap.solvers.chain.jit import njit, prange
+from pulsemap.solvers.chain.jit import njit
 
 Array = np.ndarray
 
@@ -115,17 +115,3 @@ def iterate_table(a0: float, g0: float, g1: float, steps: int, two: bool, P: flo
         g1 = b * r
         a_prev = a
     return steps, 0, g0, g1
-
-
-@njit(cache=True, parallel=True)
-def iterate_table_batch(a0: Array, steps: int, two: bool, P: float, f1: float, f2: float, f3: float,
-                        alpha: float, beta: float, eps: Array, p1: Array, K1: Array, p2: Array, K2: Array,
-                        death: float, out_A: Array, out_ratio: Array, out_done: Array, out_status: Array) -> None:
-    """Many chains at once (threads over chains): chain c starts at a0[c] with eps[c] and
-    coefficient rows K1[c], K2[c] (each of shape (contacts or 1, terms))."""
-    chains = a0.size
-    for c in prange(chains):
-        done, status, _, _ = iterate_table(a0[c], a0[c], a0[c], steps, two, P, f1, f2, f3, alpha, beta, eps[c],
-                                           p1, K1[c], p2, K2[c], death * a0[c], out_A[c], out_ratio[c])
-        out_done[c] = done
-        out_status[c] = status

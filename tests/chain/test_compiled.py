@@ -193,56 +193,6 @@ def test_monomial_table_is_the_generated_force():
         np.testing.assert_allclose(mine, force.force(x, v), rtol=1e-12, atol=1e-14)
 
 
-def test_batch_of_chains_equals_single_runs():
-    """compiled_batch.simulate_many: every chain as simulate(engine='compiled') gives it, exactly."""
-    from pulsemap.solvers.chain.compiled_batch import simulate_many
-
-    base = load_scene("vdp-mu3-v2.3")
-    scenes = [base.with_overrides(params={"mu": mu}, eps=eps) for mu, eps in ((3.0, 0.1), (1.0, 0.1), (3.0, 0.3))]
-    tables = [make_force(s, 140).monomials for s in scenes] + [None]
-    velocities = [2.3, 0.3, 2.3, 1.0]
-    many = simulate_many(140, 1.5, velocities, (15, 60), tables, rtol=1e-8, atol=1e-10)
-    for b, (res, v) in enumerate(zip(many, velocities)):
-        force = None if b == len(scenes) else make_force(scenes[b], 140)
-        one = simulate(140, 1.5, v, (15, 60), force, rtol=1e-8, atol=1e-10, window="auto")
-        assert res.engine == one.engine == "compiled" and res.stop_reason == one.stop_reason
-        assert np.array_equal(res.peaks, one.peaks, equal_nan=True) and res.nfev == one.nfev
-    assert len({float(r.peaks[-1]) for r in many}) == 4  # the chains really differ
-
-
-@pytest.mark.slow
-def test_batch_runs_each_chain_on_simulates_kernel():
-    """A batch mixing a stiff chain (damp-1000: Rodas4 under 'auto') with a moderately stiff one
-    (eps mu = 100: Dormand-Prince, cheaper there) runs each on the kernel simulate chooses, with
-    simulate's numbers; DOP853 by name likewise."""
-    from pulsemap.solvers.chain.compiled_batch import simulate_many
-
-    damp = load_scene(SUITE / "damp-1000.toml")
-    beads, _ = dns_span(damp)
-    scenes = [damp, damp.with_overrides(eps=0.01)]
-    forces = [make_force(s, beads) for s in scenes]
-    tables = [f.monomials for f in forces]
-    assert tables[0].stiffness_hint == forces[0].stiffness_hint and tables[1].stiffness_hint == forces[1].stiffness_hint
-    contacts = (1, 30)
-    for method, kernels in (("auto", ["Rodas4", "RK45"]), ("DOP853", ["DOP853", "DOP853"])):
-        many = simulate_many(beads, 1.5, [1.0, 1.0], contacts, tables, rtol=1e-8, atol=1e-10, method=method)
-        for res, force, kernel in zip(many, forces, kernels):
-            one = simulate(beads, 1.5, 1.0, contacts, force, rtol=1e-8, atol=1e-10, window="auto", method=method)
-            assert res.method == one.method == kernel and res.stop_reason == one.stop_reason
-            assert np.array_equal(res.peaks, one.peaks, equal_nan=True) and res.nfev == one.nfev
-            assert res.engine_reason.startswith(one.engine_reason.split(",")[0])
-
-
-@pytest.mark.parametrize("kwargs, match", [(dict(method="Radau"), "method must be one of auto, RK45, DOP853"),
-                                           (dict(velocities=[1.0, 2e3]), "velocity 2000.0 lies outside")])
-def test_batch_refuses_what_it_cannot_run_as_simulate(kwargs, match):
-    from pulsemap.solvers.chain.compiled_batch import simulate_many
-
-    args = {"velocities": [1.0, 1.0], **kwargs}
-    with pytest.raises(ValueError, match=match):
-        simulate_many(60, 1.5, args.pop("velocities"), (1, 20), [None, None], **args)
-
-
 @pytest.mark.parametrize("name, v0", [("fig6-eps0.1", 2e3), ("fig8-eps0.1", 2e3), ("vdp-mu3-v2.3", 5e-4)])
 def test_extreme_velocity_runs_compiled_in_the_unit_frame(name, v0):
     """v0 outside [1e-3, 1e3] runs at v0 = 1 (chain/scaling.py) with the table scaled like the force."""

@@ -7,7 +7,7 @@ import pytest
 
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.models import codeload
-from pulsemap.solvers.models.map_iteration import MapIterationError, iterate_map, iterate_map_many
+from pulsemap.solvers.models.map_iteration import MapIterationError, iterate_map
 from pulsemap.solvers.studies.forcing import parameter_values
 
 VDP = "-(u - mu*(1-u**2)*v)"
@@ -55,24 +55,7 @@ def test_stop_reasons_match_the_reference():
     assert statuses == {"no root", "died", "ok"}
 
 
-def test_many_chains_in_one_call_equal_single_runs():
-    scene, mod, prm = _module("vdp-mu3-v2.3", "paper")
-    mus = np.linspace(0.0, 4.0, 17)
-    seeds = np.linspace(0.3, 1.2, 17)
-    params = [{**prm, "mu": float(m)} for m in mus]
-    many = iterate_map_many(mod, seeds, 15, 200, 0.3, params)
-    assert {run.status for run in many} == {"ok", "died"}  # both kinds of chain in one call
-    for run, seed, p in zip(many, seeds, params):
-        one = iterate_map(mod, float(seed), 15, 200, 0.3, p, engine="python")
-        assert (run.status, run.message) == (one.status, one.message)
-        assert np.array_equal(run.contacts, one.contacts)
-        np.testing.assert_allclose(run.A, one.A, rtol=1e-10)
-        np.testing.assert_allclose(run.forcing_ratio, one.forcing_ratio, rtol=1e-8, atol=1e-14)
-
-
-def test_bad_engine_and_batch_shapes_are_refused():
+def test_bad_engine_is_refused():
     _, mod, prm = _module("vdp-mu3-v2.3", "paper")
     with pytest.raises(MapIterationError, match="engine 'gpu'"):
         iterate_map(mod, 0.6, 15, 20, 0.1, prm, engine="gpu")
-    with pytest.raises(MapIterationError, match="one per chain"):
-        iterate_map_many(mod, np.ones(3), 15, 20, 0.1, [prm])
