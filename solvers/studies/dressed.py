@@ -2,7 +2,7 @@
 
 k1 per monomial is derived (the energy balance's profile integral, mpmath); k2/k1, the onset lag and
 the cross terms k2_jl of every pair are derived by expanding Eq. 1 to second order about the exact
-solitary wave (solvers/models/dressed_derived.py, cached; the paper's monomials ship precomputed),
+solitary wave (solvers/models/dressed.py, cached; the paper's monomials ship precomputed),
 with DNS calibrations (dressed_calibration.py) as the fallback where the expansion fails
 (``source="calibrated"`` asks for them). The next term of the decrement (the validity bound) is
 calibrated only. The law in closed form needs a uniform polynomial R; for a site-dependent R ``run`` follows the
@@ -28,9 +28,7 @@ from pulsemap.symbolic.expansion import bead_symbol
 from pulsemap.symbolic.expression import symbol
 from pulsemap.symbolic.perturbation import Perturbation
 from pulsemap.symbolic.profile import check_exponent
-from pulsemap.solvers.models.dressed_derived import derive_cross, derive_monomial
-from pulsemap.solvers.models.dressed_eval import DressedCoefficients
-from pulsemap.solvers.models.dressed_expansion import ExpansionError
+from pulsemap.solvers.models.dressed import DressedCoefficients, ExpansionError, derive_cross, derive_monomial
 from pulsemap.solvers.studies.dressed_calibration import CalibrationError, calibrate, calibrate_cross, first_order_rate
 
 MAX_BEAD_STEP = 0.05  # largest change of a coefficient from one bead to the next, over its largest |value|
@@ -110,7 +108,7 @@ class DressedDerivation:
 
 
 def coefficients(law: DressedLaw) -> DressedCoefficients:
-    """The law's numbers for the evaluator (solvers/models/dressed_eval.py)."""
+    """The law's numbers for the evaluator (solvers/models/dressed.py)."""
     names = [t.monomial for t in law.terms]
     cross = tuple((names.index(ct.first), names.index(ct.second), ct.k2) for ct in law.cross if ct.k2 is not None)
     return DressedCoefficients(

@@ -47,7 +47,7 @@ from pulsemap.symbolic.profile import exact_profile
 from pulsemap.symbolic.scaling import scaling_exponent
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
-from pulsemap.solvers.models.dressed_expansion import check_monomial, first_order_rate  # noqa: F401 (re-exported)
+from pulsemap.solvers.models.dressed import check_monomial, first_order_rate  # noqa: F401 (re-exported)
 
 NAMESPACE = "dressed"
 SHIPPED = Path(__file__).resolve().parents[1] / "data" / "dressed_calibration.json"
