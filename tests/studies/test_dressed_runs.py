@@ -11,7 +11,7 @@ import sympy
 from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
-from pulsemap.solvers.studies import dressed_calibration as dc
+from pulsemap.solvers.studies import dressed as dc
 
 
 def test_shipped_calibration_is_reproduced_and_k1_is_the_energy_balance():
