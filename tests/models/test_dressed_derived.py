@@ -12,9 +12,9 @@ import pytest
 from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
-from pulsemap.solvers.models import dressed_derived as dd
-from pulsemap.solvers.models.dressed_expansion import ExpansionError, expansion_orbits
-from pulsemap.solvers.studies import dressed_calibration as dc
+from pulsemap.solvers.models import dressed as dd
+from pulsemap.solvers.models.dressed import ExpansionError, expansion_orbits
+from pulsemap.solvers.studies import dressed as dc
 
 
 def test_geometric_limit_is_exact_on_a_geometric_sequence_and_flags_the_rest():
@@ -29,8 +29,8 @@ def test_first_order_of_the_expansion_is_the_energy_balance():
     """k1 from the time-domain first order (contacts relax geometrically) against -w_01/((n+1) E_1) (mpmath)."""
     _, alpha, _, _ = expansion_orbits(((0, 1),), (), 1.5, cut=1e-3, settle=10, span=4, rtol=1e-10)  # first order only
     k1, err = dd.geometric_limit(-np.diff(alpha[0]))
-    assert abs(k1 - dc.first_order_rate(0, 1, 1.5)) < max(3 * err, 1e-8)
-    assert abs(k1 - dc.first_order_rate(0, 1, 1.5)) < 1e-5
+    assert abs(k1 - dd.first_order_rate(0, 1, 1.5)) < max(3 * err, 1e-8)
+    assert abs(k1 - dd.first_order_rate(0, 1, 1.5)) < 1e-5
 
 
 def _launched_peaks(a: int, b: int, c: float, first: int, last: int, more=()) -> np.ndarray:
@@ -108,7 +108,7 @@ def test_derived_coefficients_agree_with_a_fresh_dns_calibration(a, b):
     d, f = dd.derive_monomial(a, b, 1.5, use_cache=False), dc.calibrate(a, b, 1.5, use_cache=False)
     assert abs(d.k2_over_k1 - f.k2_over_k1) < d.k2_over_k1_error + f.k2_over_k1_error
     assert abs(d.onset_lag - f.onset_lag) < d.onset_lag_error + f.onset_lag_error
-    assert d.k1 == pytest.approx(dc.first_order_rate(a, b, 1.5), rel=1e-7)
+    assert d.k1 == pytest.approx(dd.first_order_rate(a, b, 1.5), rel=1e-7)
 
 
 @pytest.mark.slow
@@ -122,7 +122,7 @@ def test_derived_cross_term_agrees_with_a_fresh_dns_calibration():
 def test_derived_agrees_with_a_fresh_dns_calibration_at_n2(a, b):
     """n = 2: F'' is constant (no cut to extrapolate) and both sides take seconds; no cache on either side."""
     d, f = dd.derive_monomial(a, b, 2.0, use_cache=False), dc.calibrate(a, b, 2.0, use_cache=False)
-    assert d.k1 == pytest.approx(dc.first_order_rate(a, b, 2.0), rel=1e-8)
+    assert d.k1 == pytest.approx(dd.first_order_rate(a, b, 2.0), rel=1e-8)
     assert abs(d.cut_extrapolation) < 1e-9 and d.k2_over_k1_error < 1e-4
     assert abs(d.k2_over_k1 - f.k2_over_k1) < d.k2_over_k1_error + f.k2_over_k1_error
     assert abs(d.onset_lag - f.onset_lag) < d.onset_lag_error + f.onset_lag_error

@@ -7,7 +7,7 @@ import pytest
 import sympy
 
 from pulsemap.symbolic.dressed import A, A_S, I0, DressedLaw, DressedTerm
-from pulsemap.solvers.models.dressed_eval import DressedCoefficients, DressedEvalError, evaluate_dressed_law
+from pulsemap.solvers.models.dressed import DressedCoefficients, DressedEvalError, evaluate_dressed_law
 
 
 def _term(c, e, k1, rho, lag):

@@ -6,7 +6,7 @@ import time
 from dataclasses import replace
 
 from pulsemap.symbolic.profile import exact_profile
-from pulsemap.solvers.models.dressed_eval import evaluate_dressed_law
+from pulsemap.solvers.models.dressed import evaluate_dressed_law
 from pulsemap.solvers.studies.methods import MODEL_TITLES
 from pulsemap.solvers.studies.points import on_contacts
 from pulsemap.solvers.studies.run.state import RunState
