@@ -346,13 +346,20 @@ def _ladder(a: int, b: int, k1: float) -> tuple[float, ...]:
     return tuple(sign * v for v in FOUNDATION_LADDER)
 
 
-def _run(a: int, b: int, n: float, c: float):
+def _calibration_chain(n: float) -> tuple[int, int, int, int, np.ndarray]:
+    """(centre of the launched wave, first perturbed bead, last contact, beads, mask of the perturbed
+    beads) of a calibration run at exponent n."""
     centre = min_centre(n) + 1
     first = centre + 8
     last = first + SETTLE + SPAN
     beads = last + 6
     mask = np.zeros(beads)
     mask[first - 1:] = 1.0
+    return centre, first, last, beads, mask
+
+
+def _run(a: int, b: int, n: float, c: float):
+    centre, first, last, beads, mask = _calibration_chain(n)
     force = OnSiteForce(force=lambda x, v: mask * (c * x**a * v**b))
     res = launch(beads, n, 1.0, centre, (first - 1, last), force, rtol=RTOL)
     if any(p is None for p in res.peaks):
@@ -543,12 +550,7 @@ def calibrate_cross(first: tuple[int, int], second: tuple[int, int], n: float = 
     f1, f2 = calibrate(a1, b1, n), calibrate(a2, b2, n)
     y1, y2 = _y_function(f1), _y_function(f2)
     S0 = exact_profile(n).S0
-    centre = min_centre(n) + 1
-    first_bead = centre + 8
-    last = first_bead + SETTLE + SPAN
-    beads = last + 6
-    mask = np.zeros(beads)
-    mask[first_bead - 1:] = 1.0
+    centre, first_bead, last, beads, mask = _calibration_chain(n)
     ratios, sums, tags = [], [], []
     for mag in CROSS_LADDER:
         c1 = mag * (1.0 if f1.k1 > 0 else -1.0)
