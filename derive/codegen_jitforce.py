@@ -5,7 +5,9 @@ with dF/dx and dF/dv, for an R that is not a polynomial (sin(u), exp(-v^2) u, v/
 
 Three C-callable functions (numba ``cfunc``, compiled once and cached on disk next to the module),
 each ``f(x, v, i, p) -> float`` with x, v the bead's displacement and velocity, i its index (1-based)
-and p a pointer to [eps_i, then the parameters in PARAMS order at that bead]. The compiled kernels
+and p a pointer to [eps_i, then the parameters in PARAMS order at that bead]. R is evaluated only where
+eps_i != 0 (0.0 is returned at an unperturbed bead: an R singular where only unperturbed beads go
+cannot stop the run). The compiled kernels
 call them through a function pointer (solvers/chain/compiled_force.py), so one compiled kernel
 serves every R. The module lives in the cache only (derive never imports numba: this is text).
 Non-smooth R (sign, Heaviside, abs) is refused: the scipy engine integrates its ramp.
@@ -33,7 +35,8 @@ def generate_jit_force(source: JitForceSource) -> str:
         raise CodegenError(f"R has a kink or a jump at 0 ({', '.join(kinks)}): no compiled force for it")
     u, v = symbol("u"), symbol("v")
     ren = {u: "x", v: "v", symbol("i"): "i", **{symbol(p): param_identifier(p) for p in source.params}}
-    unpack = ["    eps = p[0]"] + [f"    {param_identifier(name)} = p[{k + 1}]" for k, name in enumerate(source.params)]
+    unpack = ["    eps = p[0]", "    if eps == 0.0:", "        return 0.0  # R is not evaluated at an unperturbed bead"]
+    unpack += [f"    {param_identifier(name)} = p[{k + 1}]" for k, name in enumerate(source.params)]
     lines = ["import math", "", "from numba import cfunc, types", "",
              f"SOURCE = {json.dumps(source.as_dict(), sort_keys=True)}", f"PARAMS = {tuple(source.params)!r}",
              f"SIGNATURE = {SIGNATURE}", ""]
