@@ -98,10 +98,10 @@ def generate_force(source: ForceSource) -> str:
 
 #: The generated module's helper: a function of the beads evaluated where eps_i != 0 only (module docstring).
 ON_PERTURBED = [
-    "def on_perturbed(f, on, *args):",
-    '    """f(*args) on the beads where ``on`` (eps_i != 0), 0.0 on the others, where R is not evaluated."""',
+    "def on_perturbed(f, eps, *args):",
+    '    """f(*args) on the beads where eps_i != 0, 0.0 on the others, where R is not evaluated."""',
     "    args = numpy.broadcast_arrays(*args)",
-    "    on = numpy.broadcast_to(on, args[0].shape)",
+    "    on = numpy.broadcast_to(numpy.asarray(eps) != 0.0, args[0].shape)",
     "    got = f(*(a[on] for a in args))",
     "    outs = []",
     "    for c in (got if isinstance(got, tuple) else (got,)):",
@@ -115,9 +115,8 @@ ON_PERTURBED = [
 
 def _skip_unperturbed(fname: str, sig: str) -> list[str]:
     """The first lines of a generated function of the beads: where some eps_i = 0, itself on the others only."""
-    return ["    on = numpy.asarray(eps) != 0.0",
-            "    if not on.all():",
-            f"        return on_perturbed({fname}, on, {sig})"]
+    return ["    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0",
+            f"        return on_perturbed({fname}, eps, {sig})"]
 
 
 def _monomial_lines(R: sympy.Expr, ren: dict, sig: str) -> list[str]:

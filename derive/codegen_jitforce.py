@@ -7,7 +7,9 @@ Three C-callable functions (numba ``cfunc``, compiled once and cached on disk ne
 each ``f(x, v, i, p) -> float`` with x, v the bead's displacement and velocity, i its index (1-based)
 and p a pointer to [eps_i, then the parameters in PARAMS order at that bead]. R is evaluated only where
 eps_i != 0 (0.0 is returned at an unperturbed bead: an R singular where only unperturbed beads go
-cannot stop the run). The compiled kernels
+cannot stop the run). Compiled with numba's numpy error model: a division by zero gives inf, never an
+exception from inside the kernel; a non-finite value stops the run with the bead and time located
+(solvers/chain/dns.py). The compiled kernels
 call them through a function pointer (solvers/chain/compiled_force.py), so one compiled kernel
 serves every R. The module lives in the cache only (derive never imports numba: this is text).
 Non-smooth R (sign, Heaviside, abs) is refused: the scipy engine integrates its ramp.
@@ -42,7 +44,7 @@ def generate_jit_force(source: JitForceSource) -> str:
              f"SIGNATURE = {SIGNATURE}", ""]
     for fname, expr, doc in (("force", R, "eps_i R_i(x, v)"), ("force_dx", sympy.diff(R, u), "d(eps_i R_i)/dx"),
                              ("force_dv", sympy.diff(R, v), "d(eps_i R_i)/dv")):
-        lines += ["", "@cfunc(SIGNATURE, cache=True)", f"def {fname}(x, v, i, p):",
+        lines += ["", '@cfunc(SIGNATURE, cache=True, error_model="numpy")', f"def {fname}(x, v, i, p):",
                   f'    """{doc} at bead i (1-based); p: [eps_i, then PARAMS at bead i]."""', *unpack,
                   f"    return eps * ({code(expr, ren, scalar=True)})", ""]
     return module(lines, f"On-site force of the compiled DNS (Eq. 1, numba) for R(u, v) = {source.R}", source)

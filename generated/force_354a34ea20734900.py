@@ -3,17 +3,17 @@
 
 source: {"R": "-(u-mu*(1-u**2)*v)", "generator": 3, "kind": "force", "layout": 3, "params": ["mu"]}
 source-hash: 354a34ea2073490063c5448f1e99dd5418987c6d25dc76a7aa50cd09931eaecf
-content-hash: 31b7b64560ee7a5eb7058d7e9996dccfef416ef25201b63669962f51b7e119bd
+content-hash: 8d79dc924d17ade08b96b91b6ecf5dcb2ad41bd7dfa3bd258170d552c54ef276
 """
 import numpy
 
 SOURCE = {"R": "-(u-mu*(1-u**2)*v)", "generator": 3, "kind": "force", "layout": 3, "params": ["mu"]}
 PARAMS = ('mu',)
 
-def on_perturbed(f, on, *args):
-    """f(*args) on the beads where ``on`` (eps_i != 0), 0.0 on the others, where R is not evaluated."""
+def on_perturbed(f, eps, *args):
+    """f(*args) on the beads where eps_i != 0, 0.0 on the others, where R is not evaluated."""
     args = numpy.broadcast_arrays(*args)
-    on = numpy.broadcast_to(on, args[0].shape)
+    on = numpy.broadcast_to(numpy.asarray(eps) != 0.0, args[0].shape)
     got = f(*(a[on] for a in args))
     outs = []
     for c in (got if isinstance(got, tuple) else (got,)):
@@ -24,30 +24,26 @@ def on_perturbed(f, on, *args):
 
 def force(x, v, i, eps, p_mu):
     """eps_i R_i(x_i, v_i); arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force, on, x, v, i, eps, p_mu)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force, eps, x, v, i, eps, p_mu)
     return eps * (p_mu*v*(1 - x**2) - x) + 0.0 * x
 
 def force_dx(x, v, i, eps, p_mu):
     """d(eps_i R_i)/dx_i; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force_dx, on, x, v, i, eps, p_mu)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force_dx, eps, x, v, i, eps, p_mu)
     return eps * (-2*p_mu*v*x - 1) + 0.0 * x
 
 def force_dv(x, v, i, eps, p_mu):
     """d(eps_i R_i)/dv_i; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force_dv, on, x, v, i, eps, p_mu)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force_dv, eps, x, v, i, eps, p_mu)
     return eps * (p_mu*(1 - x**2)) + 0.0 * x
 
 MONOMIALS = ((2, 1), (1, 0), (0, 1))
 
 def monomial_coefficients(i, eps, p_mu):
     """eps_i c_m(i) of eps_i R_i = sum_m c_m u^a_m v^b_m, one array over beads per MONOMIALS entry."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(monomial_coefficients, on, i, eps, p_mu)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(monomial_coefficients, eps, i, eps, p_mu)
     return (eps * (-p_mu) + 0.0 * i, eps * (-1) + 0.0 * i, eps * (p_mu) + 0.0 * i, )

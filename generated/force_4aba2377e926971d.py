@@ -3,17 +3,17 @@
 
 source: {"R": "-mu*v", "generator": 3, "kind": "force", "layout": 3, "params": ["mu"]}
 source-hash: 4aba2377e926971deb0dd735032c7b0e1a7204a864d95c7e25a55483b1d0330f
-content-hash: 32041c5182515d75c8a4953cfd2ca0e681b682696aae0e416b9f388e08467752
+content-hash: bf4f7d052f931874f87dfe178c3f9acdd5ee496b3b4393168fd4db923defeaeb
 """
 import numpy
 
 SOURCE = {"R": "-mu*v", "generator": 3, "kind": "force", "layout": 3, "params": ["mu"]}
 PARAMS = ('mu',)
 
-def on_perturbed(f, on, *args):
-    """f(*args) on the beads where ``on`` (eps_i != 0), 0.0 on the others, where R is not evaluated."""
+def on_perturbed(f, eps, *args):
+    """f(*args) on the beads where eps_i != 0, 0.0 on the others, where R is not evaluated."""
     args = numpy.broadcast_arrays(*args)
-    on = numpy.broadcast_to(on, args[0].shape)
+    on = numpy.broadcast_to(numpy.asarray(eps) != 0.0, args[0].shape)
     got = f(*(a[on] for a in args))
     outs = []
     for c in (got if isinstance(got, tuple) else (got,)):
@@ -24,30 +24,26 @@ def on_perturbed(f, on, *args):
 
 def force(x, v, i, eps, p_mu):
     """eps_i R_i(x_i, v_i); arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force, on, x, v, i, eps, p_mu)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force, eps, x, v, i, eps, p_mu)
     return eps * (-p_mu*v) + 0.0 * x
 
 def force_dx(x, v, i, eps, p_mu):
     """d(eps_i R_i)/dx_i; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force_dx, on, x, v, i, eps, p_mu)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force_dx, eps, x, v, i, eps, p_mu)
     return eps * (0) + 0.0 * x
 
 def force_dv(x, v, i, eps, p_mu):
     """d(eps_i R_i)/dv_i; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force_dv, on, x, v, i, eps, p_mu)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force_dv, eps, x, v, i, eps, p_mu)
     return eps * (-p_mu) + 0.0 * x
 
 MONOMIALS = ((0, 1),)
 
 def monomial_coefficients(i, eps, p_mu):
     """eps_i c_m(i) of eps_i R_i = sum_m c_m u^a_m v^b_m, one array over beads per MONOMIALS entry."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(monomial_coefficients, on, i, eps, p_mu)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(monomial_coefficients, eps, i, eps, p_mu)
     return (eps * (-p_mu) + 0.0 * i, )

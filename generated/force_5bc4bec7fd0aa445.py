@@ -3,17 +3,17 @@
 
 source: {"R": "-k*u", "generator": 3, "kind": "force", "layout": 3, "params": ["k"]}
 source-hash: 5bc4bec7fd0aa445a812f5b7d07d677c0d593948ff37817a2c18b73f0ab93ac9
-content-hash: bc1df04fe65575df6c92ccded8060efecb3de9db4e622be89bb644827a76b8db
+content-hash: 0c1c30f4e4f8412bb1d53fe474d4ccc495d5bd13ea31d9f01718d763b14ab4b3
 """
 import numpy
 
 SOURCE = {"R": "-k*u", "generator": 3, "kind": "force", "layout": 3, "params": ["k"]}
 PARAMS = ('k',)
 
-def on_perturbed(f, on, *args):
-    """f(*args) on the beads where ``on`` (eps_i != 0), 0.0 on the others, where R is not evaluated."""
+def on_perturbed(f, eps, *args):
+    """f(*args) on the beads where eps_i != 0, 0.0 on the others, where R is not evaluated."""
     args = numpy.broadcast_arrays(*args)
-    on = numpy.broadcast_to(on, args[0].shape)
+    on = numpy.broadcast_to(numpy.asarray(eps) != 0.0, args[0].shape)
     got = f(*(a[on] for a in args))
     outs = []
     for c in (got if isinstance(got, tuple) else (got,)):
@@ -24,30 +24,26 @@ def on_perturbed(f, on, *args):
 
 def force(x, v, i, eps, p_k):
     """eps_i R_i(x_i, v_i); arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force, on, x, v, i, eps, p_k)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force, eps, x, v, i, eps, p_k)
     return eps * (-p_k*x) + 0.0 * x
 
 def force_dx(x, v, i, eps, p_k):
     """d(eps_i R_i)/dx_i; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force_dx, on, x, v, i, eps, p_k)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force_dx, eps, x, v, i, eps, p_k)
     return eps * (-p_k) + 0.0 * x
 
 def force_dv(x, v, i, eps, p_k):
     """d(eps_i R_i)/dv_i; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force_dv, on, x, v, i, eps, p_k)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force_dv, eps, x, v, i, eps, p_k)
     return eps * (0) + 0.0 * x
 
 MONOMIALS = ((1, 0),)
 
 def monomial_coefficients(i, eps, p_k):
     """eps_i c_m(i) of eps_i R_i = sum_m c_m u^a_m v^b_m, one array over beads per MONOMIALS entry."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(monomial_coefficients, on, i, eps, p_k)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(monomial_coefficients, eps, i, eps, p_k)
     return (eps * (-p_k) + 0.0 * i, )

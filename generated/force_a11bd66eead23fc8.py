@@ -3,17 +3,17 @@
 
 source: {"R": "beta*u**3", "generator": 3, "kind": "force", "layout": 3, "params": ["beta"]}
 source-hash: a11bd66eead23fc8c47cc8c0c89ea247b05a90683fb6ef3952deb955a5457409
-content-hash: 210dff273f1c4637913d12c4eb579e6a9a927315b4f76544b5e1f257008af826
+content-hash: 5a499cca6a6f0136f7897cbd3836b0a6265f78e817647793b2eb9c632d35165b
 """
 import numpy
 
 SOURCE = {"R": "beta*u**3", "generator": 3, "kind": "force", "layout": 3, "params": ["beta"]}
 PARAMS = ('beta',)
 
-def on_perturbed(f, on, *args):
-    """f(*args) on the beads where ``on`` (eps_i != 0), 0.0 on the others, where R is not evaluated."""
+def on_perturbed(f, eps, *args):
+    """f(*args) on the beads where eps_i != 0, 0.0 on the others, where R is not evaluated."""
     args = numpy.broadcast_arrays(*args)
-    on = numpy.broadcast_to(on, args[0].shape)
+    on = numpy.broadcast_to(numpy.asarray(eps) != 0.0, args[0].shape)
     got = f(*(a[on] for a in args))
     outs = []
     for c in (got if isinstance(got, tuple) else (got,)):
@@ -24,30 +24,26 @@ def on_perturbed(f, on, *args):
 
 def force(x, v, i, eps, p_beta):
     """eps_i R_i(x_i, v_i); arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force, on, x, v, i, eps, p_beta)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force, eps, x, v, i, eps, p_beta)
     return eps * (p_beta*x**3) + 0.0 * x
 
 def force_dx(x, v, i, eps, p_beta):
     """d(eps_i R_i)/dx_i; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force_dx, on, x, v, i, eps, p_beta)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force_dx, eps, x, v, i, eps, p_beta)
     return eps * (3*p_beta*x**2) + 0.0 * x
 
 def force_dv(x, v, i, eps, p_beta):
     """d(eps_i R_i)/dv_i; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force_dv, on, x, v, i, eps, p_beta)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force_dv, eps, x, v, i, eps, p_beta)
     return eps * (0) + 0.0 * x
 
 MONOMIALS = ((3, 0),)
 
 def monomial_coefficients(i, eps, p_beta):
     """eps_i c_m(i) of eps_i R_i = sum_m c_m u^a_m v^b_m, one array over beads per MONOMIALS entry."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(monomial_coefficients, on, i, eps, p_beta)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(monomial_coefficients, eps, i, eps, p_beta)
     return (eps * (p_beta) + 0.0 * i, )

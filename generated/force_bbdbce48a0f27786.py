@@ -3,17 +3,17 @@
 
 source: {"R": "alpha*u", "generator": 3, "kind": "force", "layout": 3, "params": ["alpha"]}
 source-hash: bbdbce48a0f27786840ac9328bb8130c8a8bcba6bacee02b9e7007a067fc0a48
-content-hash: d03b9aac7502e0b4d8630f961c134dfcdf1bad07b14b13a6d887f6643bd4d615
+content-hash: 430fe693152682afb6e01f4a651d7beb106b36b728e8e0ff0d8465a0a0219925
 """
 import numpy
 
 SOURCE = {"R": "alpha*u", "generator": 3, "kind": "force", "layout": 3, "params": ["alpha"]}
 PARAMS = ('alpha',)
 
-def on_perturbed(f, on, *args):
-    """f(*args) on the beads where ``on`` (eps_i != 0), 0.0 on the others, where R is not evaluated."""
+def on_perturbed(f, eps, *args):
+    """f(*args) on the beads where eps_i != 0, 0.0 on the others, where R is not evaluated."""
     args = numpy.broadcast_arrays(*args)
-    on = numpy.broadcast_to(on, args[0].shape)
+    on = numpy.broadcast_to(numpy.asarray(eps) != 0.0, args[0].shape)
     got = f(*(a[on] for a in args))
     outs = []
     for c in (got if isinstance(got, tuple) else (got,)):
@@ -24,30 +24,26 @@ def on_perturbed(f, on, *args):
 
 def force(x, v, i, eps, p_alpha):
     """eps_i R_i(x_i, v_i); arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force, on, x, v, i, eps, p_alpha)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force, eps, x, v, i, eps, p_alpha)
     return eps * (p_alpha*x) + 0.0 * x
 
 def force_dx(x, v, i, eps, p_alpha):
     """d(eps_i R_i)/dx_i; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force_dx, on, x, v, i, eps, p_alpha)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force_dx, eps, x, v, i, eps, p_alpha)
     return eps * (p_alpha) + 0.0 * x
 
 def force_dv(x, v, i, eps, p_alpha):
     """d(eps_i R_i)/dv_i; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(force_dv, on, x, v, i, eps, p_alpha)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(force_dv, eps, x, v, i, eps, p_alpha)
     return eps * (0) + 0.0 * x
 
 MONOMIALS = ((1, 0),)
 
 def monomial_coefficients(i, eps, p_alpha):
     """eps_i c_m(i) of eps_i R_i = sum_m c_m u^a_m v^b_m, one array over beads per MONOMIALS entry."""
-    on = numpy.asarray(eps) != 0.0
-    if not on.all():
-        return on_perturbed(monomial_coefficients, on, i, eps, p_alpha)
+    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0
+        return on_perturbed(monomial_coefficients, eps, i, eps, p_alpha)
     return (eps * (p_alpha) + 0.0 * i, )

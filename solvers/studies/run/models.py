@@ -20,7 +20,8 @@ from pulsemap.solvers.models.site_law_eval import evaluate_site_law
 from pulsemap.solvers.studies.run.dressed import prepare_dressed, run_dressed
 from pulsemap.solvers.models.longwave_eval import evaluate_law
 from pulsemap.solvers.models.map_iteration import contact_params, eps0_ratio, iterate_map
-from pulsemap.solvers.studies.forcing import parameter_values
+from pulsemap.solvers.chain.equations import ForceNotFinite
+from pulsemap.solvers.studies.forcing import force_failure, parameter_values
 from pulsemap.solvers.studies.methods import (
     BALANCE_METHODS,
     DRIFT_WARN,
@@ -232,6 +233,8 @@ def _float64_guard(what: str, state: "RunState"):
     the model, the seed and the fix."""
     try:
         yield
+    except ForceNotFinite as exc:  # R itself, in a segment run of the DNS (the relaxed map)
+        raise ModelNumberError(force_failure(state.scene, state.scene.beads, exc, f"{what}'s segment DNS")) from None
     except ArithmeticError as exc:
         seed = state.out.get("seed", {})
         raise ModelNumberError(
