@@ -101,12 +101,11 @@ def _checked(fn, b: _Beads, args: tuple, skip: int, what: str):
     at the first bead where the value is not finite (the DNS runs under np.errstate(all="ignore"):
     solvers/chain/dns.py)."""
     tail = tuple(a[skip:] if np.ndim(a) else a for a in args)
-    i_tail, eps_tail = (b.i[skip:], b.eps[skip:]) if skip else (None, None)
 
     def force(x, v):
-        if skip:
+        if skip:  # b.i and b.eps are made at the first call (a million-bead chain builds no array at once)
             out = np.zeros(np.shape(x))
-            out[skip:] = fn(x[skip:], v[skip:], i_tail, eps_tail, *tail)
+            out[skip:] = fn(x[skip:], v[skip:], b.i[skip:], b.eps[skip:], *tail)
         else:
             out = fn(x, v, b.i, b.eps, *args)
         if not math.isfinite(out.dot(out)):  # the cheapest test (an array: the module adds 0.0 * x); inf past 1e154
