@@ -105,3 +105,15 @@ def test_complex_R_names_the_bead_and_term(engine, tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()[-1]
     assert code == 2
     assert "at bead 16" in err and "its term sqrt(1 - u) is complex there" in err and "DNS stopped at t = " in err
+
+
+def test_energy_balance_refuses_a_path_over_a_pole_and_keeps_a_pole_R_does_not_feel(tmp_path):
+    """u*exp(1/(u - 1)) diverges past u = 1, which the wave's path crosses: the quadrature nodes alone step
+    over it (a finite, wrong work). u*exp(-1/(u - 1)^2) has the same pole in a term but R is smooth there."""
+    from pulsemap.solvers.models.energy_quadrature import EnergyQuadratureError
+
+    with pytest.raises(EnergyQuadratureError, match=r"its term 1/\(u - 1\) is infinite where the wave takes bead 16"):
+        run_scene(_scene(tmp_path, R=SINGULAR, params={}), methods=["energy-map"])
+    smooth = run_scene(_scene(tmp_path, R="u*exp(-1/(u-1)^2)", params={}), methods=["energy-map"])
+    peaks = np.array(smooth["peaks"]["energy-map"], float)
+    assert peaks.size == 25 and np.all(np.isfinite(peaks)) and np.all(peaks > 0)
