@@ -98,9 +98,10 @@ def run_fortran(code, rhs, t0, y0, t_max, rtol, atol, first_step, on_step) -> tu
         r.integrate(t_max)
     if failed:
         raise failed[0]
-    for w in caught:  # scipy's own warnings, when the force did not stop the run
-        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     nfev = int(r._integrator.iwork[16]) + state["extra"]  # IWORK(17) = NFCN (Hairer)
     if not r.successful() and r.get_return_code() != 2 and state["t"] < t_max:
-        raise RuntimeError(f"integrator failed at t={state['t']:.6g} (code {r.get_return_code()})")
+        said = "; ".join(str(w.message) for w in caught)  # scipy's warning says why: part of the stop reason
+        raise RuntimeError(f"integrator failed at t={state['t']:.6g} (code {r.get_return_code()}{': ' + said if said else ''})")
+    for w in caught:  # scipy's own warnings of a run that went on
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return state["t"], state["y"], nfev, state["h"]
