@@ -15,6 +15,11 @@ method. ``abs`` is continuous and kept exactly; its derivative is the ramped sig
 
 ``MONOMIALS`` and ``monomial_coefficients(i, eps, ...)``: R as a monomial table for the compiled
 DNS (None for a non-polynomial R, non-smooth ones included).
+
+R is evaluated only on beads with eps_i != 0 (``on_perturbed``): an unperturbed bead gets 0.0
+without R being computed there, so an R singular where only unperturbed beads go (u*exp(1/(u - 1))
+at a bead that moves past u = 1 before first_perturbed) stops nothing; where every bead is
+perturbed the expression runs as it stands (the same numbers, bit for bit).
 """
 
 from __future__ import annotations
@@ -76,6 +81,7 @@ def generate_force(source: ForceSource) -> str:
             "    return numpy.where(numpy.abs(s) < DELTA, 1.0 / DELTA, 0.0)",
             "",
         ]
+    lines += ON_PERTURBED
     for fname, expr, doc in (
         ("force", R, "eps_i R_i(x_i, v_i)"),
         ("force_dx", regularize(sympy.diff(R, u)), "d(eps_i R_i)/dx_i"),
@@ -83,10 +89,34 @@ def generate_force(source: ForceSource) -> str:
     ):
         lines.append(f"def {fname}({sig}):")
         lines.append(f'    """{doc}{note}; arrays over beads (x, v, i = bead index 1..N, eps per bead, per-bead parameters)."""')
+        lines += _skip_unperturbed(fname, sig)
         lines.append(f"    return eps * ({code(expr, ren)}) + 0.0 * x")
         lines.append("")
     lines += _monomial_lines(R, ren, ", ".join(["i", "eps"] + [param_identifier(p) for p in source.params]))
     return module(lines, f"On-site force of the DNS (Eq. 1) for R(u, v) = {source.R}", source)
+
+
+#: The generated module's helper: a function of the beads evaluated where eps_i != 0 only (module docstring).
+ON_PERTURBED = [
+    "def on_perturbed(f, eps, *args):",
+    '    """f(*args) on the beads where eps_i != 0, 0.0 on the others, where R is not evaluated."""',
+    "    args = numpy.broadcast_arrays(*args)",
+    "    on = numpy.broadcast_to(numpy.asarray(eps) != 0.0, args[0].shape)",
+    "    got = f(*(a[on] for a in args))",
+    "    outs = []",
+    "    for c in (got if isinstance(got, tuple) else (got,)):",
+    "        out = numpy.zeros(on.shape)",
+    "        out[on] = c",
+    "        outs.append(out)",
+    "    return tuple(outs) if isinstance(got, tuple) else outs[0]",
+    "",
+]
+
+
+def _skip_unperturbed(fname: str, sig: str) -> list[str]:
+    """The first lines of a generated function of the beads: where some eps_i = 0, itself on the others only."""
+    return ["    if numpy.count_nonzero(eps) < numpy.size(eps):  # some eps_i = 0",
+            f"        return on_perturbed({fname}, eps, {sig})"]
 
 
 def _monomial_lines(R: sympy.Expr, ren: dict, sig: str) -> list[str]:
@@ -97,7 +127,8 @@ def _monomial_lines(R: sympy.Expr, ren: dict, sig: str) -> list[str]:
         return ["MONOMIALS = None  # R is not a polynomial in u, v: no table for the compiled DNS"]
     lines = [f"MONOMIALS = {tuple((a, b) for a, b, _ in terms)!r}", "",
              f"def monomial_coefficients({sig}):",
-             '    """eps_i c_m(i) of eps_i R_i = sum_m c_m u^a_m v^b_m, one array over beads per MONOMIALS entry."""']
+             '    """eps_i c_m(i) of eps_i R_i = sum_m c_m u^a_m v^b_m, one array over beads per MONOMIALS entry."""',
+             *_skip_unperturbed("monomial_coefficients", sig)]
     items = "".join(f"eps * ({code(c, ren)}) + 0.0 * i, " for _, _, c in terms)
     lines.append(f"    return ({items})")
     lines.append("")

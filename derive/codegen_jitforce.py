@@ -5,7 +5,11 @@ with dF/dx and dF/dv, for an R that is not a polynomial (sin(u), exp(-v^2) u, v/
 
 Three C-callable functions (numba ``cfunc``, compiled once and cached on disk next to the module),
 each ``f(x, v, i, p) -> float`` with x, v the bead's displacement and velocity, i its index (1-based)
-and p a pointer to [eps_i, then the parameters in PARAMS order at that bead]. The compiled kernels
+and p a pointer to [eps_i, then the parameters in PARAMS order at that bead]. R is evaluated only where
+eps_i != 0 (0.0 is returned at an unperturbed bead: an R singular where only unperturbed beads go
+cannot stop the run). Compiled with numba's numpy error model: a division by zero gives inf, never an
+exception from inside the kernel; a non-finite value stops the run with the bead and time located
+(solvers/chain/dns.py). The compiled kernels
 call them through a function pointer (solvers/chain/compiled_force.py), so one compiled kernel
 serves every R. The module lives in the cache only (derive never imports numba: this is text).
 Non-smooth R (sign, Heaviside, abs) is refused: the scipy engine integrates its ramp.
@@ -33,13 +37,14 @@ def generate_jit_force(source: JitForceSource) -> str:
         raise CodegenError(f"R has a kink or a jump at 0 ({', '.join(kinks)}): no compiled force for it")
     u, v = symbol("u"), symbol("v")
     ren = {u: "x", v: "v", symbol("i"): "i", **{symbol(p): param_identifier(p) for p in source.params}}
-    unpack = ["    eps = p[0]"] + [f"    {param_identifier(name)} = p[{k + 1}]" for k, name in enumerate(source.params)]
+    unpack = ["    eps = p[0]", "    if eps == 0.0:", "        return 0.0  # R is not evaluated at an unperturbed bead"]
+    unpack += [f"    {param_identifier(name)} = p[{k + 1}]" for k, name in enumerate(source.params)]
     lines = ["import math", "", "from numba import cfunc, types", "",
              f"SOURCE = {json.dumps(source.as_dict(), sort_keys=True)}", f"PARAMS = {tuple(source.params)!r}",
              f"SIGNATURE = {SIGNATURE}", ""]
     for fname, expr, doc in (("force", R, "eps_i R_i(x, v)"), ("force_dx", sympy.diff(R, u), "d(eps_i R_i)/dx"),
                              ("force_dv", sympy.diff(R, v), "d(eps_i R_i)/dv")):
-        lines += ["", "@cfunc(SIGNATURE, cache=True)", f"def {fname}(x, v, i, p):",
+        lines += ["", '@cfunc(SIGNATURE, cache=True, error_model="numpy")', f"def {fname}(x, v, i, p):",
                   f'    """{doc} at bead i (1-based); p: [eps_i, then PARAMS at bead i]."""', *unpack,
                   f"    return eps * ({code(expr, ren, scalar=True)})", ""]
     return module(lines, f"On-site force of the compiled DNS (Eq. 1, numba) for R(u, v) = {source.R}", source)

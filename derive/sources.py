@@ -13,10 +13,11 @@ from fractions import Fraction
 from typing import ClassVar, Union
 
 GENERATOR_VERSION = 3  # 2: parameters are arguments p_<name>, b<offset>_<name>; ARGS in map and balance modules
-#: Bump when the force module's layout changes (2: MONOMIALS and monomial_coefficients, for the compiled DNS).
-FORCE_LAYOUT = 2
-#: Bump when the numba force module's layout changes (derive/codegen_jitforce.py).
-JIT_FORCE_LAYOUT = 1
+#: Bump when the force module's layout changes (2: MONOMIALS and monomial_coefficients, for the compiled DNS;
+#: 3: R evaluated only on beads with eps_i != 0).
+FORCE_LAYOUT = 3
+#: Bump when the numba force module's layout changes (derive/codegen_jitforce.py; 2: R skipped where eps_i = 0).
+JIT_FORCE_LAYOUT = 2
 #: Bump when the numerical method of the profile integrals changes (stale cache entries, generated code).
 INTEGRALS_METHOD = 1
 #: Bump when the numerical method of the balance constants changes (stale cache entries, generated code).

@@ -123,6 +123,34 @@ def singular_terms(expr: sympy.Expr) -> list[sympy.Expr]:
     return found
 
 
+def failing_term(expr: sympy.Expr, values: dict[str, float]) -> tuple[sympy.Expr, str] | None:
+    """The innermost part of ``expr`` that is not a finite real float64 at ``values`` (u, v, i and the
+    parameters, by name) with what it is there ("infinite", "complex" or "not a number"); None when
+    every part is finite and real. Each part is evaluated by the math module on floats (sympy's own
+    numbers do not overflow)."""
+    names = sorted(expr.free_symbols, key=str)
+    args = [float(values[str(s)]) for s in names]
+
+    def value(node: sympy.Expr, module: str = "math") -> str | None:
+        try:
+            got = sympy.lambdify(names, node, modules=module)(*args)
+        except (OverflowError, ZeroDivisionError):
+            return "infinite"
+        except ValueError:  # a domain error: log(0) (cmath too), or log or sqrt of a negative number
+            return "infinite" if module == "cmath" else (value(node, "cmath") or "complex")
+        if isinstance(got, complex) and got.imag != 0.0:
+            return "complex"
+        got = abs(got) if isinstance(got, complex) else float(got)
+        return None if math.isfinite(got) else ("not a number" if math.isnan(got) else "infinite")
+
+    for node in sympy.postorder_traversal(expr):
+        if node.free_symbols and not node.is_Atom:
+            kind = value(node)
+            if kind is not None:
+                return node, kind
+    return None
+
+
 def _check_result(expr: sympy.Expr, text: str) -> sympy.Expr:
     degree = total_degree(expr)
     if degree > MAX_EXPONENT:

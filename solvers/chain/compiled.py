@@ -21,13 +21,14 @@ numba force for a non-polynomial R).
 
 from __future__ import annotations
 
+import math
 import time as _time
 import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, energy
+from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, ForceNotFinite, energy
 from pulsemap.solvers.chain.force_table import JitForce, MonomialTable
 from pulsemap.solvers.chain.peaks import (PeakTracker, StopRules, contact_rate, first_threshold, primary_pulse_lost,
                                           velocity_scale)
@@ -210,12 +211,16 @@ def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tu
     """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it; ``settings``:
     rule, rtol, atol, stop, method, launch: prepare's).
     ``progress``: a line on stderr at most every 5 s (dns_progress.DNSProgress), as the scipy engines."""
+    from pulsemap.solvers.chain import compiled_track as K
     from pulsemap.solvers.chain.dns_progress import DNSProgress
-
     from pulsemap.solvers.chain.jit import ready
 
     run = prepare(beads, exponent, velocity, contacts, table, **settings)
     compile_s = ready(kernel_for(run.method), kernel_args(run))
     wall0 = _time.perf_counter()
     code = drive(run, report=DNSProgress("dns", run.last, enabled=progress) if progress else None)
+    if code == K.NONFINITE:  # dns.simulate locates the bead from the failed step's start (lo, y, f, h)
+        lo, w = int(run.st[K.LO]), int(run.st[K.HI] - run.st[K.LO])
+        raise ForceNotFinite(None, math.nan, math.nan, math.nan, t=float(run.fs[K.T]),
+                             state=(lo, run.y[: 2 * w].copy(), run.f[: 2 * w].copy(), float(run.fs[K.H])))
     return replace(result(run, code, _time.perf_counter() - wall0, engine_reason), compile_s=compile_s)

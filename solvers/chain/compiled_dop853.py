@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: 4ce79f585b950456
+# numba cache stamp: 72c0e0acbb270e5b
 from __future__ import annotations
 
 import numpy as np
@@ -27,7 +27,7 @@ from pulsemap.solvers.chain.jit import njit
 from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, rhs
 from pulsemap.solvers.chain.compiled_track import (
-    ATOL, CAPACITY, EXP, H, NFEV, REJECTED, RTOL, T,
+    ATOL, CAPACITY, EXP, H, NFEV, NONFINITE, REJECTED, RTOL, T,
     finish_step, next_step, peak_in_step, track_step, window_now)
 
 METHOD = "DOP853"
@@ -207,7 +207,10 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work
         deno = err5 + 0.01 * err3
         err = abs(h) * err5 / np.sqrt(w2 * (deno if deno > 0.0 else 1.0))
         fac11 = err**0.125 if err > 0.0 else 0.0
-        if not err <= 1.0:  # rejected (NaN included: the step shrinks until it fails)
+        if err != err:  # NaN: a stage met a non-finite force; t and h kept for compiled.py to locate it
+            fs[T], fs[H] = t, h
+            return NONFINITE
+        if not err <= 1.0:  # rejected
             h = h / min(1.0 / FAC1, fac11 / SAFE)
             st[REJECTED] = 1
             continue

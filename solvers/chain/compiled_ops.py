@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 4ce79f585b950456
+# numba cache stamp: 72c0e0acbb270e5b
 from __future__ import annotations
 
 import numpy as np

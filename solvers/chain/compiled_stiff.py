@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 4ce79f585b950456
+# numba cache stamp: 72c0e0acbb270e5b
 from __future__ import annotations
 
 import numpy as np
@@ -28,7 +28,7 @@ from pulsemap.solvers.chain.compiled_force import onsite_slopes
 from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, _pow, hermite_dense, rhs
 from pulsemap.solvers.chain.compiled_track import (
-    ATOL, CAPACITY, EXP, H, NFEV, NJEV, REJECTED, RTOL, T,
+    ATOL, CAPACITY, EXP, H, NFEV, NJEV, NONFINITE, REJECTED, RTOL, T,
     finish_step, next_step, peak_in_step, track_step, window_now)
 
 METHOD = "Rodas4"  # plan.STIFF_METHOD
@@ -187,6 +187,9 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work
                 e = err_v[i] / (atol + rtol * max(abs(y[i]), abs(yn[i])))
                 err += e * e
             err = np.sqrt(err / w2)
+        if err != err:  # NaN: a stage met a non-finite force; t and h kept for compiled.py to locate it
+            fs[T], fs[H] = t, h
+            return NONFINITE
         if not np.isfinite(err):
             fac = FAC_MIN
         else:

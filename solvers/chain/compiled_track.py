@@ -17,7 +17,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: 4ce79f585b950456
+# numba cache stamp: 72c0e0acbb270e5b
 from __future__ import annotations
 
 import numpy as np
@@ -26,7 +26,7 @@ from pulsemap.solvers.chain.jit import njit
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, _pow, pulse_lost, rhs, segment_energy, window_energy
 
 # --- return codes of a kernel's run (solvers/chain/compiled.py turns them into PeakTracker's messages)
-LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM, PAUSED = 1, 2, 3, 4, 5, 6, 7, 8, 9
+LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM, PAUSED, NONFINITE = 1, 2, 3, 4, 5, 6, 7, 8, 9, 10
 
 # --- float state fs[...] (resumable between calls)
 T, H, FACOLD, LEFT_X, LEFT_V, LEFT_T, E0, E_GONE, DRIFT, THRESH, LAST_PEAK_T, STALL, E_LAST = range(13)

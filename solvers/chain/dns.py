@@ -24,7 +24,7 @@ from pulsemap.solvers.chain import window as _window
 from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
     ENERGY_BLOWUP, ENGINES, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
-    OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy, initial_state, make_rhs,
+    ForceNotFinite, OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy, initial_state, make_rhs,
     make_solver, run_scipy)
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
 from pulsemap.solvers.chain.force_table import force_data
@@ -231,14 +231,19 @@ def simulate(
     if how.engine == "compiled":
         from pulsemap.solvers.chain import compiled  # numba: imported only when used
 
-        return _window_energies(force, compiled.simulate_compiled(
-            beads, exponent, velocity, (first, last), data, rule=how.rule, rtol=rtol, atol=atol, stop=rules,
-            method=how.method, engine_reason=how.reason, progress=progress, launch=launch))
+        try:
+            res = compiled.simulate_compiled(
+                beads, exponent, velocity, (first, last), data, rule=how.rule, rtol=rtol, atol=atol, stop=rules,
+                method=how.method, engine_reason=how.reason, progress=progress, launch=launch)
+        except ForceNotFinite as exc:
+            raise _locate(force, beads, exc) from None
+        return _window_energies(force, res)
     if how.rule is not None:
-        return _window_energies(force, replace(_window.simulate_windowed(
-            beads, exponent, velocity, (first, last), force, rule=how.rule, method=chosen, rtol=rtol, atol=atol,
-            stop=rules, progress=progress, engine=how.window_engine, front=front, launch=launch),
-            engine="scipy", engine_reason=how.reason))
+        with np.errstate(all="ignore"):  # a non-finite force raises ForceNotFinite (models/onsite.py), unprinted
+            res = _window.simulate_windowed(
+                beads, exponent, velocity, (first, last), force, rule=how.rule, method=chosen, rtol=rtol, atol=atol,
+                stop=rules, progress=progress, engine=how.window_engine, front=front, launch=launch)
+        return _window_energies(force, replace(res, engine="scipy", engine_reason=how.reason))
     y0 = initial_state(beads, velocity) if launch is None else launch.state(exponent, beads)
     e0 = energy(y0[0::2], y0[1::2], exponent)
 
@@ -267,7 +272,8 @@ def simulate(
         return False
 
     try:
-        run_scipy(solver, on_step)
+        with np.errstate(all="ignore"):  # a non-finite force raises ForceNotFinite (models/onsite.py), unprinted
+            run_scipy(solver, on_step)
     except RuntimeError as err:
         track.reason = str(err)
     track.reason = track.reason or f"t_max reached (t={solver.t:.6g}, next contact {track.next_contact})"
@@ -279,6 +285,26 @@ def simulate(
         exponent=exponent, velocity=velocity, t_end=float(solver.t), window_beads=beads, energy_initial=e0,
         engine="scipy", engine_reason=how.reason,
     )
+
+
+def _locate(force: OnSiteForce | None, beads: int, exc: ForceNotFinite) -> ForceNotFinite:
+    """The bead and time of a compiled run's non-finite force: F (and its slopes) on the window along
+    the failed step's line y + c h f, c = 0 .. 1, at the first c where one is not finite; ``exc``
+    itself when the line misses it (the stages leave it by O(h^2))."""
+    if exc.state is None or force is None:
+        return exc
+    lo, y, f, h = exc.state
+    on = _window.restrict_force(force, beads, lo, lo + y.size // 2)
+    for c in np.linspace(0.0, 1.0, 65):
+        ys = y + c * h * f
+        for fn in (on.force, on.dforce_dx, on.dforce_dv):
+            try:
+                if fn is not None:
+                    with np.errstate(all="ignore"):
+                        fn(ys[0::2], ys[1::2])
+            except ForceNotFinite as found:
+                return found.at(exc.t + c * h)
+    return exc
 
 
 def _check_span(span) -> tuple[int, int]:

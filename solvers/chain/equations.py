@@ -32,6 +32,34 @@ ENERGY_BLOWUP = 1e6  # blow-up guard: energy (kinetic + contact) beyond this x i
 STEPS_PER_CONTACT = 2000  # step budget per contact (default_max_steps)
 
 
+class ForceNotFinite(ArithmeticError):
+    """The on-site force F_i = eps_i R_i of Eq. 1 (or its slope ``what``) is not finite at bead ``bead``
+    (1-based; None: not located) at displacement ``x`` and velocity ``v``, at time ``t`` (None: not known
+    where it was found; the engine adds it). ``state``: the compiled engine's (lo, y, f, h) of the failed
+    step, for dns.simulate to locate the bead."""
+
+    def __init__(self, bead: int | None, x: float, v: float, value: float, what: str = "force",
+                 t: float | None = None, state: tuple | None = None) -> None:
+        self.bead, self.x, self.v, self.value, self.what, self.t, self.state = bead, x, v, value, what, t, state
+        where = f"bead {bead} (u = {x:.6g}, v = {v:.6g})" if bead is not None else "a bead of the window"
+        when = f" at t = {t:.6g}" if t is not None else ""
+        super().__init__(f"the on-site {what} is {value} at {where}{when}")
+
+    def at(self, t: float) -> "ForceNotFinite":
+        """The same failure at time ``t`` (unchanged if it has a time)."""
+        return self if self.t is not None else ForceNotFinite(self.bead, self.x, self.v, self.value, self.what, t)
+
+
+def check_finite(values: Array, x: Array, v: Array, lo: int, what: str = "force") -> None:
+    """ForceNotFinite at the first bead where ``values`` (over beads lo+1.. of x, v) is not finite at a
+    finite state (a non-finite stage state comes from a huge force before it: the integrator rejects
+    the step and the smaller one meets the culprit)."""
+    bad = ~np.isfinite(np.broadcast_to(values, np.shape(x))) & np.isfinite(x) & np.isfinite(v)
+    if bad.any():
+        j = int(np.flatnonzero(bad)[0])
+        raise ForceNotFinite(lo + j + 1, float(x[j]), float(v[j]), float(np.broadcast_to(values, np.shape(x))[j]), what)
+
+
 @dataclass(frozen=True)
 class OnSiteForce:
     """F(x, v) -> array (N,), eps and the perturbed range already applied (Eq. 1).
@@ -224,7 +252,10 @@ def make_rhs(
         a = out[1::2]
         np.subtract(d[:-1], d[1:], out=a)
         if on_site is not None:
-            a += on_site(inner, y[1::2])
+            try:
+                a += on_site(inner, y[1::2])
+            except ForceNotFinite as exc:  # the time the force does not know
+                raise exc.at(t) from None
         return out
 
     return rhs
@@ -269,7 +300,10 @@ def make_jacobians(
 
     def diagonals(t: float, y: Array):
         x, v = y[0::2], y[1::2]
-        lower3, lower1, main, upper1 = _band_diagonals(beads, n, x, v, force)
+        try:
+            lower3, lower1, main, upper1 = _band_diagonals(beads, n, x, v, force)
+        except ForceNotFinite as exc:  # the time the force's slopes do not know
+            raise exc.at(t) from None
         if left is not None:
             d = left(t) - x[0]
             if d > 0.0:

@@ -3,8 +3,11 @@ of paper Eq. 1, with an exact re-step of the same scheme for the quintic dense o
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
+from pulsemap.solvers.chain.equations import ForceNotFinite
 from pulsemap.solvers.chain.peaks import QuinticStep
 
 Array = np.ndarray
@@ -76,13 +79,29 @@ def run_fortran(code, rhs, t0, y0, t_max, rtol, atol, first_step, on_step) -> tu
 
     import scipy.integrate as _integrate
 
-    r = _integrate.ode(rhs).set_integrator(code, rtol=rtol, atol=atol, nsteps=2**31 - 1,
-                                           first_step=min(first_step or 0.0, t_max - t0),
-                                           beta=FORTRAN_BETA[code])
+    failed: list[ForceNotFinite] = []
+
+    def guarded(t: float, y: Array) -> Array:  # f2py would print an exception raised inside Fortran: kept
+        try:
+            return rhs(t, y)
+        except ForceNotFinite as exc:
+            failed.append(exc)
+            return np.full(np.shape(y), np.nan)  # the Fortran code shrinks its step until it gives up
+
+    r = _integrate.ode(guarded).set_integrator(code, rtol=rtol, atol=atol, nsteps=2**31 - 1,
+                                               first_step=min(first_step or 0.0, t_max - t0),
+                                               beta=FORTRAN_BETA[code])
     r.set_solout(solout)
     r.set_initial_value(y0, t0)
-    r.integrate(t_max)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r.integrate(t_max)
+    if failed:
+        raise failed[0]
     nfev = int(r._integrator.iwork[16]) + state["extra"]  # IWORK(17) = NFCN (Hairer)
     if not r.successful() and r.get_return_code() != 2 and state["t"] < t_max:
-        raise RuntimeError(f"integrator failed at t={state['t']:.6g} (code {r.get_return_code()})")
+        said = "; ".join(str(w.message) for w in caught)  # scipy's warning says why: part of the stop reason
+        raise RuntimeError(f"integrator failed at t={state['t']:.6g} (code {r.get_return_code()}{': ' + said if said else ''})")
+    for w in caught:  # scipy's own warnings of a run that went on
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return state["t"], state["y"], nfev, state["h"]

@@ -19,7 +19,7 @@ from typing import Mapping
 
 import numpy as np
 
-from pulsemap.solvers.chain.equations import OnSiteForce
+from pulsemap.solvers.chain.equations import OnSiteForce, check_finite
 from pulsemap.solvers.chain.force_table import jit_force, table_from_module
 
 __all__ = ["ForceError", "distinct_beads", "numba_force", "onsite_force"]
@@ -80,10 +80,11 @@ def onsite_force(module, beads: int, first_perturbed: int, eps, values: Mapping[
     def build(lo: int, hi: int, monomials=None, jit=None) -> OnSiteForce:
         b = _Beads(lo, hi, fp, eps)
         args = tuple(a[lo:hi] if np.ndim(a) else a for a in full)
+        skip = min(max(fp - 1 - lo, 0), hi - lo)  # the leading beads with eps_i = 0: R is not evaluated there
         return OnSiteForce(
-            force=lambda x, v: module.force(x, v, b.i, b.eps, *args),
-            dforce_dx=lambda x, v: module.force_dx(x, v, b.i, b.eps, *args),
-            dforce_dv=lambda x, v: module.force_dv(x, v, b.i, b.eps, *args),
+            force=_checked(module.force, b, args, skip, "force"),
+            dforce_dx=_checked(module.force_dx, b, args, skip, "slope dF/du"),
+            dforce_dv=_checked(module.force_dv, b, args, skip, "slope dF/dv"),
             stiffness_hint=hint,
             restrict=build,
             monomials=monomials,
@@ -92,6 +93,26 @@ def onsite_force(module, beads: int, first_perturbed: int, eps, values: Mapping[
 
     table = table_from_module(module, idx, e, args0)  # the table: the compiled engine's F
     return build(0, beads, table, None if table is not None else _once(lambda: numba_force(module, idx, e, args0)))
+
+
+def _checked(fn, b: _Beads, args: tuple, skip: int, what: str):
+    """``fn`` of the generated force module as F(x, v) on beads b.lo+1..b.hi: the first ``skip`` beads
+    (unperturbed) get 0.0 without a call (a slice, cheaper than the module's own mask); ForceNotFinite
+    at the first bead where the value is not finite (the DNS runs under np.errstate(all="ignore"):
+    solvers/chain/dns.py)."""
+    tail = tuple(a[skip:] if np.ndim(a) else a for a in args)
+
+    def force(x, v):
+        if skip:  # b.i and b.eps are made at the first call (a million-bead chain builds no array at once)
+            out = np.zeros(np.shape(x))
+            out[skip:] = fn(x[skip:], v[skip:], b.i[skip:], b.eps[skip:], *tail)
+        else:
+            out = fn(x, v, b.i, b.eps, *args)
+        if not math.isfinite(out.dot(out)):  # the cheapest test (an array: the module adds 0.0 * x); inf past 1e154
+            check_finite(out, x, v, b.lo, what)
+        return out
+
+    return force
 
 
 def _once(make):

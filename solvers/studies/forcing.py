@@ -28,7 +28,7 @@ from pulsemap.solvers.models.onsite import ForceError, distinct_beads, onsite_fo
 from pulsemap.solvers.studies.methods import RunError
 from pulsemap.solvers.studies.sweep import SweepError
 
-__all__ = ["bead_params", "chain_force", "make_force", "parameter_values"]
+__all__ = ["bead_params", "chain_force", "force_failure", "make_force", "parameter_values"]
 
 #: Forces built by make_force in this process, by resolved force (most recent last).
 _FORCES: dict[tuple, OnSiteForce] = {}
@@ -102,7 +102,7 @@ def _build_force(scene: Scene, beads: int) -> OnSiteForce:
             f0 = np.asarray(force.restrict(0, k).force(zeros, zeros), dtype=float)
     except SweepError as exc:
         raise RunError(str(exc)) from None
-    except (ValueError, ZeroDivisionError, FloatingPointError) as exc:
+    except (ValueError, ArithmeticError) as exc:
         raise RunError(f"the on-site force cannot be evaluated at rest: {exc}") from None
     if not np.all(np.isfinite(f0)):
         raise RunError("the on-site force is undefined at rest (non-finite value): check R and its parameters")
@@ -124,3 +124,26 @@ def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | No
         return onsite_force(module, int(chain["beads"]), int(chain["first_perturbed"]), float(chain["eps"]), values)
     except ForceError as exc:
         raise SweepError(str(exc)) from None
+
+
+def force_failure(scene: Scene, beads: int, exc: ArithmeticError, who: str) -> str:
+    """One line for a run ``who`` (the DNS, the relaxed map's segment runs) stopped by the force itself:
+    when, at which bead, R's term that is not finite or not real there (derive's failing_term), the fix."""
+    from pulsemap.symbolic.expression import failing_term, singular_terms
+
+    pert = scene.perturbation
+    fix = "R must stay finite and real for every u, v the chain reaches (move the singularity out of reach or bound R)"
+    bead = getattr(exc, "bead", None)
+    if bead is None:  # not located: R's terms that can be infinite, as a hint
+        terms = singular_terms(pert.R)
+        zero = (terms[0].base if terms[0].is_Pow else terms[0].args[0]) if terms else None
+        hint = f": its term {terms[0]} is infinite where {zero} = 0" if terms else ""
+        return f"{who} stopped: R = {pert.text} gave {type(exc).__name__} ({exc}){hint}; {fix}"
+    values = {"u": exc.x, "v": exc.v, "i": float(bead)}
+    for name, value in parameter_values(scene, beads).items():
+        values[name] = float(value[min(bead, np.size(value)) - 1]) if np.ndim(value) else float(value)
+    found = failing_term(pert.R, values)
+    term = f": its term {found[0]} is {found[1]} there" if found is not None else ""
+    when = f" at t = {exc.t:.6g}" if exc.t is not None else ""
+    return (f"{who} stopped{when}: R = {pert.text} is not finite (or not real) at bead {bead} (u = {exc.x:.6g}, "
+            f"v = {exc.v:.6g}; the on-site {exc.what} is {exc.value}){term}; {fix}")

@@ -344,3 +344,26 @@ def test_whitelist_is_exactly_documented() -> None:
     assert set(FUNCTIONS) == {
         "sin", "cos", "tan", "exp", "log", "sqrt", "tanh", "sinh", "cosh", "abs", "sign", "heaviside", "Heaviside"
     }
+
+
+@pytest.mark.parametrize("text, values, term, kind", [
+    ("u*exp(1/(u-1))", {"u": 1.0 + 1e-4}, "exp(1/(u - 1))", "infinite"),  # exp(1e4) is past float64
+    ("-mu*v/(u-1)", {"u": 1.0, "mu": 2.0}, "1/(u - 1)", "infinite"),
+    ("sqrt(1-u)-1", {"u": 1.5}, "sqrt(1 - u)", "complex"),
+    ("log(1-u)", {"u": 1.0}, "log(1 - u)", "infinite"),
+    ("log(1-u)", {"u": 2.0}, "log(1 - u)", "complex"),
+    ("u/(i-10)", {"u": 0.5, "i": 10.0}, "1/(i - 10)", "infinite"),
+])
+def test_failing_term_is_the_innermost_part_that_leaves_the_reals(text, values, term, kind):
+    from pulsemap.symbolic.expression import failing_term
+
+    expr = parse_expression(text, [k for k in values if k not in ("u", "v", "i")])
+    found = failing_term(expr, {"u": 0.0, "v": 0.3, "i": 20.0, **values})
+    assert (str(found[0]), found[1]) == (term, kind)
+
+
+def test_failing_term_of_a_finite_value_is_none():
+    from pulsemap.symbolic.expression import failing_term
+
+    expr = parse_expression("u*exp(1/(u-1)) + sqrt(1-u)", [])
+    assert failing_term(expr, {"u": 0.5, "v": 0.0, "i": 1.0}) is None

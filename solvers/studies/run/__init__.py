@@ -25,7 +25,7 @@ from pulsemap.solvers import __version__
 from pulsemap.solvers.chain.dns import simulate
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene, SceneError, check_choice
 from pulsemap.solvers.studies.errors import model_error
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.forcing import force_failure, make_force
 from pulsemap.solvers.studies.methods import (
     BALANCE_METHODS,
     DRIFT_WARN,
@@ -129,8 +129,8 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
             snapshots=[c for c in state.snapshots if span[0] <= c <= span[1]],
             window=dns_window_of(scene, dns_window),
         )
-    except ArithmeticError as exc:  # the compiled force divided by zero or overflowed
-        raise RunError(_force_failure(pert, exc)) from None
+    except ArithmeticError as exc:  # R not finite (or not real) where the chain went
+        raise RunError(force_failure(scene, beads, exc, "DNS")) from None
     state.timings["dns_compile"] = res.compile_s  # numba compiling or loading the kernel, apart from integrating
     state.timings["dns"] = time.perf_counter() - t0 - res.compile_s
     dns_peaks = on_contacts(contacts, res.contacts, res.peaks, res.alive)
@@ -154,19 +154,6 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     if dns_seed is not None:
         state.seed_peak = dns_seed
         out["dns"]["seed_peak"] = dns_seed  # peak at first_perturbed - 1, seeds map and law
-
-
-def _force_failure(pert, exc: ArithmeticError) -> str:
-    """One line for a DNS stopped by the force itself: the error, R's term that is infinite, the fix."""
-    from pulsemap.symbolic.expression import singular_terms
-
-    terms = singular_terms(pert.R)
-    where = ""
-    if terms:
-        zero = terms[0].base if terms[0].is_Pow else terms[0].args[0]
-        where = f": its term {terms[0]} is infinite where the chain reaches {zero} = 0"
-    return (f"DNS stopped: R = {pert.text} gave {type(exc).__name__} ({exc}) in the compiled force{where}; "
-            "R must stay finite for every u, v the chain reaches (move the singularity out of reach or bound R)")
 
 
 def front_outputs(res, contacts: list[int], alive: list[bool]) -> dict:
