@@ -41,7 +41,7 @@ from typing import Mapping
 import numpy as np
 
 from pulsemap.solvers.models.onsite import onsite_force
-from pulsemap.solvers.models.relaxed_kernel import J_MAX, J_MIN, KernelTable
+from pulsemap.solvers.models.relaxed_kernel import J_MAX, J_MIN, ONSET_BEADS, KernelTable
 from pulsemap.solvers.models.relaxed_table import ONSET, SegmentSpec, SegmentTable, leave_one_out
 
 X_SMALL = 1e-3  # |x| below which a monomial's log-ratios are continued linearly in x
@@ -100,6 +100,36 @@ class RelaxedModel:
                   for j in range(J_MIN, J_MAX + 1)]
         if all(c == own for c in window):
             return [(1.0, own)]
+        key, tab, at = self._reference(window, own, peak)
+        w = self.kernel(key).weights(at) if tab.cover(at) else None
+        if w is None:
+            return [(1.0, own)]
+        return [(float(wj), c) for wj, c in zip(w, window) if wj != 0.0]
+
+    def onset_log_ratio(self, k: int, seed_contact: int, seed_peak: float) -> float | None:
+        """log P_k/P_{k-1} of onset step k (onto contact seed_contact + k) after entry at seed_peak:
+        the onset table at the mean coefficient cm of beads seed_contact + 1 + b, b = 0..ONSET_BEADS-1,
+        plus the onset kernel's first- and second-order terms in their departures e_b (relative,
+        c_b / cm - 1, for a monomial; c_b - cm for a parameter): sum_b H_b e_b + 1/2 sum H2_bb' e_b e_b'
+        (relaxed_kernel.KernelTable.onset_kernel). Where the window is uniform, the local onset
+        exactly. None: the pulse dies within the onset."""
+        own = None if self.coefficients is None else self._coef(seed_contact + k)
+        window = [] if own is None else [self._coef(seed_contact + 1 + b) for b in range(ONSET_BEADS)]
+        if own is None or all(c == own for c in window):
+            return self._log_onset(own, seed_peak, k)
+        mean = float(np.mean(window))
+        key, tab, at = self._reference(window, own, seed_peak)
+        tab.ensure_entry(at)
+        kern = self.kernel(key).onset_kernel(at) if (self.grid is not None or mean != 0.0) else None
+        base = self._log_onset(mean, seed_peak, k)
+        if kern is None or base is None:
+            return self._log_onset(own, seed_peak, k)
+        h, h2 = kern[0][:, k - 1], kern[1][:, :, k - 1]
+        e = np.asarray(window) - mean if self.grid is not None else np.asarray(window) / mean - 1.0
+        return base + float(h @ e) + 0.5 * float(e @ h2 @ e)
+
+    def _reference(self, window: list[float], own: float, peak: float) -> tuple[int, SegmentTable, float]:
+        """(key, table, log P on it) where a window's kernel is read: at the window's mean coefficient."""
         ref = float(np.mean(window))
         if self.grid is not None:  # the kernel of the grid table nearest the window's mean
             key = int(np.argmin(np.abs(np.asarray(self.grid) - ref)))
@@ -113,10 +143,7 @@ class RelaxedModel:
                 log_p = math.log(abs(ref)) / self.e + math.log(peak)
                 bound = self._small_side(log_p, tab)
                 at = log_p if bound is None else bound
-        w = self.kernel(key).weights(at) if tab.cover(at) else None
-        if w is None:
-            return [(1.0, own)]
-        return [(float(wj), c) for wj, c in zip(w, window) if wj != 0.0]
+        return key, tab, at
 
     def kernel(self, key: int) -> KernelTable:
         """The response kernel of table ``key`` (of R's scale; of the parameter on the grid path)."""
@@ -202,10 +229,10 @@ class RelaxedModel:
         """P_k/P_{k-1} for the ONSET contacts after the seed; None: the pulse dies in the onset."""
         out = []
         for k in range(1, ONSET + 1):
-            terms = [(w, self._log_onset(c, seed_peak, k)) for w, c in self.mix(seed_contact + k, seed_peak)]
-            if any(v is None for _, v in terms):
+            value = self.onset_log_ratio(k, seed_contact, seed_peak)
+            if value is None:
                 return None
-            out.append(math.exp(sum(w * v for w, v in terms)))
+            out.append(math.exp(value))
         return out
 
     def bulk_ratio(self, peak: float, contact: int) -> float | None:
@@ -220,7 +247,9 @@ class RelaxedModel:
         return max((leave_one_out(t) for t in self.tables.values() if len(t.runs) > 2), default=float("nan"))
 
     def segment_runs(self) -> int:
-        return sum(len(t.runs) for t in self.tables.values()) + sum(len(k.runs) for k in self.kernels.values())
+        pairs = ONSET_BEADS * (ONSET_BEADS + 3) // 2  # runs of one lattice point's onset kernel
+        onset = sum(pairs for k in self.kernels.values() for h in k.onset_runs.values() if h is not None)
+        return sum(len(t.runs) for t in self.tables.values()) + sum(len(k.runs) for k in self.kernels.values()) + onset
 
 
 @dataclass(frozen=True)
