@@ -125,12 +125,19 @@ class KernelTable:
     def _onset_at(self, lat: int) -> tuple[np.ndarray, np.ndarray] | None:
         """(H, H2) of lattice run ``lat`` (onset_kernel), or None when a bumped run dies within the onset."""
         if lat not in self.onset_runs:
-            d = self.onset_step()
+            d, p0 = self.onset_step(), math.log(self.table.runs[lat][0])
+            splines = [spline for _, _, spline in self.table.onset()]
+            if any(spline is None for spline in splines):
+                self.onset_runs[lat] = None
+                return None
+            slope = np.array([float(spline(p0, 1)) for spline in splines])  # d log r_k / d log P_0
 
             def logr(*bumps: tuple[int, float]) -> np.ndarray | None:
+                """A bumped run's onset log ratios at the base run's entry peak (the bump moves P_0 a little,
+                which the onset table carries by itself: taken off to first order)."""
                 spec = replace(self.table.spec, bump=tuple((b, x, self.param) for b, x in bumps))
                 p = np.asarray(cached_segment(spec, lat) if bumps else self.table.runs[lat])
-                return np.log(p[1:ONSET + 1] / p[:ONSET]) if len(p) > ONSET else None
+                return np.log(p[1:ONSET + 1] / p[:ONSET]) - slope * (math.log(p[0]) - p0) if len(p) > ONSET else None
 
             f0 = logr()
             up = [logr((b, d)) for b in range(ONSET_BEADS)]
