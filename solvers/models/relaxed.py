@@ -247,9 +247,12 @@ class RelaxedModel:
         return max((leave_one_out(t) for t in self.tables.values() if len(t.runs) > 2), default=float("nan"))
 
     def segment_runs(self) -> int:
-        pairs = ONSET_BEADS * (ONSET_BEADS + 3) // 2  # runs of one lattice point's onset kernel
-        onset = sum(pairs for k in self.kernels.values() for h in k.onset_runs.values() if h is not None)
-        return sum(len(t.runs) for t in self.tables.values()) + sum(len(k.runs) for k in self.kernels.values()) + onset
+        return sum(len(t.runs) for t in self.tables.values()) + self.kernel_runs()
+
+    def kernel_runs(self) -> int:
+        """Bumped segment runs of the response kernels: the bulk kernel's and the onset kernel's."""
+        onset = sum(len(k.onset_bumps()) for k in self.kernels.values() for h in k.onset_runs.values() if h is not None)
+        return sum(len(k.runs) for k in self.kernels.values()) + onset
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from pulsemap.solvers.models.relaxed_table import ONSET, SegmentTable, cached_segment
+from pulsemap.symbolic import cache
+from pulsemap.solvers.models.relaxed_table import (
+    NAMESPACE,
+    ONSET,
+    SegmentTable,
+    cached_segment,
+    lattice_amplitude,
+    segment_peaks,
+)
 
 J_MIN, J_MAX = -4, 2  # the kernel's span in beads (behind the contact's first bead .. ahead of it)
 BUMP_BEAD = ONSET + J_MAX  # the bumped bead, after first_perturbed: steps ONSET+1.. see j = J_MAX, J_MAX-1, ..
@@ -132,28 +140,44 @@ class KernelTable:
                 return None
             slope = np.array([float(spline(p0, 1)) for spline in splines])  # d log r_k / d log P_0
 
-            def logr(*bumps: tuple[int, float]) -> np.ndarray | None:
-                """A bumped run's onset log ratios at the base run's entry peak (the bump moves P_0 a little,
-                which the onset table carries by itself: taken off to first order)."""
-                spec = replace(self.table.spec, bump=tuple((b, x, self.param) for b, x in bumps))
-                p = np.asarray(cached_segment(spec, lat) if bumps else self.table.runs[lat])
+            def logr(p: list[float]) -> np.ndarray | None:
+                """A run's onset log ratios at the base run's entry peak (a bump moves P_0 a little, which the
+                onset table carries by itself: taken off to first order)."""
+                p = np.asarray(p)
                 return np.log(p[1:ONSET + 1] / p[:ONSET]) - slope * (math.log(p[0]) - p0) if len(p) > ONSET else None
 
-            f0 = logr()
-            up = [logr((b, d)) for b in range(ONSET_BEADS)]
-            down = [logr((b, -d)) for b in range(ONSET_BEADS)]
-            if f0 is None or any(v is None for v in up + down):
+            runs = [logr(p) for p in self._onset_peaks(lat)]
+            if any(v is None for v in runs) or logr(self.table.runs[lat]) is None:
                 self.onset_runs[lat] = None
                 return None
+            f0, it = logr(self.table.runs[lat]), iter(runs)
+            up, down = [next(it) for _ in range(ONSET_BEADS)], [next(it) for _ in range(ONSET_BEADS)]
             h = np.array([(u - w) / (2.0 * d) for u, w in zip(up, down)])
             h2 = np.zeros((ONSET_BEADS, ONSET_BEADS, ONSET))
             for b in range(ONSET_BEADS):
                 h2[b, b] = (up[b] + down[b] - 2.0 * f0) / d ** 2
                 for c in range(b + 1, ONSET_BEADS):
-                    both = logr((b, d), (c, d))
-                    if both is None:
-                        self.onset_runs[lat] = None
-                        return None
-                    h2[b, c] = h2[c, b] = (both - up[b] - up[c] + f0) / d ** 2
+                    h2[b, c] = h2[c, b] = (next(it) - up[b] - up[c] + f0) / d ** 2
             self.onset_runs[lat] = (h, h2)
         return self.onset_runs[lat]
+
+    def onset_bumps(self) -> list[tuple[tuple[int, float, str], ...]]:
+        """The bumps of one lattice point's onset kernel runs: +d and -d on each bead, then +d on each pair."""
+        d, name = self.onset_step(), self.param
+        pairs = [((b, d, name), (c, d, name)) for b in range(ONSET_BEADS) for c in range(b + 1, ONSET_BEADS)]
+        return [((b, d, name),) for b in range(ONSET_BEADS)] + [((b, -d, name),) for b in range(ONSET_BEADS)] + pairs
+
+    def _onset_peaks(self, lat: int) -> list[list[float]]:
+        """Peaks of the onset kernel's runs at lattice point ``lat`` (onset_bumps order), through the on-disk
+        cache as one entry: one write per lattice point, not one per run (each write is synced to disk)."""
+        bumps = self.onset_bumps()
+        spec = self.table.spec
+        key = f"{spec.key(lat)}|onset-kernel|" + ";".join(
+            ",".join(f"fp+{b}:{name or 'R'}:{x!r}" for b, x, name in bump) for bump in bumps)
+        hit = cache.load(NAMESPACE, key)
+        if (isinstance(hit, list) and len(hit) == len(bumps)
+                and all(isinstance(p, list) and all(isinstance(v, float) for v in p) for p in hit)):
+            return hit
+        peaks = [segment_peaks(replace(spec, bump=bump), lattice_amplitude(lat)) for bump in bumps]
+        cache.store(NAMESPACE, key, peaks)
+        return peaks
