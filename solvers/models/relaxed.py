@@ -26,10 +26,12 @@ Site-dependent R (graded, modulated or random foundations): a bead's coefficient
 pulse over several contacts, so the step onto contact c mixes the uniform map over the
 coefficients of beads c + j, j = J_MIN..J_MAX: log r_c = sum_j w_j(P) log r(P; c_{c+j}), with
 w_j the shares of a first-order response kernel measured by segment runs with one bumped bead
-(solvers/models/relaxed_kernel.py). Where the window is uniform the map is the local one,
-bit for bit. A single monomial reads the coefficient c_i = eps_i R_i(1, 1); several monomials
-take one site-dependent parameter and uniform tables at GRID_POINTS values across its range,
-linear in the parameter between them. Every table and kernel is calibrated on segment runs only.
+(solvers/models/relaxed_kernel.py). The onset steps, whose pulse has not relaxed, are the onset
+table at the mean coefficient of the beads they see plus a second-order onset kernel in the
+departures from it (runs with one or two bumped beads). Where the window is uniform the map and
+the onset are the local ones, bit for bit. A single monomial reads the coefficient
+c_i = eps_i R_i(1, 1); several monomials take one site-dependent parameter and uniform tables at
+GRID_POINTS values across its range, linear in the parameter between them. Every table and kernel is calibrated on segment runs only.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""First-order response of the relaxed map to the coefficients of neighbouring beads, from segment runs.
+"""Response of the relaxed map to neighbouring beads' coefficients (bulk: first order, onset: second), from segment runs.
 
 A bead's on-site coefficient acts on the primary pulse over several contacts, not only on the step
 whose first bead it is. For a segment table (relaxed_table.SegmentTable, uniform R) the kernel is
@@ -16,6 +16,11 @@ so that iterating the map with the kernel counts each effect once. Points are in
 log P_{c-1} per j (clamped at the ends). Sum_j G_j(P) is the derivative of the uniform map in the
 varied quantity (tests/models/test_relaxed_kernel.py checks it). The map uses the kernel's shares
 G_j / sum_j G_j (``weights``). Runs are cached like the table's.
+
+The onset (the ONSET steps after the bare entry) is not translation invariant and its pulse has not
+relaxed, so it has a kernel of its own (``onset_kernel``): the first and second derivatives of its
+log ratios in the coefficients of beads first_perturbed + 0..ONSET_BEADS-1, from runs with one bead
+(+-ONSET_DELTA) or two beads (+ONSET_DELTA each) bumped, at the entry peak of the base run.
 """
 
 from __future__ import annotations
