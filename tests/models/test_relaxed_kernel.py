@@ -52,6 +52,8 @@ SCENES = {  # name: (R, eps, params, RMS bound over the live range)
     "mixed-graded-eps0.5": ("-(k*u + mu*v)", 0.5, {"k": '"0.1 + 0.00865*(i - 16)"', "mu": "0.1"}, 0.03),
     "strong-random-seed1": ("-k*u", 1.0, {"k": "{uniform = [0, 1], seed = 1}"}, 0.10),
     "strong-random-seed2": ("-k*u", 1.0, {"k": "{uniform = [0, 1], seed = 2}"}, 0.10),
+    "strong-random-seed3": ("-k*u", 1.0, {"k": "{uniform = [0, 1], seed = 3}"}, 0.10),
+    "strong-random-seed4": ("-k*u", 1.0, {"k": "{uniform = [0, 1], seed = 4}"}, 0.10),
 }
 
 
