@@ -241,8 +241,27 @@ class RelaxedModel:
         """F(P)/P for the step onto ``contact``; None where no relaxed pulse exists (it dies)."""
         terms = [(w, self._log_bulk(c, peak)) for w, c in self.mix(contact, peak)]
         if any(v is None for _, v in terms):
-            return None
+            value = self._linear_bulk(contact, peak) if len(terms) > 1 else None
+            return None if value is None else math.exp(value)
         return math.exp(sum(w * v for w, v in terms))
+
+    def _linear_bulk(self, contact: int, peak: float) -> float | None:
+        """log F(P)/P as the uniform map at the window's mean coefficient cm plus the kernel's first-order
+        terms sum_j G_j e_j (e_j = c_j / cm - 1; a parameter: c_j - cm): the step where the uniform map
+        of some neighbour's coefficient has no relaxed pulse at P (its segment runs die before they
+        relax) but the mean's has. None: no relaxed pulse at the mean either (the pulse dies)."""
+        own = self._coef(contact)
+        window = np.array([self._coef(contact + j) if contact + j >= self.first_perturbed else own
+                           for j in range(J_MIN, J_MAX + 1)])
+        mean = float(window.mean())
+        base = self._log_bulk(mean, peak)
+        if base is None or (self.grid is None and mean == 0.0):
+            return None
+        key, tab, at = self._reference(list(window), own, peak)
+        if not tab.cover(at):
+            return None
+        e = window - mean if self.grid is not None else window / mean - 1.0
+        return base + float(self.kernel(key).kernel(at) @ e)
 
     def accuracy(self) -> float:
         """Stated accuracy of the bulk map: the worst leave-one-run-out error in log r."""
