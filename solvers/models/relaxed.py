@@ -26,10 +26,12 @@ Site-dependent R (graded, modulated or random foundations): a bead's coefficient
 pulse over several contacts, so the step onto contact c mixes the uniform map over the
 coefficients of beads c + j, j = J_MIN..J_MAX: log r_c = sum_j w_j(P) log r(P; c_{c+j}), with
 w_j the shares of a first-order response kernel measured by segment runs with one bumped bead
-(solvers/models/relaxed_kernel.py). Where the window is uniform the map is the local one,
-bit for bit. A single monomial reads the coefficient c_i = eps_i R_i(1, 1); several monomials
-take one site-dependent parameter and uniform tables at GRID_POINTS values across its range,
-linear in the parameter between them. Every table and kernel is calibrated on segment runs only.
+(solvers/models/relaxed_kernel.py). The onset steps, whose pulse has not relaxed, are the onset
+table at the mean coefficient of the beads they see plus a second-order onset kernel in the
+departures from it (runs with one or two bumped beads). Where the window is uniform the map and
+the onset are the local ones, bit for bit. A single monomial reads the coefficient
+c_i = eps_i R_i(1, 1); several monomials take one site-dependent parameter and uniform tables at
+GRID_POINTS values across its range, linear in the parameter between them. Every table and kernel is calibrated on segment runs only.
 """
 
 from __future__ import annotations
@@ -41,7 +43,7 @@ from typing import Mapping
 import numpy as np
 
 from pulsemap.solvers.models.onsite import onsite_force
-from pulsemap.solvers.models.relaxed_kernel import J_MAX, J_MIN, KernelTable
+from pulsemap.solvers.models.relaxed_kernel import J_MAX, J_MIN, ONSET_BEADS, KernelTable
 from pulsemap.solvers.models.relaxed_table import ONSET, SegmentSpec, SegmentTable, leave_one_out
 
 X_SMALL = 1e-3  # |x| below which a monomial's log-ratios are continued linearly in x
@@ -100,6 +102,36 @@ class RelaxedModel:
                   for j in range(J_MIN, J_MAX + 1)]
         if all(c == own for c in window):
             return [(1.0, own)]
+        key, tab, at = self._reference(window, own, peak)
+        w = self.kernel(key).weights(at) if tab.cover(at) else None
+        if w is None:
+            return [(1.0, own)]
+        return [(float(wj), c) for wj, c in zip(w, window) if wj != 0.0]
+
+    def onset_log_ratio(self, k: int, seed_contact: int, seed_peak: float) -> float | None:
+        """log P_k/P_{k-1} of onset step k (onto contact seed_contact + k) after entry at seed_peak:
+        the onset table at the mean coefficient cm of beads seed_contact + 1 + b, b = 0..ONSET_BEADS-1,
+        plus the onset kernel's first- and second-order terms in their departures e_b (relative,
+        c_b / cm - 1, for a monomial; c_b - cm for a parameter): sum_b H_b e_b + 1/2 sum H2_bb' e_b e_b'
+        (relaxed_kernel.KernelTable.onset_kernel). Where the window is uniform, the local onset
+        exactly. None: the pulse dies within the onset."""
+        own = None if self.coefficients is None else self._coef(seed_contact + k)
+        window = [] if own is None else [self._coef(seed_contact + 1 + b) for b in range(ONSET_BEADS)]
+        if own is None or all(c == own for c in window):
+            return self._log_onset(own, seed_peak, k)
+        mean = float(np.mean(window))
+        key, tab, at = self._reference(window, own, seed_peak)
+        tab.ensure_entry(at)
+        kern = self.kernel(key).onset_kernel(at) if (self.grid is not None or mean != 0.0) else None
+        base = self._log_onset(mean, seed_peak, k)
+        if kern is None or base is None:
+            return self._log_onset(own, seed_peak, k)
+        h, h2 = kern[0][:, k - 1], kern[1][:, :, k - 1]
+        e = np.asarray(window) - mean if self.grid is not None else np.asarray(window) / mean - 1.0
+        return base + float(h @ e) + 0.5 * float(e @ h2 @ e)
+
+    def _reference(self, window: list[float], own: float, peak: float) -> tuple[int, SegmentTable, float]:
+        """(key, table, log P on it) where a window's kernel is read: at the window's mean coefficient."""
         ref = float(np.mean(window))
         if self.grid is not None:  # the kernel of the grid table nearest the window's mean
             key = int(np.argmin(np.abs(np.asarray(self.grid) - ref)))
@@ -113,10 +145,7 @@ class RelaxedModel:
                 log_p = math.log(abs(ref)) / self.e + math.log(peak)
                 bound = self._small_side(log_p, tab)
                 at = log_p if bound is None else bound
-        w = self.kernel(key).weights(at) if tab.cover(at) else None
-        if w is None:
-            return [(1.0, own)]
-        return [(float(wj), c) for wj, c in zip(w, window) if wj != 0.0]
+        return key, tab, at
 
     def kernel(self, key: int) -> KernelTable:
         """The response kernel of table ``key`` (of R's scale; of the parameter on the grid path)."""
@@ -202,25 +231,49 @@ class RelaxedModel:
         """P_k/P_{k-1} for the ONSET contacts after the seed; None: the pulse dies in the onset."""
         out = []
         for k in range(1, ONSET + 1):
-            terms = [(w, self._log_onset(c, seed_peak, k)) for w, c in self.mix(seed_contact + k, seed_peak)]
-            if any(v is None for _, v in terms):
+            value = self.onset_log_ratio(k, seed_contact, seed_peak)
+            if value is None:
                 return None
-            out.append(math.exp(sum(w * v for w, v in terms)))
+            out.append(math.exp(value))
         return out
 
     def bulk_ratio(self, peak: float, contact: int) -> float | None:
         """F(P)/P for the step onto ``contact``; None where no relaxed pulse exists (it dies)."""
         terms = [(w, self._log_bulk(c, peak)) for w, c in self.mix(contact, peak)]
         if any(v is None for _, v in terms):
-            return None
+            value = self._linear_bulk(contact, peak) if len(terms) > 1 else None
+            return None if value is None else math.exp(value)
         return math.exp(sum(w * v for w, v in terms))
+
+    def _linear_bulk(self, contact: int, peak: float) -> float | None:
+        """log F(P)/P as the uniform map at the window's mean coefficient cm plus the kernel's first-order
+        terms sum_j G_j e_j (e_j = c_j / cm - 1; a parameter: c_j - cm): the step where the uniform map
+        of some neighbour's coefficient has no relaxed pulse at P (its segment runs die before they
+        relax) but the mean's has. None: no relaxed pulse at the mean either (the pulse dies)."""
+        own = self._coef(contact)
+        window = np.array([self._coef(contact + j) if contact + j >= self.first_perturbed else own
+                           for j in range(J_MIN, J_MAX + 1)])
+        mean = float(window.mean())
+        base = self._log_bulk(mean, peak)
+        if base is None or (self.grid is None and mean == 0.0):
+            return None
+        key, tab, at = self._reference(list(window), own, peak)
+        if not tab.cover(at):
+            return None
+        e = window - mean if self.grid is not None else window / mean - 1.0
+        return base + float(self.kernel(key).kernel(at) @ e)
 
     def accuracy(self) -> float:
         """Stated accuracy of the bulk map: the worst leave-one-run-out error in log r."""
         return max((leave_one_out(t) for t in self.tables.values() if len(t.runs) > 2), default=float("nan"))
 
     def segment_runs(self) -> int:
-        return sum(len(t.runs) for t in self.tables.values()) + sum(len(k.runs) for k in self.kernels.values())
+        return sum(len(t.runs) for t in self.tables.values()) + self.kernel_runs()
+
+    def kernel_runs(self) -> int:
+        """Bumped segment runs of the response kernels: the bulk kernel's and the onset kernel's."""
+        onset = sum(len(k.onset_bumps()) for k in self.kernels.values() for h in k.onset_runs.values() if h is not None)
+        return sum(len(k.runs) for k in self.kernels.values()) + onset
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""First-order response of the relaxed map to the coefficients of neighbouring beads, from segment runs.
+"""Response of the relaxed map to neighbouring beads' coefficients (bulk: first order, onset: second), from segment runs.
 
 A bead's on-site coefficient acts on the primary pulse over several contacts, not only on the step
 whose first bead it is. For a segment table (relaxed_table.SegmentTable, uniform R) the kernel is
@@ -16,6 +16,11 @@ so that iterating the map with the kernel counts each effect once. Points are in
 log P_{c-1} per j (clamped at the ends). Sum_j G_j(P) is the derivative of the uniform map in the
 varied quantity (tests/models/test_relaxed_kernel.py checks it). The map uses the kernel's shares
 G_j / sum_j G_j (``weights``). Runs are cached like the table's.
+
+The onset (the ONSET steps after the bare entry) is not translation invariant and its pulse has not
+relaxed, so it has a kernel of its own (``onset_kernel``): the first and second derivatives of its
+log ratios in the coefficients of beads first_perturbed + 0..ONSET_BEADS-1, from runs with one bead
+(+-ONSET_DELTA) or two beads (+ONSET_DELTA each) bumped, at the entry peak of the base run.
 """
 
 from __future__ import annotations
@@ -25,12 +30,22 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from pulsemap.solvers.models.relaxed_table import ONSET, SegmentTable, cached_segment
+from pulsemap.symbolic import cache
+from pulsemap.solvers.models.relaxed_table import (
+    NAMESPACE,
+    ONSET,
+    SegmentTable,
+    cached_segment,
+    lattice_amplitude,
+    segment_peaks,
+)
 
 J_MIN, J_MAX = -4, 2  # the kernel's span in beads (behind the contact's first bead .. ahead of it)
 BUMP_BEAD = ONSET + J_MAX  # the bumped bead, after first_perturbed: steps ONSET+1.. see j = J_MAX, J_MAX-1, ..
 SLOPE_STEP = 1e-3  # half-step in log P of the bulk map's slope d log r / d log P
 DELTA = 0.02  # relative change of R on the bumped bead (a one-sided difference: the kernel's shares to O(DELTA))
+ONSET_BEADS = ONSET + J_MAX  # beads first_perturbed + 0.. the onset kernel spans (the last onset step's window)
+ONSET_DELTA = 0.1  # bump of the onset kernel's runs (second differences: larger than DELTA)
 
 
 @dataclass
@@ -40,6 +55,7 @@ class KernelTable:
     table: SegmentTable
     param: str = ""  # "": R's scale on the bead; else the parameter the kernel is of
     runs: dict = field(default_factory=dict)  # lattice j -> peaks of the bumped run
+    onset_runs: dict = field(default_factory=dict)  # lattice j -> its onset kernel (H, H2), or None
     _fits: dict | None = None
 
     def step(self) -> tuple[float, float]:
@@ -51,7 +67,7 @@ class KernelTable:
 
     def _bumped(self, j: int) -> list[float]:
         if j not in self.runs:
-            self.runs[j] = cached_segment(replace(self.table.spec, bump=(BUMP_BEAD, self.step()[0], self.param)), j)
+            self.runs[j] = cached_segment(replace(self.table.spec, bump=((BUMP_BEAD, self.step()[0], self.param),)), j)
             self._fits = None
         return self.runs[j]
 
@@ -94,8 +110,79 @@ class KernelTable:
                 out[i] = float(np.interp(log_p, x, y))
         return out
 
-    def weights(self, log_p: float) -> np.ndarray | None:
-        """G_j / sum_j G_j at log P: the share of each neighbour in the step (None: no kernel measured)."""
-        g = self.kernel(log_p)
-        total = float(g.sum())
-        return None if total == 0.0 or not np.isfinite(total) else g / total
+    def onset_kernel(self, log_p0: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """(H, H2) of the onset steps after entry at log P_0 = log_p0: the first and second derivatives
+        of log(P_k/P_{k-1}), k = 1..ONSET (last axis), in the relative change of R (or the change of
+        the parameter) on beads first_perturbed + b, b = 0..ONSET_BEADS-1 (H[b, k-1], H2[b, b', k-1]).
+        Measured by segment runs with one or two beads bumped by ONSET_DELTA (central differences
+        on the diagonal, one-sided off it) at the two lattice runs around log_p0, linear in log P_0
+        between them (clamped at the ends). The onset is not translation invariant (beads before the
+        entry are bare) and its pulse has not relaxed, so the bulk kernel does not hold there.
+        None: no lattice run lives through the onset, or a bumped run dies within it."""
+        runs = sorted((math.log(p[0]), lat) for lat, p in self.table.runs.items() if len(p) > ONSET)
+        if not runs:
+            return None
+        xs = [x for x, _ in runs]
+        i = int(np.searchsorted(xs, log_p0))
+        (x0, j0), (x1, j1) = runs[min(max(i - 1, 0), len(runs) - 1)], runs[min(i, len(runs) - 1)]
+        t = 0.0 if x1 == x0 else min(max((log_p0 - x0) / (x1 - x0), 0.0), 1.0)
+        a, b = self._onset_at(j0), self._onset_at(j1)
+        if a is None or b is None:
+            return None
+        return (1.0 - t) * a[0] + t * b[0], (1.0 - t) * a[1] + t * b[1]
+
+    def onset_step(self) -> float:
+        """The bump of the onset kernel's runs: a relative change of R, or a change of the parameter."""
+        return ONSET_DELTA if not self.param else ONSET_DELTA * max(abs(dict(self.table.spec.params)[self.param]), 0.1)
+
+    def _onset_at(self, lat: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """(H, H2) of lattice run ``lat`` (onset_kernel), or None when a bumped run dies within the onset."""
+        if lat not in self.onset_runs:
+            d, p0 = self.onset_step(), math.log(self.table.runs[lat][0])
+            splines = [spline for _, _, spline in self.table.onset()]
+            if any(spline is None for spline in splines):
+                self.onset_runs[lat] = None
+                return None
+            slope = np.array([float(spline(p0, 1)) for spline in splines])  # d log r_k / d log P_0
+
+            def logr(p: list[float]) -> np.ndarray | None:
+                """A run's onset log ratios at the base run's entry peak (a bump moves P_0 a little, which the
+                onset table carries by itself: taken off to first order)."""
+                p = np.asarray(p)
+                return np.log(p[1:ONSET + 1] / p[:ONSET]) - slope * (math.log(p[0]) - p0) if len(p) > ONSET else None
+
+            runs = [logr(p) for p in self._onset_peaks(lat)]
+            if any(v is None for v in runs) or logr(self.table.runs[lat]) is None:
+                self.onset_runs[lat] = None
+                return None
+            f0, it = logr(self.table.runs[lat]), iter(runs)
+            up, down = [next(it) for _ in range(ONSET_BEADS)], [next(it) for _ in range(ONSET_BEADS)]
+            h = np.array([(u - w) / (2.0 * d) for u, w in zip(up, down)])
+            h2 = np.zeros((ONSET_BEADS, ONSET_BEADS, ONSET))
+            for b in range(ONSET_BEADS):
+                h2[b, b] = (up[b] + down[b] - 2.0 * f0) / d ** 2
+                for c in range(b + 1, ONSET_BEADS):
+                    h2[b, c] = h2[c, b] = (next(it) - up[b] - up[c] + f0) / d ** 2
+            self.onset_runs[lat] = (h, h2)
+        return self.onset_runs[lat]
+
+    def onset_bumps(self) -> list[tuple[tuple[int, float, str], ...]]:
+        """The bumps of one lattice point's onset kernel runs: +d and -d on each bead, then +d on each pair."""
+        d, name = self.onset_step(), self.param
+        pairs = [((b, d, name), (c, d, name)) for b in range(ONSET_BEADS) for c in range(b + 1, ONSET_BEADS)]
+        return [((b, d, name),) for b in range(ONSET_BEADS)] + [((b, -d, name),) for b in range(ONSET_BEADS)] + pairs
+
+    def _onset_peaks(self, lat: int) -> list[list[float]]:
+        """Peaks of the onset kernel's runs at lattice point ``lat`` (onset_bumps order), through the on-disk
+        cache as one entry: one write per lattice point, not one per run (each write is synced to disk)."""
+        bumps = self.onset_bumps()
+        spec = self.table.spec
+        key = f"{spec.key(lat)}|onset-kernel|" + ";".join(
+            ",".join(f"fp+{b}:{name or 'R'}:{x!r}" for b, x, name in bump) for bump in bumps)
+        hit = cache.load(NAMESPACE, key)
+        if (isinstance(hit, list) and len(hit) == len(bumps)
+                and all(isinstance(p, list) and all(isinstance(v, float) for v in p) for p in hit)):
+            return hit
+        peaks = [segment_peaks(replace(spec, bump=bump), lattice_amplitude(lat)) for bump in bumps]
+        cache.store(NAMESPACE, key, peaks)
+        return peaks

@@ -45,9 +45,9 @@ class SegmentSpec:
     engine and method are the ones ``simulate`` chooses for the force: the compiled engine, Rodas4
     where stiff, the scipy engine for a non-smooth R); the moving window is sized for
     ``window_accuracy``. atol is rtol/100 times the amplitude's scales. ``bump``: () for the uniform
-    chain, or (bead, delta, name): on bead first_perturbed + bead alone, R multiplied by 1 + delta
-    (name "") or parameter ``name`` raised by delta (the runs a response kernel is measured from,
-    solvers/models/relaxed_kernel.py).
+    chain, or ((bead, delta, name), ...): on each bead first_perturbed + bead, R multiplied by
+    1 + delta (name "") or parameter ``name`` raised by delta (the runs a response kernel is
+    measured from, solvers/models/relaxed_kernel.py).
     """
 
     R: str
@@ -72,7 +72,8 @@ class SegmentSpec:
                 f"|A=2^({j}/{LATTICE})|centre={centre}|fp={fp}|contacts={entry}..{entry + CONTACTS}"
                 f"|death={DEATH}|rtol={self.rtol!r}|atol=rtol/100*scale|dns=simulate-auto"
                 f"|window={self.window_accuracy!r}:{self.window_rule()}"
-                + (f"|bump=bead fp+{self.bump[0]}:{self.bump[2] or 'R'}:{self.bump[1]!r}" if self.bump else ""))
+                + ("|bump=" + ";".join(f"bead fp+{b}:{name or 'R'}:{d!r}" for b, d, name in self.bump)
+                   if self.bump else ""))
 
     def window_rule(self) -> str:
         """The segment runs' window geometry (window.rule_for_accuracy: the cache key follows its calibration)."""
@@ -110,10 +111,9 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     centre, fp, entry = spec.geometry()
     beads = entry + CONTACTS + 12
     eps, values = np.full(beads, float(spec.eps)), dict(spec.params)
-    if spec.bump:
-        bead, delta, name = spec.bump
+    for bead, delta, name in spec.bump:
         if name:
-            values[name] = np.full(beads, values[name])
+            values[name] = np.full(beads, values[name]) if np.ndim(values[name]) == 0 else values[name]
             values[name][fp - 1 + bead] += delta
         else:
             eps[fp - 1 + bead] *= 1.0 + delta
