@@ -130,8 +130,8 @@ def _import(name: str, path: Path):
 
 def build(method: str, form: str, name: str, path: Path) -> None:
     """Compile ``run`` of kernel ``method`` for force ``form`` into the extension module ``path``
-    (numba.pycc, for this CPU), in a private temporary folder renamed into place; raises on failure
-    with the compiler's output."""
+    (numba.pycc, for this CPU), in a private temporary folder renamed into place, with one line on
+    stderr before the wait; raises on failure with the compiler's output."""
     import contextlib
     import io
     import shutil
@@ -146,7 +146,9 @@ def build(method: str, form: str, name: str, path: Path) -> None:
     out_fd, err_fd = os.dup(1), os.dup(2)
     try:
         tempfile.tempdir = work  # pycc's build folder: inside ours, removed with it
-        cc = CC(name)
+        cc = CC(name)  # raises here when there is no C compiler
+        print(f"pulsemap: compiling the chain kernels ({method}, {form} force) ahead of time, once per machine: "
+              f"~{BUILD_ESTIMATE_S} s", file=sys.stderr, flush=True)
         cc.output_dir, cc.output_file, cc.target_cpu, cc.verbose = work, path.name, "host", False
         if isinstance(getattr(cc, "_extra_cflags", None), dict):  # numba's C runtime: halves the C compile
             cc._extra_cflags = {"posix": QUICK_CFLAGS}
@@ -180,7 +182,7 @@ def kernel(method: str, args: tuple):
     """The ahead-of-time ``run`` of kernel ``method`` for the arguments ``args`` and the seconds it
     took to build or load it, or (None, 0.0) when there is none (generated numba force, build failed,
     cache not writable): the caller then takes numba's JIT kernel. Builds the module at its first use
-    on this machine, with one line on stderr before the wait."""
+    on this machine (build)."""
     form = form_of(args)
     if form is None or method not in KERNELS:
         return None, 0.0
@@ -198,15 +200,14 @@ def kernel(method: str, args: tuple):
         except ImportError:  # a damaged file: the JIT kernel serves, a new build replaces it
             run = None
     if run is None and not failed.exists() and writable(where):
-        print(f"pulsemap: compiling the chain kernels ({method}, {form} force) ahead of time, once per machine: "
-              f"~{BUILD_ESTIMATE_S} s", file=sys.stderr, flush=True)
         try:
             build(method, form, name, path)
             run = _import(name, path)
         except Exception as exc:  # noqa: BLE001 - any build failure: the JIT kernels serve
             why = str(exc).strip() or type(exc).__name__
-            print(f"pulsemap: note: the ahead-of-time kernel could not be built ({why.splitlines()[0]}); numba's "
-                  f"JIT kernels serve instead (slower start). Reason in {failed}: delete it to try again.",
+            short = why.splitlines()[0].split(". ")[0]
+            print(f"pulsemap: note: the ahead-of-time kernel could not be built ({short}); numba's JIT kernels "
+                  f"serve instead (slower start). Reason in {failed}: delete it to try again.",
                   file=sys.stderr, flush=True)
             try:
                 failed.write_text(why + "\n", encoding="utf-8")
