@@ -41,7 +41,8 @@ SOURCES = ("compiled_ops.py", "compiled_track.py", "compiled_kernel.py", "compil
 #: ``run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef)``'s types (compiled.kernel_args),
 #: per form of ``coef``.
 SIGNATURE = "i8(f8[::1], f8[::1], f8[::1], i8[::1], f8[::1], i8[::1], f8[::1], f8[::1], f8[::1], f8[::1], i8[:, ::1], {})"
-FORMS = {3: ("dense", "f8[:, :, ::1]"), 2: ("table", "f8[:, ::1]")}
+COEF_TYPES = {"dense": "f8[:, :, ::1]", "table": "f8[:, ::1]"}
+FORM_OF_NDIM = {3: "dense", 2: "table"}  # coef (2, 4, L): the dense cubics; (M, L): the table
 INTEGER_ARGS = (3, 5, 10)  # st, ci, exps: int64; every other argument float64
 #: CPU seconds an ahead-of-time build of one kernel takes on one core, rounded (benchmarks/bench_first_run.py).
 BUILD_ESTIMATE_S = 6
@@ -71,13 +72,13 @@ def form_of(args: tuple) -> str | None:
     """The force form of the kernel arguments ``args`` ("dense" or "table"), or None when no
     ahead-of-time kernel takes them (a generated numba force, or an array of another type or layout)."""
     exps, coef = args[-2], args[-1]
-    if not isinstance(exps, np.ndarray) or not isinstance(coef, np.ndarray) or coef.ndim not in FORMS:
+    if not isinstance(exps, np.ndarray) or not isinstance(coef, np.ndarray) or coef.ndim not in FORM_OF_NDIM:
         return None
     for i, a in enumerate(args):
         want = np.int64 if i in INTEGER_ARGS else np.float64
         if not isinstance(a, np.ndarray) or a.dtype != want or not a.flags.c_contiguous:
             return None
-    return FORMS[coef.ndim][0] if exps.ndim == 2 else None
+    return FORM_OF_NDIM[coef.ndim] if exps.ndim == 2 else None
 
 
 def _cpu() -> bytes:
@@ -152,7 +153,7 @@ def build(method: str, form: str, name: str, path: Path) -> None:
         cc.output_dir, cc.output_file, cc.target_cpu, cc.verbose = work, path.name, "host", False
         if isinstance(getattr(cc, "_extra_cflags", None), dict):  # numba's C runtime: halves the C compile
             cc._extra_cflags = {"posix": QUICK_CFLAGS}
-        cc.export("run", SIGNATURE.format(FORMS[3 if form == "dense" else 2][1]))(kernel.py_func)
+        cc.export("run", SIGNATURE.format(COEF_TYPES[form]))(kernel.py_func)
         with open(Path(work) / "compiler.log", "w+") as sink, contextlib.redirect_stdout(log), \
                 contextlib.redirect_stderr(log), warnings.catch_warnings():
             warnings.simplefilter("ignore")
