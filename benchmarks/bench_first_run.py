@@ -1,14 +1,16 @@
-"""First call of each compiled DNS kernel: cold (empty numba cache: JIT compile) against warm (loaded
-from numba's cache), each in a fresh Python process.
+"""First call of each compiled DNS kernel: cold (empty kernel cache: the ahead-of-time build of
+chain/compiled_aot.py, or numba's JIT compile for a generated force) against warm (the built module
+or numba's cache loaded), each in a fresh Python process.
 
 Run: python benchmarks/bench_first_run.py [--repeats K]
 
 For each case, one child process with an empty NUMBA_CACHE_DIR (and an empty pulsemap cache whose
 generated modules are copied in once, so no derivation is timed), then K more children with the
 same, now filled, cache. Each child imports pulsemap, builds the scene's force and calls
-``simulate`` once, then prints the DNSResult's ``compile_s`` (the kernel's compile or cache load,
-chain/jit.ready) and ``wall_time_s`` (the integration alone). Printed per case: cold compile_s,
-warm compile_s (best of K), their ratio, the integration time and the child's import time; then
+``simulate`` once, then prints the DNSResult's ``compile_s`` (the kernel's build, compile or load:
+chain/compiled.kernel_for) and ``wall_time_s`` (the integration alone). Printed per case: cold
+compile_s, warm compile_s (best of K), their ratio, the integration time, the child's import time
+and which kernel the warm child ran (ahead-of-time: numba never imported; JIT); then
 the whole ``pulsemap run default --methods dns`` process, cold and warm (wall and CPU seconds of
 the child: on a shared machine read the CPU column).
 """
@@ -51,7 +53,8 @@ c0 = time.process_time()
 res = simulate(beads, sc.exponent, sc.velocity, span, force, window="auto", **kwargs)
 cpu = time.process_time() - c0
 print(json.dumps({"import_s": t_import, "compile_s": res.compile_s, "dns_s": res.wall_time_s, "cpu_s": cpu,
-                  "method": res.method, "reason": res.engine_reason}))
+                  "method": res.method, "reason": res.engine_reason,
+                  "path": "JIT" if "numba" in sys.modules else "ahead-of-time"}))
 """
 
 
@@ -75,22 +78,25 @@ def main() -> None:
         gen_cache = Path(tmp) / "pulsemap"  # generated modules: made once, shared by every child
         print("compile_s: the kernel's compile (cold) or cache load (warm), wall; CPU: the whole simulate call's "
               "CPU seconds (compile or load + integration), the column to read on a shared machine")
+        print("process CPU: the whole child's, with the C compiler it ran (an ahead-of-time build)")
         print(f"{'case':36s} {'cold s':>8s} {'warm s':>8s} {'cold/warm':>9s} {'cold CPU':>8s} {'warm CPU':>8s} "
-              f"{'dns s':>8s} {'import s':>8s}  kernel")
+              f"{'process CPU cold':>16s} {'warm':>6s} {'dns s':>8s} {'import s':>8s}  kernel")
         for i, (label, (scene, overrides, kwargs)) in enumerate(CASES.items()):
             env = {**base, "PULSEMAP_CACHE_DIR": str(gen_cache), "NUMBA_CACHE_DIR": str(Path(tmp) / f"numba{i}")}
             arg = json.dumps([scene, overrides, kwargs])
             runs = []
             for _ in range(1 + opts.repeats):
-                out, err, _, _ = child([sys.executable, "-c", CHILD, arg], env)
-                runs.append((json.loads(out.strip().splitlines()[-1]), err))
+                out, err, _, process_cpu = child([sys.executable, "-c", CHILD, arg], env)
+                runs.append(({**json.loads(out.strip().splitlines()[-1]), "process_cpu_s": process_cpu}, err))
             (cold, cold_err), warm = runs[0], [r for r, _ in runs[1:]]
             w = min(r["compile_s"] for r in warm)
             noted = "compiling the chain kernels" in cold_err and not any("compiling" in e for _, e in runs[1:])
             print(f"{label:36s} {cold['compile_s']:8.2f} {w:8.3f} {cold['compile_s'] / w:9.0f} "
                   f"{cold['cpu_s']:8.2f} {min(r['cpu_s'] for r in warm):8.3f} "
+                  f"{cold['process_cpu_s']:16.2f} {min(r['process_cpu_s'] for r in warm):6.2f} "
                   f"{min(r['dns_s'] for r in warm):8.4f} {min(r['import_s'] for r in warm):8.2f}  "
-                  f"{cold['method']}{'' if noted else '  (compile note missing or repeated!)'}", flush=True)
+                  f"{cold['method']} {warm[0]['path']}{'' if noted else '  (compile note missing or repeated!)'}",
+                  flush=True)
 
         exe = Path(sys.executable).with_name("pulsemap")
         env = {**base, "PULSEMAP_CACHE_DIR": str(Path(tmp) / "whole")}

@@ -10,10 +10,14 @@ On vdp-mu3-v2.3 and fig8-eps0.1 (paper Eq. 1 with R = -(u - mu (1 - u^2) v) and 
 2. whole processes, warm: ``pulsemap run SCENE --methods dns`` against the careful user's scipy script
    as its own process (solvers/studies/bench/reference_script.py written out with numpy and scipy only:
    vectorised full-chain DOP853, grid peaks refined by brentq on the dense output) at the loosest rtol
-   of 1e-6, 1e-7, 1e-8 whose peaks are within 1e-6 of the DNS's; best of P, wall and CPU time
-   (the CPU time is what to read on a shared machine), with the share of imports and of sympy/scipy;
-3. cold vs warm: the CLI process with an empty pulsemap cache directory (scene records and generated
-   modules; numba's kernel cache is wherever NUMBA_CACHE_DIR says) against the warm one.
+   of 1e-6, 1e-7, 1e-8 whose peaks are within 1e-6 of the DNS's; best of P, wall and CPU time (both
+   with their bytecode cached, as installed packages have it: PYTHONPYCACHEPREFIX, a temporary folder)
+   (the CPU time is what to read on a shared machine), with the share of imports, which of
+   numba/scipy/sympy the process loaded (none: the ahead-of-time kernel, chain/compiled_aot.py) and
+   where its CPU time goes (cProfile, one run);
+3. cold vs warm: the CLI process with an empty pulsemap cache directory (scene records, generated
+   modules and, unless NUMBA_CACHE_DIR says otherwise, the kernels: the ahead-of-time build) against
+   the warm one.
 """
 
 from __future__ import annotations
@@ -141,13 +145,43 @@ def import_shares(cmd: list[str], env: dict) -> dict:
     return {k: round(share.get(k, 0.0), 3) for k in ("numba", "scipy", "llvmlite", "sympy", "mpmath", "numpy", "pulsemap")}
 
 
+PROFILE = """import cProfile, json, pstats, sys, time
+t0 = time.perf_counter()
+from pulsemap.solvers.cli.main import main
+imports = time.perf_counter() - t0
+sys.argv = ["pulsemap"] + sys.argv[1:]
+p = cProfile.Profile()
+p.enable()
+try:
+    main()
+except SystemExit:
+    pass
+p.disable()
+stats = pstats.Stats(p).stats
+cum = lambda name: max([v[3] for k, v in stats.items() if k[2] == name] or [0.0])
+print(json.dumps({"import cli": imports, "main": cum("main"), "kernel load": cum("kernel_for"),
+                  "integration": cum("drive"), "run_dns": cum("run_dns")}), file=sys.stderr)
+"""
+
+
+def profile_shares(cmd: list[str], env: dict) -> dict:
+    """Seconds of one CLI process: importing the CLI, then under cProfile its ``main``, of which the
+    kernel's load (compiled.kernel_for), the integration (compiled.drive) and the whole DNS step
+    (run_dns); profiling inflates each a little."""
+    err = subprocess.run([sys.executable, "-c", PROFILE, *cmd[1:]], env=env, capture_output=True, text=True,
+                         check=True).stderr
+    return {k: round(v, 3) for k, v in json.loads(err.strip().splitlines()[-1]).items()}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=30)
-    ap.add_argument("--processes", type=int, default=3)
+    ap.add_argument("--processes", type=int, default=5)
     ap.add_argument("--script-rtol", type=float, default=None)
     args = ap.parse_args()
-    env = dict(os.environ)
+    # children cache their bytecode (outside the source tree) as an installed package has it compiled
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env.setdefault("PYTHONPYCACHEPREFIX", str(Path(tempfile.gettempdir()) / "pulsemap-bench-pycache"))
     print(f"pulsemap {pulsemap.__version__}, cache {env.get('PULSEMAP_CACHE_DIR', '(default)')}")
     print("\n1. in-process, warm: pulsemap.run(scene, methods=('dns',)) over its DNS (target <= 1.25)")
     for name in SCENES:
@@ -169,9 +203,10 @@ def main() -> None:
             imported = subprocess.run(
                 [sys.executable, "-c", "import sys, runpy; sys.argv = ['pulsemap'] + sys.argv[1:]; "
                  "from pulsemap.solvers.cli.main import main\ntry:\n    main()\nexcept SystemExit:\n    pass\n"
-                 "print(sorted(m for m in ('sympy', 'scipy', 'scipy.integrate', 'scipy.linalg') if m in sys.modules), "
+                 "print(sorted(m for m in ('numba', 'sympy', 'scipy', 'scipy.integrate', 'scipy.linalg') if m in sys.modules), "
                  "file=sys.stderr)", *cli[1:]], env=env, capture_output=True, text=True).stderr.strip().splitlines()[-1]
-            print(f"  {'':14s} loaded in the pulsemap process: {imported} (scipy.linalg: numba's own import)")
+            print(f"  {'':14s} loaded in the pulsemap process: {imported}")
+            print(f"  {'':14s} where the process's time goes: {profile_shares(cli, env)}")
         print("\n3. cold (empty pulsemap cache) vs warm CLI process")
         for name in SCENES:
             cli = [PULSEMAP, "run", name, "--methods", "dns", "--quiet"]

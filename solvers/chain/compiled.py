@@ -28,6 +28,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from pulsemap.solvers.chain import compiled_aot
+from pulsemap.solvers.chain import compiled_layout as K
 from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, ForceNotFinite, energy
 from pulsemap.solvers.chain.force_table import JitForce, MonomialTable
 from pulsemap.solvers.chain.peaks import (PeakTracker, StopRules, contact_rate, first_threshold, primary_pulse_lost,
@@ -43,7 +45,6 @@ PAUSE_STEPS = 20_000  # accepted steps between progress checks (~2-20 ms of kern
 
 def _reason(code: int, track: PeakTracker, fs: Array, st: Array, t_max: float, max_steps: int, method: str) -> str:
     """The stop message PeakTracker gives for the kernel's code (same wording as the scipy engines)."""
-    from pulsemap.solvers.chain import compiled_track as K
     t = float(fs[K.T])
     if code == K.DIED:
         k = int(st[K.DIED_AT])
@@ -98,8 +99,6 @@ def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, i
     scale) the exact solitary wave with contact launch.centre at its peak, the window holding every
     bead it moves and contacts up to the centre counted as peaked; ``stop``: the stop rules with t_max
     and max_steps given; ``method``: the kernel (RK45, DOP853 or compiled_stiff.METHOD)."""
-    from pulsemap.solvers.chain import compiled_track as K  # numba: only when the engine runs
-
     first, last = int(contacts[0]), int(contacts[1])
     peak_fraction, death_fraction, overtake_factor = stop.peak_fraction, stop.death_fraction, stop.overtake_factor
     stall_factor, t_max, max_steps = stop.stall_factor, float(stop.t_max), int(stop.max_steps)
@@ -136,7 +135,7 @@ def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, i
                 np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f, method)
 
 
-def kernel_for(method: str):
+def jit_kernel(method: str):
     """The numba dispatcher of a kernel (its module imported, so compiled or loaded, only when a run needs it)."""
     if method == METHOD:
         from pulsemap.solvers.chain.compiled_kernel import run as kernel
@@ -147,20 +146,32 @@ def kernel_for(method: str):
     return kernel
 
 
+def kernel_for(run: _Run, aot: bool = True) -> tuple:
+    """The kernel that integrates ``run`` and the seconds it took to build or load it: the
+    ahead-of-time module (compiled_aot.py) when one serves, else numba's JIT kernel (``aot=False``:
+    always numba's). Both are compiled from the same functions and give the same numbers."""
+    args = kernel_args(run)
+    if aot:
+        kernel, seconds = compiled_aot.kernel(run.method, args)
+        if kernel is not None:
+            return kernel, seconds
+    from pulsemap.solvers.chain.jit import ready
+
+    kernel = jit_kernel(run.method)
+    return kernel, ready(kernel, args)
+
+
 def kernel_args(run: _Run) -> tuple:
     """The kernel's arguments for ``run`` (compiled_kernel.run's order)."""
     return (run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e, run.total_e,
             *run.table.kernel_args)
 
 
-def drive(run: _Run, code: int | None = None, report=None) -> int:
-    """Run the kernel until a stop rule fires (``code``: the kernel's last answer, if it ran already),
+def drive(run: _Run, kernel, code: int | None = None, report=None) -> int:
+    """Run ``kernel`` (kernel_for's) until a stop rule fires (``code``: its last answer, if it ran already),
     growing the window's buffer whenever it asks for room. With ``report`` (a dns_progress.DNSProgress)
     the kernel pauses every PAUSE_STEPS accepted steps so the reporter can print its line; a pause
     changes no number (the kernel's state is complete between calls)."""
-    from pulsemap.solvers.chain import compiled_track as K
-
-    kernel = kernel_for(run.method)
     if report is not None and report.enabled:
         run.ci[K.PAUSE_EVERY] = PAUSE_STEPS
     while True:
@@ -183,8 +194,6 @@ def drive(run: _Run, code: int | None = None, report=None) -> int:
 
 def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSResult:
     """The DNSResult of a finished run, with PeakTracker's stop message for the kernel's code."""
-    from pulsemap.solvers.chain import compiled_track as K
-
     cf, st, fs = run.cf, run.st, run.fs
     track = PeakTracker(run.first, run.last, float(cf[K.PEAK_FRAC]), float(cf[K.DEATH_FRAC]),
                         float(cf[K.OVERTAKE]), float(cf[K.STALL_FAC]), run.peaks, run.times,
@@ -211,14 +220,12 @@ def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tu
     """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it; ``settings``:
     rule, rtol, atol, stop, method, launch: prepare's).
     ``progress``: a line on stderr at most every 5 s (dns_progress.DNSProgress), as the scipy engines."""
-    from pulsemap.solvers.chain import compiled_track as K
     from pulsemap.solvers.chain.dns_progress import DNSProgress
-    from pulsemap.solvers.chain.jit import ready
 
     run = prepare(beads, exponent, velocity, contacts, table, **settings)
-    compile_s = ready(kernel_for(run.method), kernel_args(run))
+    kernel, compile_s = kernel_for(run)
     wall0 = _time.perf_counter()
-    code = drive(run, report=DNSProgress("dns", run.last, enabled=progress) if progress else None)
+    code = drive(run, kernel, report=DNSProgress("dns", run.last, enabled=progress) if progress else None)
     if code == K.NONFINITE:  # dns.simulate locates the bead from the failed step's start (lo, y, f, h)
         lo, w = int(run.st[K.LO]), int(run.st[K.HI] - run.st[K.LO])
         raise ForceNotFinite(None, math.nan, math.nan, math.nan, t=float(run.fs[K.T]),

@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(method="DOP853")), not the default.
 """
 
-# numba cache stamp: 72c0e0acbb270e5b
+# numba cache stamp: 22f4e9d078bfc2f5
 from __future__ import annotations
 
 import numpy as np
@@ -26,9 +26,8 @@ from pulsemap.solvers.chain.jit import njit
 
 from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, rhs
-from pulsemap.solvers.chain.compiled_track import (
-    ATOL, CAPACITY, EXP, H, NFEV, NONFINITE, REJECTED, RTOL, T,
-    finish_step, next_step, peak_in_step, track_step, window_now)
+from pulsemap.solvers.chain.compiled_layout import ATOL, CAPACITY, EXP, H, NFEV, NONFINITE, REJECTED, RTOL, T
+from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_in_step, track_step, window_now
 
 METHOD = "DOP853"
 SAFE, FAC1, FAC2 = 0.9, 0.333, 6.0  # dop853.f's defaults (BETA = 0: no PI term)

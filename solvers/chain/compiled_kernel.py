@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: 72c0e0acbb270e5b
+# numba cache stamp: 22f4e9d078bfc2f5
 from __future__ import annotations
 
 import numpy as np
@@ -24,9 +24,10 @@ from pulsemap.solvers.chain.jit import njit
 from pulsemap.solvers.chain.compiled_ops import (
     A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65, A71, A73, A74, A75, A76, BETA, C2, C3,
     C4, C5, E1, E3, E4, E5, E6, E7, FAC_MAX, FAC_MIN, NO_NRT, SAFE, dopri_dense, rhs)
-from pulsemap.solvers.chain.compiled_track import (
+from pulsemap.solvers.chain.compiled_layout import (
     ATOL, BEADS, CAPACITY, EXP, FACOLD, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, NONFINITE, REJECTED, RTOL,
-    STARTED, T, T_MAXC, finish_step, next_step, peak_in_step, track_step, window_now)
+    STARTED, T, T_MAXC)
+from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_in_step, track_step, window_now
 
 
 @njit(**NO_NRT)

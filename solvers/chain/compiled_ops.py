@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 72c0e0acbb270e5b
+# numba cache stamp: 22f4e9d078bfc2f5
 from __future__ import annotations
 
 import numpy as np

@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 72c0e0acbb270e5b
+# numba cache stamp: 22f4e9d078bfc2f5
 from __future__ import annotations
 
 import numpy as np
@@ -27,9 +27,8 @@ from pulsemap.solvers.chain.jit import njit
 from pulsemap.solvers.chain.compiled_force import onsite_slopes
 from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, _pow, hermite_dense, rhs
-from pulsemap.solvers.chain.compiled_track import (
-    ATOL, CAPACITY, EXP, H, NFEV, NJEV, NONFINITE, REJECTED, RTOL, T,
-    finish_step, next_step, peak_in_step, track_step, window_now)
+from pulsemap.solvers.chain.compiled_layout import ATOL, CAPACITY, EXP, H, NFEV, NJEV, NONFINITE, REJECTED, RTOL, T
+from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_in_step, track_step, window_now
 
 METHOD = "Rodas4"  # plan.STIFF_METHOD
 ORDER = 4  # of the step (the embedded one: 3); the dense output is a cubic Hermite (order 3)

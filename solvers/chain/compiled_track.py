@@ -14,33 +14,21 @@ DOPRI5 fills rc0..rc3 from its stages (order 4); rc3 = 0 is the cubic Hermite in
 (y0, f0, y1, f1) (order 3), which the Rosenbrock kernel uses (compiled_ops.dopri_dense, hermite_dense);
 DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 
-Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
+Array layouts (fs, st, cf, ci) and return codes: compiled_layout.py.
 """
 
-# numba cache stamp: 72c0e0acbb270e5b
+# numba cache stamp: 22f4e9d078bfc2f5
 from __future__ import annotations
 
 import numpy as np
 from pulsemap.solvers.chain.jit import njit
 
+from pulsemap.solvers.chain.compiled_layout import (
+    LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM, PAUSED, T, H, LEFT_X, LEFT_V, LEFT_T, E0,
+    E_GONE, DRIFT, THRESH, LAST_PEAK_T, STALL, E_LAST, LO, HI, NEXT, STEPS, NFEV, HAS_LEFT, DIED_AT, WIDEST, SHIFTS,
+    LOST, EXP, T_MAXC, SCALE_X, SCALE_V, AHEAD_THR, PEAK_FRAC, DEATH_FRAC, OVERTAKE, STALL_FAC, E_LIMIT, DELAY_FAC,
+    BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY, PAUSE_EVERY)
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, _pow, pulse_lost, rhs, segment_energy, window_energy
-
-# --- return codes of a kernel's run (solvers/chain/compiled.py turns them into PeakTracker's messages)
-LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM, PAUSED, NONFINITE = 1, 2, 3, 4, 5, 6, 7, 8, 9, 10
-
-# --- float state fs[...] (resumable between calls)
-T, H, FACOLD, LEFT_X, LEFT_V, LEFT_T, E0, E_GONE, DRIFT, THRESH, LAST_PEAK_T, STALL, E_LAST = range(13)
-N_FS = 13
-# --- int state st[...]
-LO, HI, NEXT, STEPS, NFEV, HAS_LEFT, REJECTED, DIED_AT, WIDEST, SHIFTS, STARTED, LOST, NJEV = range(13)
-N_ST = 13  # NJEV: Jacobians (the stiff kernel's)
-# --- float config cf[...]
-EXP, RTOL, ATOL, T_MAXC, SCALE_X, SCALE_V, AHEAD_THR, PEAK_FRAC, DEATH_FRAC, OVERTAKE, STALL_FAC, E_LIMIT, \
-    DELAY_FAC = range(13)
-N_CF = 13
-# --- int config ci[...]
-BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY, PAUSE_EVERY = range(9)
-N_CI = 9  # PAUSE_EVERY: return PAUSED after every this many accepted steps (0: never), for progress lines
 
 
 @njit(**NO_NRT)

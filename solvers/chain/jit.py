@@ -23,33 +23,19 @@ from pathlib import Path
 import numba
 from numba import cfunc, njit, prange, types  # noqa: F401  (the decorators every kernel module uses)
 
+from pulsemap.solvers.chain.compiled_aot import numba_cache_dir, writable
 from pulsemap.symbolic.cache import cache_root
 
-SUBFOLDER = "numba"
 #: Seconds a cold compile of one chain kernel takes on one core, rounded (benchmarks/bench_first_run.py).
 COMPILE_ESTIMATE_S = 20
 _announced = False  # the compile note is printed once per process
-
-
-def numba_cache_dir(configured: str, root: Path) -> Path:
-    """Where numba caches the kernels: ``configured`` (numba's CACHE_DIR as the user set it) if not
-    empty, else ``root``/numba (``root``: the pulsemap cache root)."""
-    return Path(configured).expanduser() if configured else Path(root) / SUBFOLDER
-
-
-def _writable(path: Path) -> bool:
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError:
-        return False
-    return os.access(path, os.W_OK)
 
 
 def configure() -> Path:
     """Set numba.config.CACHE_DIR (module docstring) and return it; called once, at import."""
     user_set = bool(numba.config.CACHE_DIR)
     path = numba_cache_dir(numba.config.CACHE_DIR, cache_root())
-    if not user_set and not _writable(path):
+    if not user_set and not writable(path):
         fallback = Path(tempfile.gettempdir()) / f"pulsemap-numba-{os.getuid() if hasattr(os, 'getuid') else 0}"
         print(f"pulsemap: note: cannot write {path}: numba's kernels cache to {fallback} "
               "(set PULSEMAP_CACHE_DIR to a writable folder)", file=sys.stderr, flush=True)

@@ -218,13 +218,13 @@ def test_progress_lines_pause_the_kernel_without_changing_a_number(monkeypatch, 
     method = plan.STIFF_METHOD if stiff else plan.METHOD
     kw = dict(rule=rule_of_window(), rtol=1e-8, atol=1e-10, stop=StopRules(t_max=1e4, max_steps=10**6), method=method)
     plain = compiled.prepare(beads, 1.5, 1.0, span, table, **kw)
-    code_plain = compiled.drive(plain)
+    code_plain = compiled.drive(plain, compiled.kernel_for(plain)[0])
     monkeypatch.setattr(compiled, "PAUSE_STEPS", 50)
     lines: list[str] = []
     paused = compiled.prepare(beads, 1.5, 1.0, span, table, **kw)
-    code_paused = compiled.drive(paused, report=DNSProgress("dns", paused.last, every=0.0, sink=lines.append))
+    code_paused = compiled.drive(paused, compiled.kernel_for(paused)[0], report=DNSProgress("dns", paused.last, every=0.0, sink=lines.append))
     assert code_paused == code_plain
-    steps = int(plain.st[3])  # compiled_track.STEPS
+    steps = int(plain.st[3])  # compiled_layout.STEPS
     assert len(lines) == steps // 50 and all(line.startswith("[dns] contact ") for line in lines)
     assert f"compiled {method}" in lines[-1]
     for name in ("peaks", "times", "pulse_e", "total_e", "st", "fs"):

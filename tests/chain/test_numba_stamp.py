@@ -16,7 +16,7 @@ from pathlib import Path
 CHAIN = Path(__file__).resolve().parents[2] / "solvers" / "chain"
 #: The files whose numba functions call or inline each other (the compiled engine).
 FILES = ("compiled_ops.py", "compiled_track.py", "compiled_kernel.py", "compiled_stiff.py", "compiled_force.py",
-         "compiled_dop853.py")
+         "compiled_dop853.py", "compiled_layout.py")
 STAMP = re.compile(r"^# numba cache stamp: ([0-9a-f]+)\n", re.M)
 
 

@@ -1,0 +1,225 @@
+"""The chain kernels ahead of time: each kernel of paper Eq. 1's compiled DNS, for a monomial-table force,
+built once per machine by numba.pycc into a plain extension module that loads without numba.
+
+    x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + sum_m c_m[i] x_i^(a_m) v_i^(b_m)     (paper Eq. 1)
+
+A warm process then neither imports numba (and the scipy.linalg numba imports) nor loads numba's cache:
+the module imports in about a millisecond. One module per kernel (RK45, DOP853, Rodas4) and force form
+(``dense``: the cubics P_0(u) + v P_1(u); ``table``: the general monomial table), built only when a run
+needs it, from the same Python functions as the numba JIT kernels and for this CPU, so both give the
+same numbers. Its name holds a hash of the kernels' source files, numba's and numpy's versions, the
+Python ABI and the CPU, so an edit, an upgrade or another machine sharing the cache builds a new one.
+
+The modules live in the ``aot`` subfolder of numba's kernel cache (kernel_cache_dir: ``NUMBA_CACHE_DIR``
+or the ``numba`` subfolder of the pulsemap cache), built in a private temporary folder and renamed into
+place, so concurrent first runs are safe. A build that fails (no C compiler) prints one note, leaves a
+``.failed`` file with the reason (not retried: delete it after installing a compiler) and the run
+takes numba's JIT kernels (solvers/chain/jit.py), as does a generated numba force (JitForce).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.util
+import os
+import sys
+import sysconfig
+import tempfile
+import time
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from pulsemap.symbolic.cache import cache_root
+
+#: The kernel module of each method (its ``run`` is what a module exports).
+KERNELS = {"RK45": "compiled_kernel", "DOP853": "compiled_dop853", "Rodas4": "compiled_stiff"}
+#: The files the kernels are compiled from (tests/chain/test_numba_stamp.py's list).
+SOURCES = ("compiled_ops.py", "compiled_track.py", "compiled_kernel.py", "compiled_stiff.py", "compiled_force.py",
+           "compiled_dop853.py", "compiled_layout.py")
+#: ``run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef)``'s types (compiled.kernel_args),
+#: per form of ``coef``.
+SIGNATURE = "i8(f8[::1], f8[::1], f8[::1], i8[::1], f8[::1], i8[::1], f8[::1], f8[::1], f8[::1], f8[::1], i8[:, ::1], {})"
+COEF_TYPES = {"dense": "f8[:, :, ::1]", "table": "f8[:, ::1]"}
+FORM_OF_NDIM = {3: "dense", 2: "table"}  # coef (2, 4, L): the dense cubics; (M, L): the table
+INTEGER_ARGS = (3, 5, 10)  # st, ci, exps: int64; every other argument float64
+#: CPU seconds an ahead-of-time build of one kernel takes on one core, rounded (benchmarks/bench_first_run.py).
+BUILD_ESTIMATE_S = 6
+#: C flags of numba's runtime support code in a module (the kernel itself is LLVM's: they change no
+#: number): unoptimised, no debug information, half the C compile time.
+QUICK_CFLAGS = ["-O0", "-g0"]
+SUBFOLDER = "numba"  # of the pulsemap cache, when numba is given no folder
+_loaded: dict[str, object] = {}  # module name -> its run (None: not available in this process)
+
+
+def numba_cache_dir(configured: str, root: Path) -> Path:
+    """Where the compiled kernels are cached: ``configured`` (numba's CACHE_DIR as the user set it) if
+    not empty, else ``root``/numba (``root``: the pulsemap cache root)."""
+    return Path(configured).expanduser() if configured else Path(root) / SUBFOLDER
+
+
+def writable(path: Path) -> bool:
+    """Whether ``path`` exists or can be created, and can be written."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return False
+    return os.access(path, os.W_OK)
+
+
+def form_of(args: tuple) -> str | None:
+    """The force form of the kernel arguments ``args`` ("dense" or "table"), or None when no
+    ahead-of-time kernel takes them (a generated numba force, or an array of another type or layout)."""
+    exps, coef = args[-2], args[-1]
+    if not isinstance(exps, np.ndarray) or not isinstance(coef, np.ndarray) or coef.ndim not in FORM_OF_NDIM:
+        return None
+    for i, a in enumerate(args):
+        want = np.int64 if i in INTEGER_ARGS else np.float64
+        if not isinstance(a, np.ndarray) or a.dtype != want or not a.flags.c_contiguous:
+            return None
+    return FORM_OF_NDIM[coef.ndim] if exps.ndim == 2 else None
+
+
+def _cpu() -> bytes:
+    """This machine's CPU as LLVM sees it: /proc/cpuinfo's model and flags where there is one (no
+    LLVM load), else llvmlite's host CPU name and features."""
+    try:
+        lines = Path("/proc/cpuinfo").read_text(errors="replace").splitlines()
+        keep = [ln for ln in lines if ln.startswith(("model name", "flags", "Features", "CPU part"))]
+        if keep:
+            return "\n".join(dict.fromkeys(keep)).encode()
+    except OSError:
+        pass
+    from llvmlite import binding
+
+    return f"{binding.get_host_cpu_name()} {binding.get_host_cpu_features().flatten()}".encode()
+
+
+def _numba_version() -> bytes:
+    """numba's version file, read without importing numba."""
+    spec = importlib.util.find_spec("numba")
+    folder = Path(spec.origin).parent if spec and spec.origin else None
+    try:
+        return (folder / "_version.py").read_bytes() if folder else b""
+    except OSError:
+        return b""
+
+
+@lru_cache(maxsize=1)  # once per process: reading and hashing takes ~0.3 ms, a tenth of a short run
+def _digest() -> str:
+    """The hash of what the modules are built from and for (module docstring)."""
+    digest = hashlib.sha256()
+    here = Path(__file__).parent
+    for name in SOURCES:
+        digest.update((here / name).read_bytes())
+    for part in (_numba_version(), np.__version__.encode(), sys.version.encode(), _cpu()):
+        digest.update(part)
+    return digest.hexdigest()[:16]
+
+
+def module_name(method: str, form: str) -> str:
+    """The extension module's name for kernel ``method`` and force ``form``."""
+    return f"pulsemap_{method.lower()}_{form}_{_digest()}"
+
+
+def folder() -> Path:
+    """The folder of the ahead-of-time modules: ``aot`` in numba's kernel cache (module docstring)."""
+    return numba_cache_dir(os.environ.get("NUMBA_CACHE_DIR", ""), cache_root()) / "aot"
+
+
+def _import(name: str, path: Path):
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.run
+
+
+def build(method: str, form: str, name: str, path: Path) -> None:
+    """Compile ``run`` of kernel ``method`` for force ``form`` into the extension module ``path``
+    (numba.pycc, for this CPU), in a private temporary folder renamed into place, with one line on
+    stderr before the wait; raises on failure with the compiler's output."""
+    import contextlib
+    import io
+    import shutil
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # numba.pycc is deprecated (still in numba 0.68)
+        from numba.pycc import CC
+    kernel = importlib.import_module(f"pulsemap.solvers.chain.{KERNELS[method]}").run
+    work = tempfile.mkdtemp(prefix=f".{name}-", dir=path.parent)
+    saved_tmp, log = tempfile.tempdir, io.StringIO()
+    out_fd, err_fd = os.dup(1), os.dup(2)
+    try:
+        tempfile.tempdir = work  # pycc's build folder: inside ours, removed with it
+        cc = CC(name)  # raises here when there is no C compiler
+        print(f"pulsemap: compiling the chain kernels ({method}, {form} force) ahead of time, once per machine: "
+              f"~{BUILD_ESTIMATE_S} s", file=sys.stderr, flush=True)
+        cc.output_dir, cc.output_file, cc.target_cpu, cc.verbose = work, path.name, "host", False
+        if isinstance(getattr(cc, "_extra_cflags", None), dict):  # numba's C runtime: halves the C compile
+            cc._extra_cflags = {"posix": QUICK_CFLAGS}
+        cc.export("run", SIGNATURE.format(COEF_TYPES[form]))(kernel.py_func)
+        with open(Path(work) / "compiler.log", "w+") as sink, contextlib.redirect_stdout(log), \
+                contextlib.redirect_stderr(log), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os.dup2(sink.fileno(), 1)  # the C compiler's own output (a subprocess) goes to the log
+            os.dup2(sink.fileno(), 2)
+            try:
+                cc.compile()
+            except Exception as exc:
+                os.dup2(out_fd, 1)
+                os.dup2(err_fd, 2)
+                sink.seek(0)
+                said = (log.getvalue() + sink.read()).strip().splitlines()[-3:]
+                raise RuntimeError(f"{type(exc).__name__}: {exc}" + "".join(f"\n  {s}" for s in said)) from exc
+        os.replace(Path(work) / path.name, path)
+    finally:
+        os.dup2(out_fd, 1)
+        os.dup2(err_fd, 2)
+        os.close(out_fd)
+        os.close(err_fd)
+        tempfile.tempdir = saved_tmp
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def kernel(method: str, args: tuple):
+    """The ahead-of-time ``run`` of kernel ``method`` for the arguments ``args`` and the seconds it
+    took to build or load it, or (None, 0.0) when there is none (generated numba force, build failed,
+    cache not writable): the caller then takes numba's JIT kernel. Builds the module at its first use
+    on this machine (build)."""
+    form = form_of(args)
+    if form is None or method not in KERNELS:
+        return None, 0.0
+    name = module_name(method, form)
+    if name in _loaded:
+        return _loaded[name], 0.0
+    start = time.perf_counter()
+    where = folder()
+    path = where / f"{name}{sysconfig.get_config_var('EXT_SUFFIX') or '.so'}"
+    failed = path.with_name(f"{name}.failed")
+    run = None
+    if path.exists():
+        try:
+            run = _import(name, path)
+        except ImportError:  # a damaged file: the JIT kernel serves, a new build replaces it
+            run = None
+    if run is None and not failed.exists() and writable(where):
+        try:
+            build(method, form, name, path)
+            run = _import(name, path)
+        except Exception as exc:  # noqa: BLE001 - any build failure: the JIT kernels serve
+            why = str(exc).strip() or type(exc).__name__
+            short = why.splitlines()[0].split(". ")[0]
+            print(f"pulsemap: note: the ahead-of-time kernel could not be built ({short}); numba's JIT kernels "
+                  f"serve instead (slower start). Reason in {failed}: delete it to try again.",
+                  file=sys.stderr, flush=True)
+            try:
+                failed.write_text(why + "\n", encoding="utf-8")
+            except OSError:
+                pass
+    _loaded[name] = run
+    return run, (time.perf_counter() - start) if run is not None else 0.0

@@ -1,0 +1,202 @@
+"""The ahead-of-time chain kernels (solvers/chain/compiled_aot.py): taken whenever a monomial-table
+force runs, equal bit for bit to numba's JIT kernels compiled from the same functions, a failed
+build falls back to the JIT kernels with one note, concurrent first builds are safe, and a warm CLI
+run imports neither numba nor scipy."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pulsemap
+from pulsemap.solvers.chain import compiled, compiled_aot, plan
+from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.force_table import JitForce, MonomialTable
+from pulsemap.solvers.chain.peaks import StopRules
+from pulsemap.solvers.chain.window import rule_for_accuracy
+from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.run import make_force
+
+STATE = ("peaks", "times", "pulse_e", "total_e", "st", "fs", "y")
+
+
+def _run_both(name: str, method: str, **overrides):
+    """The scene's DNS state after the ahead-of-time kernel and after numba's JIT kernel: (kernel, code, run) each."""
+    scene = pulsemap.scene(name, **overrides)
+    beads, span = dns_span(scene)
+    table = make_force(scene, beads).monomials
+    kw = dict(rule=rule_for_accuracy(1e-8), rtol=1e-8, atol=1e-10, stop=StopRules(t_max=1e4, max_steps=10**6),
+              method=method)
+    out = []
+    for aot in (True, False):
+        run = compiled.prepare(beads, scene.exponent, scene.velocity, span, table, **kw)
+        kernel, _ = compiled.kernel_for(run, aot=aot)
+        out.append((kernel, compiled.drive(run, kernel), run))
+    return out
+
+
+@pytest.mark.parametrize("name, method, overrides, form", [
+    ("vdp-mu3-v2.3", plan.METHOD, {}, "dense"),
+    ("fig8-eps0.1", plan.METHOD, {}, "dense"),
+    ("fig8-eps0.1", plan.METHOD, {"perturbation.R": "-mu*v**3"}, "table"),
+    ("fig8-eps0.1", plan.HIGH_ORDER_METHOD, {}, "dense"),
+    ("fig8-eps0.1", plan.STIFF_METHOD, {"perturbation.params.mu": 10000.0}, "dense"),
+])
+def test_the_ahead_of_time_kernel_is_taken_and_equals_the_jit_kernel_bit_for_bit(name, method, overrides, form):
+    (fast, code_fast, a), (slow, code_slow, b) = _run_both(name, method, **overrides)
+    assert compiled_aot.form_of(compiled.kernel_args(a)) == form
+    module = sys.modules[compiled_aot.module_name(method, form)]
+    assert fast is module.run and Path(module.__file__).parent == compiled_aot.folder()
+    assert type(slow).__module__.startswith("numba")  # the comparison ran numba's dispatcher
+    assert code_fast == code_slow and int(a.st[4]) > 100  # compiled_layout.NFEV: a real integration
+    assert np.isfinite(a.peaks).sum() >= 5
+    for field in STATE:
+        assert np.array_equal(getattr(a, field), getattr(b, field), equal_nan=True), field
+
+
+def test_a_run_with_no_force_takes_the_table_kernel_and_equals_the_jit_run():
+    first = simulate(40, 1.5, 1.0, (5, 30), window="auto")
+    run = compiled.prepare(40, 1.5, 1.0, (5, 30), None, rule=None, rtol=1e-8, atol=1e-10,
+                           stop=StopRules(t_max=1e4, max_steps=10**6))
+    assert compiled_aot.form_of(compiled.kernel_args(run)) == "table"
+    assert compiled_aot.kernel(plan.METHOD, compiled.kernel_args(run))[0] is not None
+    assert first.engine == "compiled" and np.isfinite(first.peaks).all()
+
+
+def test_form_of_takes_only_what_the_compiled_signatures_accept():
+    y = np.zeros(8)
+    ints = np.zeros(4, dtype=np.int64)
+    base = (y, y, y, ints, y, ints, y, y, y, y)
+    exps = np.zeros((2, 2), dtype=np.int64)
+    assert compiled_aot.form_of(base + (exps, np.zeros((2, 4, 3)))) == "dense"
+    assert compiled_aot.form_of(base + (exps, np.zeros((2, 3)))) == "table"
+    assert compiled_aot.form_of(base + (exps, np.zeros((3, 2)).T)) is None  # not C-contiguous
+    assert compiled_aot.form_of(base + (exps, np.zeros((2, 3), dtype=np.float32))) is None
+    assert compiled_aot.form_of(base + (exps.astype(np.int32), np.zeros((2, 3)))) is None
+    jit_force = JitForce((None, None, None), np.zeros((1, 2)))
+    assert compiled_aot.form_of(base + jit_force.kernel_args) is None
+    assert compiled_aot.kernel(plan.METHOD, base + jit_force.kernel_args) == (None, 0.0)
+
+
+def test_the_module_name_follows_kernel_form_and_cpu(monkeypatch):
+    name = compiled_aot.module_name("RK45", "dense")
+    assert name.startswith("pulsemap_rk45_dense_") and name == compiled_aot.module_name("RK45", "dense")
+    assert compiled_aot.module_name("RK45", "table") != name
+    monkeypatch.setattr(compiled_aot, "_cpu", lambda: b"another machine")
+    compiled_aot._digest.cache_clear()
+    try:
+        assert compiled_aot.module_name("RK45", "dense") != name
+    finally:
+        monkeypatch.undo()
+        compiled_aot._digest.cache_clear()
+    assert compiled_aot.module_name("RK45", "dense") == name
+
+
+def _damped():
+    """A compiled run of a damped 40-bead chain (R = -0.1 v: the dense form)."""
+    return compiled.simulate_compiled(40, 1.5, 1.0, (5, 30), MonomialTable.of([[0, 1]], [[-0.1]]), rule=None,
+                                      rtol=1e-8, atol=1e-10, stop=StopRules(t_max=1e4, max_steps=10**6))
+
+
+FAILING_CC = """#!/bin/sh
+case "$*" in *temp.c*) exec gcc "$@";; esac
+echo "fake compiler: cannot compile $*" >&2
+exit 1
+"""
+
+
+@pytest.mark.parametrize("compiler", ["missing", "failing"])
+def test_a_failed_build_says_so_once_and_the_jit_kernel_serves(tmp_path, monkeypatch, capsys, compiler):
+    """No C compiler (found missing before any work), or one that passes numba's check and then fails
+    (its output kept out of the terminal): one note, the reason on disk, nothing else left, and the
+    JIT kernel runs."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # numba.pycc is pending deprecation
+        from numba.pycc import platform
+
+    aot = tmp_path / "aot"
+    monkeypatch.setattr(compiled_aot, "folder", lambda: aot)
+    monkeypatch.setattr(compiled_aot, "_loaded", {})
+    cc = tmp_path / "cc"
+    if compiler == "failing":
+        cc.write_text(FAILING_CC)
+        cc.chmod(0o755)
+    monkeypatch.setenv("CC", str(cc))  # distutils' C compiler
+    platform.external_compiler_works.cache_clear()  # numba checks the compiler once per process
+    try:
+        got = _damped()
+    finally:
+        platform.external_compiler_works.cache_clear()
+    err = capsys.readouterr().err
+    assert err.count("could not be built") == 1 and "JIT kernels serve instead" in err
+    assert err.count("ahead of time") == (1 if compiler == "failing" else 0)  # the wait was announced
+    assert [p.name for p in aot.iterdir()] == [f"{compiled_aot.module_name(plan.METHOD, 'dense')}.failed"]
+    assert ("fake compiler: cannot compile" if compiler == "failing" else "without the compiler") in \
+        next(aot.iterdir()).read_text()
+    print("stdout still works")
+    assert capsys.readouterr().out == "stdout still works\n"
+
+    monkeypatch.setattr(compiled_aot, "_loaded", {})  # a new process: the failure is remembered, not retried
+    monkeypatch.setattr(compiled_aot, "build", lambda *a: pytest.fail("rebuilt after a recorded failure"))
+    again = _damped()
+    assert capsys.readouterr().err == ""
+    assert np.array_equal(got.peaks, again.peaks) and np.isfinite(got.peaks).all()
+    monkeypatch.undo()
+    fast = _damped()  # the machine's ahead-of-time kernel
+    assert np.array_equal(fast.peaks, got.peaks) and np.array_equal(fast.peak_times, got.peak_times)
+
+
+CONCURRENT = r"""
+import json, sys
+from pathlib import Path
+from pulsemap.solvers.chain import compiled_aot
+compiled_aot.folder = lambda: Path(sys.argv[1])
+from pulsemap.solvers.chain.compiled import simulate_compiled
+from pulsemap.solvers.chain.force_table import MonomialTable
+from pulsemap.solvers.chain.peaks import StopRules
+res = simulate_compiled(40, 1.5, 1.0, (5, 30), MonomialTable.of([[0, 1]], [[-0.1]]), rule=None, rtol=1e-8,
+                        atol=1e-10, stop=StopRules(t_max=1e4, max_steps=10**6))
+print(json.dumps([float(p) for p in res.peaks]))
+"""
+
+
+@pytest.mark.process
+def test_concurrent_first_builds_install_one_module_atomically(tmp_path):
+    aot = tmp_path / "aot"
+    procs = [subprocess.Popen([sys.executable, "-c", CONCURRENT, str(aot)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    outs = [p.communicate(timeout=600) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [e[-2000:] for _, e in outs]
+    assert any("ahead of time" in e for _, e in outs)
+    peaks = [json.loads(o) for o, _ in outs]
+    assert peaks[0] == peaks[1] and len(peaks[0]) > 10
+    files = [p.name for p in aot.iterdir()]  # one module, no temporary folder left
+    assert len(files) == 1 and files[0].startswith(compiled_aot.module_name(plan.METHOD, "dense") + ".")
+
+
+WARM = r"""
+import sys
+sys.argv = ["pulsemap", "run", "fig8-eps0.1", "--methods", "dns", "--quiet"]
+from pulsemap.solvers.cli.main import main
+try:
+    main()
+except SystemExit:
+    pass
+print(sorted(m for m in ("numba", "scipy", "sympy", "llvmlite") if m in sys.modules), file=sys.stderr)
+"""
+
+
+@pytest.mark.process
+def test_a_warm_cli_run_imports_neither_numba_nor_scipy():
+    cmd = [sys.executable, "-c", WARM]
+    subprocess.run(cmd, capture_output=True, text=True, check=True, env=os.environ.copy())  # warm the caches
+    warm = subprocess.run(cmd, capture_output=True, text=True, check=True, env=os.environ.copy())
+    assert warm.stderr.strip().splitlines()[-1] == "[]", warm.stderr[-2000:]
+    assert "contact" in warm.stdout and "dns" in warm.stdout
