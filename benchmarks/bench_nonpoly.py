@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bench import best_of
 from pulsemap.solvers.studies.points import dns_span
@@ -33,13 +33,14 @@ CASES = (("-mu*sin(u)", 1.0), ("-mu*v/(1+v^2)", 1.0), ("-mu*sin(u)*exp(-v^2)", 1
 ONE_RUN = """
 import sys, time
 t0 = time.process_time()
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force
 scene = load_scene("fig8-eps0.1").with_overrides(R=sys.argv[1], params={"mu": 1.0})
 beads, span = dns_span(scene)
-res = simulate(beads, scene.exponent, scene.velocity, span, make_force(scene, beads), window="auto", rtol=1e-8)
+res = simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span, window="auto",
+               integrator=Integrator(rtol=1e-8))
 assert res.engine == "compiled", res.engine_reason
 print(time.process_time() - t0)
 """
@@ -61,7 +62,8 @@ def engines(repeats: int) -> None:
         def run(**kw):
             def timed():
                 t0 = time.perf_counter()
-                res = simulate(beads, scene.exponent, scene.velocity, span, force, window="auto", **kw)
+                res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span,
+                               integrator=Integrator(**kw), window="auto")
                 return res, time.perf_counter() - t0
             return timed
 

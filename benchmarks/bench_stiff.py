@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bench import best_of
 from pulsemap.solvers.studies.points import dns_span
@@ -42,12 +42,12 @@ RTOLS = (1e-6, 1e-8)
 COLD = """
 import time
 t0 = time.process_time()
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.force_table import MonomialTable
 table = MonomialTable.of([[0, 1]], [[0.0] * 15 + [-1000.0]])
 force = OnSiteForce(lambda x, v: 0 * v, stiffness_hint=1000.0, monomials=table)
-res = simulate(40, 1.5, 1.0, (1, 20), force, window="auto", rtol=1e-6, atol=1e-8)
+res = simulate(Chain(40, 1.5, 1.0, force), (1, 20), window="auto", integrator=Integrator(rtol=1e-6, atol=1e-8))
 assert res.method == "Rodas4", res.engine_reason
 print(time.process_time() - t0)
 """
@@ -77,8 +77,8 @@ def engines(repeats: int) -> None:
         span = (1, scene.first_perturbed + 20)
 
         def run(**kw):
-            return lambda: timed(lambda: simulate(beads, scene.exponent, scene.velocity, span, force, window="auto",
-                                                  **kw))
+            return lambda: timed(lambda: simulate(Chain(beads, scene.exponent, scene.velocity, force), span,
+                                                  integrator=Integrator(**kw), window="auto"))
 
         ref = run(engine="scipy", method="Radau", rtol=1e-11, atol=1e-13)()[0]
         for rtol in RTOLS:

@@ -16,7 +16,7 @@ import pytest
 
 from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain import compiled_dop853 as dop
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force
@@ -26,10 +26,11 @@ COMPILED = dict(method="DOP853", rtol=1e-11, atol=1e-13, window=WindowSpec(accur
 REFERENCE = dict(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window=WindowSpec(accuracy=1e-8))
 
 
-def scene_run(name: str, **kw):
+def scene_run(name: str, window=None, **kw):
     scene = load_scene(name)
     beads, span = dns_span(scene)
-    return simulate(beads, scene.exponent, scene.velocity, span, make_force(scene, beads), **kw)
+    return simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span,
+                    integrator=Integrator(**kw), window=window)
 
 
 def rel(a, b) -> float:
@@ -97,11 +98,13 @@ def test_paper_scenes_agree_with_scipy(name):
 def test_energy_conserved_without_perturbation():
     """R = 0: kinetic + contact energy is conserved (full chain and window), and less so at a loose rtol."""
     for window in (None, "auto"):
-        res = simulate(200, 1.5, 1.0, (1, 190), method="DOP853", rtol=1e-10, atol=1e-12, window=window)
+        res = simulate(Chain(200, 1.5, 1.0), (1, 190),
+                       integrator=Integrator(method="DOP853", rtol=1e-10, atol=1e-12), window=window)
         assert res.engine == "compiled" and res.method == "DOP853" and res.stop_reason == "last contact peaked"
         assert 0.0 < res.energy_drift < 1e-8
         assert np.max(np.abs(res.total_energy / res.energy_initial - 1.0)) < 1e-8
-    loose = simulate(200, 1.5, 1.0, (1, 190), method="DOP853", rtol=1e-5, atol=1e-7, window="auto")
+    loose = simulate(Chain(200, 1.5, 1.0), (1, 190),
+                     integrator=Integrator(method="DOP853", rtol=1e-5, atol=1e-7), window="auto")
     assert loose.energy_drift > 10 * res.energy_drift
 
 

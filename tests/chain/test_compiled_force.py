@@ -13,7 +13,7 @@ import pytest
 
 from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain.force_table import MonomialTable
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force
@@ -84,9 +84,9 @@ def test_general_table_runs_agree_with_scipy():
     beads, span = dns_span(scene)
     force = make_force(scene, beads)
     assert force.monomials.kernel_args[1].ndim == 2 and force.monomials.describe == "monomial table"
-    args = (beads, scene.exponent, scene.velocity, (span[0], min(span[1], 60)), force)
-    fast = simulate(*args, rtol=1e-10, atol=1e-12, window=WindowSpec(accuracy=1e-8))
-    ref = simulate(*args, engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13,
+    args = (Chain(beads, scene.exponent, scene.velocity, force), (span[0], min(span[1], 60)))
+    fast = simulate(*args, integrator=Integrator(rtol=1e-10, atol=1e-12), window=WindowSpec(accuracy=1e-8))
+    ref = simulate(*args, integrator=Integrator(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13),
                    window=WindowSpec(accuracy=1e-8))
     assert fast.engine == "compiled" and np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 10
     assert fast.engine_reason.endswith(", monomial table")

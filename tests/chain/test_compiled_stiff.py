@@ -14,7 +14,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from pulsemap.solvers.chain.force_table import MonomialTable
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force
@@ -31,7 +31,7 @@ def rel(a, b) -> float:
     return float(np.max(np.abs(np.asarray(a) / np.asarray(b) - 1.0)))
 
 
-def stiff_run(name: str, stiffer: bool = False, **kw):
+def stiff_run(name: str, stiffer: bool = False, window=None, **kw):
     """The scene's chain and force from contact 1 (the unperturbed approach is integrated by the
     stiff method too) to 20 past the first perturbed bead: the strong on-site force kills the pulse.
     ``stiffer``: eps raised so that 'auto' takes Rodas4 on the compiled engine (STIFFER)."""
@@ -39,8 +39,8 @@ def stiff_run(name: str, stiffer: bool = False, **kw):
     if stiffer and STIFFER[name]:
         scene = scene.with_overrides(**STIFFER[name])
     beads, _ = dns_span(scene)
-    return simulate(beads, scene.exponent, scene.velocity, (1, scene.first_perturbed + 20), make_force(scene, beads),
-                    **kw)
+    return simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), (1, scene.first_perturbed + 20),
+                    integrator=Integrator(**kw), window=window)
 
 
 @pytest.mark.parametrize("stiffer", [False, pytest.param(True, marks=pytest.mark.slow)], ids=["suite", "stiffer"])

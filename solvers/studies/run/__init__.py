@@ -22,7 +22,8 @@ from typing import Sequence
 
 from pulsemap.symbolic.provenance import provenance
 from pulsemap.solvers import __version__
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.front import Snapshots
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene, SceneError, check_choice
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import make_force
@@ -121,14 +122,11 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
-        res = simulate(
-            beads, scene.exponent, scene.velocity, span, force,
-            method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
-            atol=float(scene.dns.get("atol", 1e-12)), progress=progress,
-            engine=scene.dns.get("engine", "compiled"),
-            snapshots=[c for c in state.snapshots if span[0] <= c <= span[1]],
-            window=dns_window_of(scene, dns_window),
-        )
+        integrator = Integrator(method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
+                                atol=float(scene.dns.get("atol", 1e-12)), engine=scene.dns.get("engine", "compiled"))
+        res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, integrator=integrator,
+                       snapshots=Snapshots([c for c in state.snapshots if span[0] <= c <= span[1]]),
+                       progress=progress, window=dns_window_of(scene, dns_window))
     except ArithmeticError as exc:  # the compiled force divided by zero or overflowed
         raise RunError(_force_failure(pert, exc)) from None
     state.timings["dns_compile"] = res.compile_s  # numba compiling or loading the kernel, apart from integrating
