@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from pulsemap.solvers.chain.jit import njit
 
-from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, _pow, pulse_lost, rhs, segment_energy, window_energy
+from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, pos_pow, pulse_lost, rhs, segment_energy, window_energy
 
 # --- return codes of a kernel's run (solvers/chain/compiled.py turns them into PeakTracker's messages)
 LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM, PAUSED = 1, 2, 3, 4, 5, 6, 7, 8, 9
@@ -221,7 +221,7 @@ def add_ahead(y, f, w, st, cf, ci):
         y[2 * w + 1] = 0.0
         f[2 * w] = 0.0
         d = y[2 * w - 2]
-        f[2 * w + 1] = _pow(d, cf[EXP]) if d > 0.0 else 0.0
+        f[2 * w + 1] = pos_pow(d, cf[EXP]) if d > 0.0 else 0.0
         st[HI] += 1
         w += 1
     if w > st[WIDEST]:

@@ -18,13 +18,13 @@ from typing import Callable, NoReturn, Sequence
 from pulsemap.solvers.cli.common import (  # noqa: F401 (re-exported: the sub-command modules' helpers)
     SET_HELP,
     UsageError,
-    _stdout_document,
-    call_recovering_numba_cache,
-    _text_to_stderr,
     add_set_option,
+    call_recovering_numba_cache,
     load_scene_with_sets,
     number,
     progress_log,
+    stdout_document,
+    text_to_stderr,
     write_json,
     write_text,
 )
@@ -402,8 +402,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                                       _option_strings(parser)))
         _check_outputs(args)
         func: Callable[[argparse.Namespace], int] = args.func
-        if _stdout_document(args):
-            with _text_to_stderr():
+        if stdout_document(args):
+            with text_to_stderr():
                 return call_recovering_numba_cache(func, args)
         return call_recovering_numba_cache(func, args)
     except BrokenPipeError:  # e.g. piped into `head`
