@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.bench import best_of
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force
@@ -34,10 +34,10 @@ ONE_RUN = """
 import sys, time
 t0 = time.process_time()
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force
-scene = load_scene("fig8-eps0.1").with_overrides(R=sys.argv[1], params={"mu": 1.0})
+scene = with_overrides(load_scene("fig8-eps0.1"), R=sys.argv[1], params={"mu": 1.0})
 beads, span = dns_span(scene)
 res = simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span, window="auto",
                integrator=Integrator(rtol=1e-8))
@@ -55,7 +55,7 @@ def peak_error(res, ref) -> float:
 def engines(repeats: int) -> None:
     print("1. compiled (numba force) vs scipy engine, fig8-eps0.1's chain, moving window")
     for R, mu in CASES:
-        scene = load_scene("fig8-eps0.1").with_overrides(R=R, params={"mu": mu})
+        scene = with_overrides(load_scene("fig8-eps0.1"), R=R, params={"mu": mu})
         beads, span = dns_span(scene)
         force = make_force(scene, beads)
 

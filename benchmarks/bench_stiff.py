@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.bench import best_of
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force, run_scene
@@ -70,7 +70,7 @@ def engines(repeats: int) -> None:
     print("1. the compiled engine's choice under 'auto' (Rodas4 above 300x the contact rate, else Dormand-Prince)\n"
           "   vs the scipy stiff engine (contacts 1 .. first_perturbed + 20, moving window)")
     for name, overrides in STIFF:
-        scene = load_scene(resolve(name)).with_overrides(**overrides)
+        scene = with_overrides(load_scene(resolve(name)), **overrides)
         label = name + "".join(f" {k} {v:g}" for k, v in overrides.items())
         beads, _ = dns_span(scene)
         force = make_force(scene, beads)
@@ -103,7 +103,7 @@ def cold() -> None:
 
 def suite_times(repeats: int) -> None:
     def dns_time(scene, method: str | None = None):
-        s = scene if method is None else scene.with_overrides(dns={"method": method})
+        s = scene if method is None else with_overrides(scene, dns={"method": method})
         out = run_scene(s, methods=["dns"], dns_window="auto")
         return out, out["timings_s"]["dns"]
 

@@ -11,7 +11,7 @@ from conftest import scene_toml, write_scene
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain.dns import IMPLICIT_METHODS, Chain, Integrator, simulate
 from pulsemap.solvers.chain.peaks import IMPLICIT, budget_advice
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.run import run_scene
 
 ALL = ["map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "dns"]
@@ -23,7 +23,7 @@ ALL = ["map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-
                               "unstable foundation"])
 def test_runs_raise_no_runtime_warning(sets, tmp_path):
     scene = load_scene(write_scene(tmp_path, scene_toml("quiet", beads=60, contacts=(16, 50), eps=0.3)))
-    scene = scene.with_overrides(**sets)
+    scene = with_overrides(scene, **sets)
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
         result = run_scene(scene, methods=ALL)

@@ -123,10 +123,11 @@ def cmd_ensemble(args: argparse.Namespace) -> int:
     """``pulsemap ensemble``: M random realisations, map and DNS of each, statistics per contact."""
     from pulsemap.solvers.studies.ensemble import ensemble, plot, to_text
     from pulsemap.solvers.cli.common import load_scene_with_sets
+    from pulsemap.solvers.data.scene import with_overrides
 
     scene = load_scene_with_sets(args.scene, args.sets)
     if args.contacts:
-        scene = scene.with_overrides(contacts=tuple(args.contacts))
+        scene = with_overrides(scene, contacts=tuple(args.contacts))
     with executor_for(args) as (ex, workers):
         report = ensemble(scene, args.realisations, args.seed, profile=args.profile, variant=args.variant,
                           out=args.out, executor=ex, max_workers=workers, progress=not args.quiet,

@@ -19,7 +19,7 @@ from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain.window import rule_for_accuracy
 import pulsemap.solvers.data as data_package
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force, run_scene
 
@@ -138,7 +138,7 @@ def test_engine_selection_and_reasons():
     lsoda = simulate(Chain(beads, 1.5, 1.0, force), short, integrator=Integrator(method="LSODA"))
     assert lsoda.engine == "scipy" and "LSODA has no compiled kernel" in lsoda.engine_reason
     assert "monomial table (dense form" in simulate(Chain(beads, 1.5, 1.0, force), short).engine_reason
-    sine = scene.with_overrides(R="-mu*sin(u)")  # tests/chain/test_compiled_jit.py compares its peaks
+    sine = with_overrides(scene, R="-mu*sin(u)")  # tests/chain/test_compiled_jit.py compares its peaks
     res = simulate(Chain(beads, 1.5, 1.0, make_force(sine, beads)), short)
     assert res.engine == "compiled" and "generated numba function" in res.engine_reason
     with pytest.raises(ValueError, match="engine"):
@@ -154,10 +154,10 @@ def test_stiff_scene_goes_to_the_compiled_rosenbrock_kernel():
 
 
 def test_scene_key_and_run_record_the_engine():
-    scene = load_scene("fig8-eps0.1").with_overrides(contacts=(16, 30), dns={"engine": "scipy"})
+    scene = with_overrides(load_scene("fig8-eps0.1"), contacts=(16, 30), dns={"engine": "scipy"})
     out = run_scene(scene, methods=["dns"])
     assert out["dns"]["engine"] == "scipy" and out["scene"]["dns"]["engine"] == "scipy"
-    fast = run_scene(scene.with_overrides(dns={"engine": "compiled"}), methods=["dns"])
+    fast = run_scene(with_overrides(scene, dns={"engine": "compiled"}), methods=["dns"])
     assert fast["dns"]["engine"] == "compiled"
     got, ref = np.array(fast["peaks"]["dns"], float), np.array(out["peaks"]["dns"], float)
     assert rel(got, ref) < 1e-6
@@ -165,7 +165,7 @@ def test_scene_key_and_run_record_the_engine():
     from pulsemap.solvers.studies.points import dns_task, plain_chain
 
     assert dns_task(plain_chain(scene))["method"] == "DOP853"  # scipy, method 'auto'
-    assert dns_task(plain_chain(scene.with_overrides(dns={"engine": "compiled"})))["method"] == "RK45"
+    assert dns_task(plain_chain(with_overrides(scene, dns={"engine": "compiled"})))["method"] == "RK45"
 
 
 def test_blow_up_and_step_budget_stop_like_scipy():
@@ -190,7 +190,7 @@ def test_monomial_table_is_the_generated_force():
                     ("fig8-eps0.1", "-mu*(1 + i/50)*(v - u)^2*v")):
         scene = load_scene(name)
         if R is not None:
-            scene = scene.with_overrides(R=R)
+            scene = with_overrides(scene, R=R)
         beads = scene.beads or 140
         force = make_force(scene, beads)
         table: MonomialTable = force.monomials

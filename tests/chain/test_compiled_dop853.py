@@ -17,7 +17,7 @@ import pytest
 from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain import compiled_dop853 as dop
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force
 
@@ -124,9 +124,9 @@ def test_a_scene_asking_for_dop853_runs_it_and_says_so():
     record names it; `[dns] engine = "scipy"` still gets the reference engine; the peaks agree."""
     from pulsemap.solvers.studies.run import run_scene
 
-    scene = load_scene("fig8-eps0.1").with_overrides(contacts=(16, 30), dns={"method": "DOP853"})
+    scene = with_overrides(load_scene("fig8-eps0.1"), contacts=(16, 30), dns={"method": "DOP853"})
     fast = run_scene(scene, methods=["dns"])
-    ref = run_scene(scene.with_overrides(dns={"engine": "scipy"}), methods=["dns"])
+    ref = run_scene(with_overrides(scene, dns={"engine": "scipy"}), methods=["dns"])
     assert fast["dns"]["engine"] == "compiled" and fast["dns"]["method"] == "DOP853"
     assert "DOP853" in fast["dns"]["engine_reason"] and ref["dns"]["engine"] == "scipy"
     got, want = np.array(fast["peaks"]["dns"], float), np.array(ref["peaks"]["dns"], float)

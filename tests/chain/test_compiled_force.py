@@ -14,7 +14,7 @@ import pytest
 from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force
 
@@ -80,7 +80,7 @@ def test_dense_form_only_where_it_fits(exponents, dense):
 def test_general_table_runs_agree_with_scipy():
     """An R the dense form cannot hold (u^5 and v^3) runs the monomial loop; its peaks equal the
     independent scipy engine's to 1e-7 on every live contact."""
-    scene = load_scene("fig8-eps0.1").with_overrides(R="-mu*v - 0.5*u^5 - 0.2*v^3")
+    scene = with_overrides(load_scene("fig8-eps0.1"), R="-mu*v - 0.5*u^5 - 0.2*v^3")
     beads, span = dns_span(scene)
     force = make_force(scene, beads)
     assert force.monomials.kernel_args[1].ndim == 2 and force.monomials.describe == "monomial table"

@@ -19,7 +19,7 @@ from pulsemap.symbolic.cache import cache_dir
 from pulsemap.symbolic.codegen import PACKAGE_DIR, regenerate_text
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.equations import make_rhs
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.models.codeload import force_module, jit_force_module
 from pulsemap.solvers.studies.points import dns_span
 from pulsemap.solvers.studies.run import make_force
@@ -34,7 +34,7 @@ def rule_of(reason: str) -> str:
 
 
 def scene_with(R: str, **params):
-    scene = load_scene("fig8-eps0.1").with_overrides(R=R, params=params)
+    scene = with_overrides(load_scene("fig8-eps0.1"), R=R, params=params)
     beads, span = dns_span(scene)
     return scene, beads, span, make_force(scene, beads)
 
@@ -80,7 +80,7 @@ def test_the_compiled_right_hand_side_is_eq1_with_the_numpy_force():
     random parameter equals the scipy engine's (numpy force module) on a random state."""
     from pulsemap.solvers.chain.compiled_ops import rhs
 
-    scene = load_scene("fig13-seed1").with_overrides(R="-k*v/(1+v^2) - 0.3*sin(u)*exp(-i/50)")
+    scene = with_overrides(load_scene("fig13-seed1"), R="-k*v/(1+v^2) - 0.3*sin(u)*exp(-i/50)")
     beads = 60
     force = make_force(scene, beads)
     data = force.jit()

@@ -7,11 +7,11 @@ import pytest
 
 import pulsemap.solvers.studies.run as run_mod
 from pulsemap.solvers.studies.run import run_scene, to_csv
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 
 
 def _small(name, last=40, **kw):
-    return load_scene(name).with_overrides(contacts=(16, last), **kw)
+    return with_overrides(load_scene(name), contacts=(16, last), **kw)
 
 
 def test_run_json_contract_and_seed_from_dns():

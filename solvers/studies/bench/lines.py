@@ -8,6 +8,7 @@ from typing import Callable
 
 import numpy as np
 
+from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.bench.measure import Ladder, Point, best_of, fmt, peak_error, tolerances
 
 __all__ = ["dns_points", "model_points", "reference_run", "script_points", "script_span"]
@@ -18,7 +19,7 @@ def reference_run(scene, rtol: float) -> dict:
     compiled one) at ``rtol``: its result dict."""
     from pulsemap.solvers.studies.run import run_scene
 
-    tuned = scene.with_overrides(dns={**tolerances(scene, rtol), "method": "DOP853", "engine": "scipy"})
+    tuned = with_overrides(scene, dns={**tolerances(scene, rtol), "method": "DOP853", "engine": "scipy"})
     return run_scene(tuned, methods=["dns"])
 
 
