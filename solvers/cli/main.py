@@ -153,6 +153,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------------- run
 def cmd_run(args: argparse.Namespace) -> int:
     """``pulsemap run SCENE``: DNS, map and long-wave peaks per contact, errors, timings."""
+    from pulsemap.solvers.api.checks import run_choices
     from pulsemap.solvers.studies.ranking import add_ranking
     from pulsemap.solvers.studies.run import plot, run_scene, to_csv, to_text
     from pulsemap.solvers.studies.run.report import nothing_ran
@@ -165,7 +166,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.rank and "dns" not in [m.strip() for m in (methods or scene.methods)]:
         raise UsageError("--rank ranks every model against the DNS: add dns to the methods")
     snapshots = _contact_list(args.snapshots, "--snapshots") if args.snapshots else ()
-    result = run_scene(scene, methods=methods, profile=args.profile, variant=args.variant,
+    methods, profile, variant, snapshots = run_choices(scene, methods, args.profile, args.variant, args.seed_peak,
+                                                       snapshots)
+    result = run_scene(scene, methods=methods, profile=profile, variant=variant,
                        progress=not args.quiet, seed_peak=args.seed_peak, snapshots=snapshots)
     why = nothing_ran(result)
     if why:

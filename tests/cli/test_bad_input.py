@@ -336,6 +336,12 @@ def _run_error():
     return RunError
 
 
+def _run_choices(methods=None, seed_peak=None, snapshots=()):
+    from pulsemap.solvers.api.checks import run_choices
+
+    return run_choices(_scene(), methods, None, None, seed_peak, snapshots)
+
+
 def _map_error():
     from pulsemap.solvers.models.map_iteration import MapIterationError
 
@@ -401,13 +407,14 @@ API: list[tuple[str, Callable[[], object], Callable[[], type], list[str]]] = [
     ("scene override: eps inf", lambda: with_overrides(_scene(), eps=math.inf), _scene_error, ["eps", "not finite"]),
     ("scene override: parameter not used", lambda: with_overrides(_scene(), R="-v", params={"mu": 1.0}), _scene_error,
      ["'mu'", "not used"]),
-    ("run: unknown method", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), methods=["mpa"]),
+    ("run: unknown method", lambda: importlib.import_module("pulsemap").run(_scene(), methods=["mpa"]),
      _run_error, ["'mpa'", "did you mean 'map'"]),
-    ("run: no methods", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), methods=[]),
-     _run_error, ["no method to run"]),
-    ("run: seed peak nan", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), seed_peak=math.nan),
-     _run_error, ["seed peak", "finite"]),
-    ("run: unknown profile", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), profile="spline"),
+    ("run: seed peak nan", lambda: _run_choices(seed_peak=math.nan), _run_error, ["seed peak", "finite"]),
+    ("run: snapshot outside the contacts", lambda: _run_choices(methods=["dns"], snapshots=(5,)), _run_error,
+     ["snapshot contact 5", "scene's contacts"]),
+    ("run: snapshots without the DNS", lambda: _run_choices(methods=["map"], snapshots=(20,)), _run_error,
+     ["snapshots are taken by the DNS"]),
+    ("run: unknown profile", lambda: importlib.import_module("pulsemap").run(_scene(), profile="spline"),
      _run_error, ["profile 'spline'"]),
     ("map: seed amplitude negative", lambda: _iterate(-1.0), _map_error, ["seed amplitude", "> 0"]),
     ("map: last contact before seed", lambda: _iterate(1.0, 15, 10), _map_error, ["last contact 10", "seed contact 15"]),
