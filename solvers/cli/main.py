@@ -155,7 +155,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     """``pulsemap run SCENE``: DNS, map and long-wave peaks per contact, errors, timings."""
     from pulsemap.solvers.api.checks import run_choices
     from pulsemap.solvers.studies.ranking import add_ranking
-    from pulsemap.solvers.studies.run import plot, run_scene, to_csv, to_text
+    from pulsemap.solvers.studies.run import run_scene
+    from pulsemap.solvers.studies.run.report import plot, to_csv, to_text
     from pulsemap.solvers.studies.run.report import nothing_ran
 
     scene = load_scene_with_sets(args.scene, args.sets)

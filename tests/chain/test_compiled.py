@@ -21,7 +21,8 @@ from pulsemap.solvers.chain.window import rule_for_accuracy
 import pulsemap.solvers.data as data_package
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force, run_scene
+from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.run import run_scene
 
 PEAK_TOL = 1e-7
 COMPILED = dict(rtol=1e-10, atol=1e-12, window=WindowSpec(accuracy=1e-8))

@@ -197,7 +197,7 @@ def test_exact_stepper_is_the_method_order():
 
 def test_scene_force_is_restricted_to_the_window():
     """run.make_force gives restrict(): windowed scene DNS = full chain, O(window) force calls."""
-    from pulsemap.solvers.studies.run import make_force
+    from pulsemap.solvers.studies.forcing import make_force
     from pulsemap.solvers.data.scene import load_scene
 
     scene = load_scene("fig8-eps0.1")

@@ -331,7 +331,7 @@ def _scene_error():
 
 
 def _run_error():
-    from pulsemap.solvers.studies.run import RunError
+    from pulsemap.solvers.studies.methods import RunError
 
     return RunError
 

@@ -28,7 +28,9 @@ from pulsemap.symbolic.profile import exact_profile
 from pulsemap.symbolic.sources import BALANCE_METHOD as SOURCES_BALANCE_METHOD
 from pulsemap.solvers.models.balance_eval import evaluate_balance_law, iterate_balance_map
 from pulsemap.solvers.models.codeload import balance_module
-from pulsemap.solvers.studies.run import MODELS, run_scene, to_csv
+from pulsemap.solvers.studies.methods import MODELS
+from pulsemap.solvers.studies.run import run_scene
+from pulsemap.solvers.studies.run.report import to_csv
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 
 VDP = "-(u - mu*(1 - u^2)*v)"

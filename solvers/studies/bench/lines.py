@@ -106,16 +106,17 @@ def script_points(scene, contacts: list[int], ref: list, ladder: Ladder,
 
 def model_points(scene, reference: dict, ref: list, ladder: Ladder, log: Callable[[str], None]) -> list[Point]:
     """Every reduced model run.py offers, each profile (and map variant), against the reference."""
-    from pulsemap.solvers.studies import run as run_mod
     from pulsemap.solvers.data.scene import PROFILES, VARIANTS
+    from pulsemap.solvers.studies.methods import MODELS
+    from pulsemap.solvers.studies.run import run_scene
 
     out = []
-    for model in run_mod.MODELS:
+    for model in MODELS:
         for profile in PROFILES:
             for variant in (VARIANTS if model == "map" else (None,)):
                 def run(model=model, profile=profile, variant=variant):
-                    r = run_mod.run_scene(scene, methods=[model], profile=profile,
-                                          variant=variant or scene.variant, reuse_dns=reference)
+                    r = run_scene(scene, methods=[model], profile=profile,
+                                  variant=variant or scene.variant, reuse_dns=reference)
                     return r, float(r["timings_s"].get(model, math.nan))
 
                 try:

@@ -28,38 +28,11 @@ from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import make_force
-from pulsemap.solvers.studies.methods import (
-    BALANCE_METHODS,
-    DRIFT_WARN,
-    EPS_WARN,
-    FORCING_WARN,
-    MODEL_TITLES,
-    MODELS,
-    WIDTH_WARN,
-    Choice,
-    RunError,
-)
+from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
 from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
-from pulsemap.solvers.studies.run.report import plot, to_csv, to_text
 from pulsemap.solvers.studies.run.state import RunState
 
-__all__ = [
-    "BALANCE_METHODS",
-    "DRIFT_WARN",
-    "EPS_WARN",
-    "FORCING_WARN",
-    "MODELS",
-    "MODEL_TITLES",
-    "WIDTH_WARN",
-    "Choice",
-    "RunError",
-    "RunState",
-    "make_force",
-    "plot",
-    "run_scene",
-    "to_csv",
-    "to_text",
-]
+__all__ = ["run_scene"]
 
 
 def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, variant: str | None,
