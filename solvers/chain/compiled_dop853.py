@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: 4ce79f585b950456
+# numba cache stamp: f32d665f7ef84548
 from __future__ import annotations
 
 import numpy as np

@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 4ce79f585b950456
+# numba cache stamp: f32d665f7ef84548
 from __future__ import annotations
 
 from pulsemap.solvers.chain.jit import types

@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 4ce79f585b950456
+# numba cache stamp: f32d665f7ef84548
 from __future__ import annotations
 
 import numpy as np

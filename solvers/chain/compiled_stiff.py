@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 4ce79f585b950456
+# numba cache stamp: f32d665f7ef84548
 from __future__ import annotations
 
 import numpy as np

@@ -17,7 +17,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci: the kernels' resumable state and configuration) are defined here.
 """
 
-# numba cache stamp: 4ce79f585b950456
+# numba cache stamp: f32d665f7ef84548
 from __future__ import annotations
 
 import numpy as np
