@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -17,6 +19,7 @@ from pulsemap.solvers.chain.equations import (
     make_jacobians,
     make_rhs,
 )
+from pulsemap.solvers.chain.front import Snapshots
 from pulsemap.solvers.chain.peaks import scan_step
 
 FIRST_PERTURBED = 16
@@ -413,3 +416,18 @@ def test_run_output_of_an_unstable_scene_has_a_warning_and_no_nan(tmp_path):
         assert any("blow-up" in w for w in out["warnings"])
         json.dumps(out, allow_nan=False)  # raises on NaN/inf anywhere
         assert all(p is None for p in out["peaks"]["dns"][5:])
+
+
+def test_run_specs_are_frozen_values_checked_when_made():
+    """Chain, Integrator and Snapshots normalise what they hold, compare by value and refuse edits."""
+    chain = Chain(np.int64(40), 2, 1)
+    assert type(chain.beads) is int and type(chain.exponent) is float and type(chain.velocity) is float
+    assert chain == Chain(40, 2.0, 1.0) and hash(chain) == hash(Chain(40, 2.0, 1.0))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        chain.beads = 50
+    assert Snapshots([30, 20], span=[1, 2]) == Snapshots((30, 20), (1, 2))
+    assert Integrator() == Integrator("auto", 1e-10, 1e-12, "compiled")
+    with pytest.raises(ValueError, match="unknown engine 'numba'"):
+        Integrator(engine="numba")
+    with pytest.raises(TypeError, match="launch must be"):
+        Chain(40, 1.5, 1.0, launch=(0.7, 8))
