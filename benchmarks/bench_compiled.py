@@ -36,12 +36,12 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bench import Point, cost_at, peak_error
 from pulsemap.solvers.studies.points import dns_span, on_contacts
 from pulsemap.solvers.studies.bench.reference_script import script_peaks
-from pulsemap.solvers.studies.run import make_force
+from pulsemap.solvers.studies.forcing import make_force
 
 TARGET = 1e-6
 SCENES = ("vdp-mu3-v2.3", "fig8-eps0.1")
@@ -71,11 +71,11 @@ def equal_accuracy(name: str, quick: bool, repeats: int) -> None:
     scene = load_scene(name)
     beads, span = dns_span(scene)
     force = make_force(scene, beads)
-    args = (beads, scene.exponent, scene.velocity, span, force)
+    args = (Chain(beads, scene.exponent, scene.velocity, force), span)
     t0 = time.perf_counter()
-    ref = simulate(*args, engine="scipy", method="DOP853", rtol=1e-12, atol=1e-14)
+    ref = simulate(*args, integrator=Integrator(engine="scipy", method="DOP853", rtol=1e-12, atol=1e-14))
     ref_s = time.perf_counter() - t0
-    check = simulate(*args, engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13)
+    check = simulate(*args, integrator=Integrator(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13))
     conv, _ = peak_error(live(check, ref), live(ref, ref))
     print(f"\n== {name}: N={beads}, contacts {span[0]}..{span[1]}, reference scipy DOP853 full rtol 1e-12 "
           f"({ref.alive.sum()} live, {ref.stop_reason}; {ref_s:.1f} s); vs rtol 1e-11: {conv:.1e}", flush=True)
@@ -83,10 +83,11 @@ def equal_accuracy(name: str, quick: bool, repeats: int) -> None:
     lines: dict[str, list[Point]] = {"compiled window": [], "compiled DOP853": [], "scipy window": [], "script": []}
     same_rtol = {}
     for rtol in ladder:
-        for label, kw in (("compiled window", dict(window="auto")),
-                          ("compiled DOP853", dict(window="auto", method="DOP853")),
-                          ("scipy window", dict(window="auto", engine="scipy"))):
-            res, sec = best_time(lambda: simulate(*args, rtol=rtol, atol=rtol * 1e-2, **kw),
+        for label, kw in (("compiled window", dict()),
+                          ("compiled DOP853", dict(method="DOP853")),
+                          ("scipy window", dict(engine="scipy"))):
+            res, sec = best_time(lambda: simulate(*args, window="auto",
+                                                  integrator=Integrator(rtol=rtol, atol=rtol * 1e-2, **kw)),
                                  repeats if label.startswith("compiled") else max(1, repeats // 10))
             err, missing = peak_error(live(res, ref), live(ref, ref))
             lines[label].append(Point("dns", label, f"rtol {rtol:g}", rtol, err, missing, sec, int(res.nfev)))
@@ -123,8 +124,8 @@ def scaling(repeats: int) -> None:
     for last in (1000, 4000):
         beads = last + 11
         force = make_force(scene, beads)
-        res, sec = best_time(lambda: simulate(beads, scene.exponent, scene.velocity, (15, last), force,
-                                              rtol=1e-8, atol=1e-10, window="auto"), max(1, repeats // 4))
+        res, sec = best_time(lambda: simulate(Chain(beads, scene.exponent, scene.velocity, force), (15, last),
+                                              integrator=Integrator(rtol=1e-8, atol=1e-10), window="auto"), max(1, repeats // 4))
         times[last] = sec
         print(f"  vdp contacts 15..{last}: {sec * 1e3:.1f} ms, {res.stop_reason}, window {res.window_beads} beads")
     print(f"  RATIO time(4000 contacts) / time(1000): {times[4000] / times[1000]:.2f}")
@@ -135,8 +136,8 @@ def million(repeats: int) -> None:
     force = make_force(scene, 140)  # uniform R: the table does not depend on N
     out = {}
     for beads in (140, 1_000_000):
-        run = lambda: simulate(beads, scene.exponent, scene.velocity, (15, 120), force, rtol=1e-8, atol=1e-10,
-                               window="auto")
+        run = lambda: simulate(Chain(beads, scene.exponent, scene.velocity, force), (15, 120),
+                               integrator=Integrator(rtol=1e-8, atol=1e-10), window="auto")
         res, sec = best_time(run, repeats)
         tracemalloc.start()
         run()
@@ -199,7 +200,7 @@ def main(argv: list[str]) -> None:
     print("bench_compiled: compiled engine (numba DOPRI5, moving window) vs scipy; best of "
           f"{repeats} warm runs per compiled point; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores",
           flush=True)
-    simulate(40, 1.5, 1.0, (1, 20), window="auto")  # load the JIT cache before any timing
+    simulate(Chain(40, 1.5, 1.0), (1, 20), window="auto")  # load the JIT cache before any timing
     if "accuracy" in only:
         for name in SCENES:
             equal_accuracy(name, quick, repeats)

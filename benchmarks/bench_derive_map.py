@@ -64,9 +64,9 @@ def main() -> None:
     from pulsemap.solvers.models.codeload import map_module
     from pulsemap.solvers.models.map_iteration import iterate_map
     from pulsemap.solvers.studies.run import run_scene
-    from pulsemap.solvers.data.scene import load_scene
+    from pulsemap.solvers.data.scene import load_scene, with_overrides
 
-    scene = load_scene("vdp-mu3-v2.3").with_overrides(contacts=(16, 115))
+    scene = with_overrides(load_scene("vdp-mu3-v2.3"), contacts=(16, 115))
     mod = map_module(scene.perturbation.text, ["mu"], 1.5, "exact", "paper")
     call = lambda: iterate_map(mod, 0.9, 15, 115, 0.1, {"mu": 3.0})  # noqa: E731
     call()

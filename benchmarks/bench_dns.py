@@ -8,8 +8,8 @@ against rtol 1e-11). Error = max relative peak difference over the contacts. Eve
 and mode over a tolerance ladder) is timed warm-up + best of K and its cost at 1e-6 is
 interpolated log-log between the two runs that bracket it (pulsemap.solvers.studies.bench.cost_at):
 
-* pulsemap: simulate(window="auto"), DOP853 and RK45 (Hairer's Fortran codes);
-* baseline (b): simulate(window=None), the full-chain vectorised DNS, DOP853 and RK45;
+* pulsemap: simulate(..., window="auto"), DOP853 and RK45 (Hairer's Fortran codes);
+* baseline (b): simulate(..., window=None), the full-chain vectorised DNS, DOP853 and RK45;
 * baseline (a): pulsemap.solvers.studies.bench.baselines.baseline_script (loop RHS, solve_ivp RK45, peaks off a
   t_eval grid) at N = 1000 itself, integrated in grid segments so its 2N x samples grid fits in
   memory (same grid and peaks as one call). It is slow (minutes per run): one run per setting.
@@ -26,7 +26,7 @@ import numpy as np
 from pulsemap.solvers.studies.bench.baselines import baseline_script
 from pulsemap.solvers.studies.bench import Point, best_of, cost_at
 from pulsemap.solvers.studies.bench import peak_error as _peak_error
-from pulsemap.solvers.chain.dns import OnSiteForce, simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, OnSiteForce, simulate
 from pulsemap.solvers.studies.points import on_contacts
 
 TARGET = 1e-6
@@ -72,10 +72,10 @@ def main(argv: list[str]) -> None:
     force = damping(eps_mu, N) if eps_mu else None
     force_py = (lambda i, x, v: -eps_mu * v if i >= FIRST else 0.0) if eps_mu else None
     last = N - 10
-    ref = simulate(N, EXPONENT, 1.0, (FIRST, last), force, method="DOP853", rtol=1e-12, atol=1e-14,
-                   engine="scipy")
-    check = simulate(N, EXPONENT, 1.0, (FIRST, last), force, method="DOP853", rtol=1e-11, atol=1e-13,
-                     engine="scipy")
+    ref = simulate(Chain(N, EXPONENT, 1.0, force), (FIRST, last),
+                   integrator=Integrator(method="DOP853", rtol=1e-12, atol=1e-14, engine="scipy"))
+    check = simulate(Chain(N, EXPONENT, 1.0, force), (FIRST, last),
+                     integrator=Integrator(method="DOP853", rtol=1e-11, atol=1e-13, engine="scipy"))
     conv, _ = peak_error(check, ref)
     label = f"damped eps*mu={eps_mu}" if eps_mu else "unperturbed"
     print(f"N={N} {label}, contacts {FIRST}..{last}; reference DOP853 full chain rtol 1e-12: "
@@ -88,8 +88,9 @@ def main(argv: list[str]) -> None:
     for method in ("DOP853", "RK45"):
         for window, rtols, kind in (("auto", win_rtols, "pulsemap window"), (None, full_rtols, "(b) full chain")):
             lab = f"{kind} {method}"
-            pts = line(lab, lambda r, m=method, w=window: simulate(
-                N, EXPONENT, 1.0, (FIRST, last), force, method=m, rtol=r, atol=r * 1e-2, window=w, engine="scipy"),
+            pts = line(lab, lambda r, m=method, w=window: simulate(Chain(N, EXPONENT, 1.0, force), (FIRST, last),
+                                                                   integrator=Integrator(method=m, rtol=r, atol=r * 1e-2, engine="scipy"),
+                                                                   window=w),
                 rtols if method == "DOP853" else tuple(r / 10 for r in rtols), ref, repeats)
             costs[lab] = cost_at(pts, TARGET)
             print(f"  -> {lab}: {costs[lab][0] if costs[lab][0] else float('nan'):.3f} s at {TARGET:g} "

@@ -19,13 +19,13 @@ import sys
 import numpy as np
 
 from bench_dns import damping, peak_error  # the sibling script (its directory is on sys.path)
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.window import WindowRule
 
 
-def best(repeats: int, **kwargs):
+def best(repeats: int, *args, **kwargs):
     """Fastest of ``repeats`` runs of simulate()."""
-    return min((simulate(**kwargs) for _ in range(repeats)), key=lambda r: r.wall_time_s)
+    return min((simulate(*args, **kwargs) for _ in range(repeats)), key=lambda r: r.wall_time_s)
 
 
 def scaling(repeats: int) -> None:
@@ -36,8 +36,7 @@ def scaling(repeats: int) -> None:
             for n_beads in (1000, 4000):
                 force = damping(eps_mu, n_beads) if eps_mu else None
                 r = best(repeats if (window or n_beads == 1000) else max(1, repeats - 1),
-                         beads=n_beads, exponent=1.5, velocity=1.0, contacts=(16, n_beads - 10),
-                         force=force, window=window)
+                         Chain(n_beads, 1.5, 1.0, force), (16, n_beads - 10), window=window)
                 t[n_beads] = r.wall_time_s
                 mode = "window" if window else "full"
                 print(f"{label:12s} {mode:8s} {n_beads:5d} {r.wall_time_s:8.2f} {r.nfev:8d} "
@@ -47,16 +46,16 @@ def scaling(repeats: int) -> None:
 
 def calibrate() -> None:
     beads, last = 200, 190
-    tight = dict(method="DOP853", rtol=1e-13, atol=1e-15)
+    tight = Integrator(method="DOP853", rtol=1e-13, atol=1e-15)
     print("max relative peak error of the window vs the full chain (contacts 1..190)")
     for eps_mu in (0.0, 0.01, 0.05, 0.1, 0.3):
         force = damping(eps_mu, beads) if eps_mu else None
-        ref = simulate(beads, 1.5, 1.0, (1, last), force, **tight)
+        ref = simulate(Chain(beads, 1.5, 1.0, force), (1, last), integrator=tight)
         row = []
         for behind in (4, 6, 8, 12, 16, 20, 24):
             for boundary in ("coast", "free"):
-                w = simulate(beads, 1.5, 1.0, (1, last), force, **tight,
-                             window=WindowRule(behind=behind, boundary=boundary))
+                w = simulate(Chain(beads, 1.5, 1.0, force), (1, last),
+                             integrator=tight, window=WindowRule(behind=behind, boundary=boundary))
                 err, _ = peak_error(w, ref)
                 same = bool(np.array_equal(ref.alive, w.alive))
                 row.append(f"{behind}/{boundary}:{err:.1e}{'' if same else '!'}")

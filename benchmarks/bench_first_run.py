@@ -41,7 +41,7 @@ CHILD = r"""
 import json, sys, time
 t0 = time.perf_counter()
 import pulsemap
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.studies.forcing import make_force
 from pulsemap.solvers.studies.points import dns_span
 t_import = time.perf_counter() - t0
@@ -50,7 +50,7 @@ sc = pulsemap.scene(name, **overrides)
 beads, span = dns_span(sc)
 force = None if sc.perturbation.eps == 0 else make_force(sc, beads)
 c0 = time.process_time()
-res = simulate(beads, sc.exponent, sc.velocity, span, force, window="auto", **kwargs)
+res = simulate(Chain(beads, sc.exponent, sc.velocity, force), span, window="auto", integrator=Integrator(**kwargs))
 cpu = time.process_time() - c0
 print(json.dumps({"import_s": t_import, "compile_s": res.compile_s, "dns_s": res.wall_time_s, "cpu_s": cpu,
                   "method": res.method, "reason": res.engine_reason,

@@ -23,23 +23,24 @@ from pathlib import Path
 
 import numpy as np
 
-from pulsemap.solvers.chain.dns import simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.bench import best_of
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force
+from pulsemap.solvers.studies.forcing import make_force
 
 CASES = (("-mu*sin(u)", 1.0), ("-mu*v/(1+v^2)", 1.0), ("-mu*sin(u)*exp(-v^2)", 1.0), ("-mu*v/(1+v^2)", 10000.0))
 ONE_RUN = """
 import sys, time
 t0 = time.process_time()
-from pulsemap.solvers.chain.dns import simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force
-scene = load_scene("fig8-eps0.1").with_overrides(R=sys.argv[1], params={"mu": 1.0})
+from pulsemap.solvers.studies.forcing import make_force
+scene = with_overrides(load_scene("fig8-eps0.1"), R=sys.argv[1], params={"mu": 1.0})
 beads, span = dns_span(scene)
-res = simulate(beads, scene.exponent, scene.velocity, span, make_force(scene, beads), window="auto", rtol=1e-8)
+res = simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span, window="auto",
+               integrator=Integrator(rtol=1e-8))
 assert res.engine == "compiled", res.engine_reason
 print(time.process_time() - t0)
 """
@@ -54,14 +55,15 @@ def peak_error(res, ref) -> float:
 def engines(repeats: int) -> None:
     print("1. compiled (numba force) vs scipy engine, fig8-eps0.1's chain, moving window")
     for R, mu in CASES:
-        scene = load_scene("fig8-eps0.1").with_overrides(R=R, params={"mu": mu})
+        scene = with_overrides(load_scene("fig8-eps0.1"), R=R, params={"mu": mu})
         beads, span = dns_span(scene)
         force = make_force(scene, beads)
 
         def run(**kw):
             def timed():
                 t0 = time.perf_counter()
-                res = simulate(beads, scene.exponent, scene.velocity, span, force, window="auto", **kw)
+                res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span,
+                               integrator=Integrator(**kw), window="auto")
                 return res, time.perf_counter() - t0
             return timed
 

@@ -22,12 +22,12 @@ import timeit
 
 import numpy as np
 
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.equations import make_rhs
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.models.codeload import force_module
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force
+from pulsemap.solvers.studies.forcing import make_force
 
 CALLS = 20_000
 
@@ -40,7 +40,7 @@ def main(argv: list[str]) -> None:
     repeats = int(argv[argv.index("--repeats") + 1]) if "--repeats" in argv else 5
     rng = np.random.default_rng(1)
     for R in ("-mu*v", "-mu*sin(u)"):
-        scene = load_scene("fig8-eps0.1").with_overrides(R=R, params={"mu": 1.0})
+        scene = with_overrides(load_scene("fig8-eps0.1"), R=R, params={"mu": 1.0})
         beads, span = dns_span(scene)
         force = make_force(scene, beads)
         module = force_module(R, ["mu"])
@@ -61,7 +61,8 @@ def main(argv: list[str]) -> None:
                   f"{bare * 1e6:6.2f} us | ratio {checked / bare:5.2f} | the RHS with it {t_rhs * 1e6:6.2f} us")
         t0 = time.perf_counter()
         for _ in range(repeats):
-            simulate(beads, scene.exponent, scene.velocity, span, force, engine="scipy", window="auto", rtol=1e-8)
+            simulate(Chain(beads, scene.exponent, scene.velocity, force), span,
+                     integrator=Integrator(engine="scipy", rtol=1e-8), window="auto")
         print(f"  scipy-engine DNS (window, DOP853, rtol 1e-8): {(time.perf_counter() - t0) / repeats * 1e3:.1f} ms")
 
 

@@ -29,11 +29,12 @@ from pathlib import Path
 
 import numpy as np
 
-from pulsemap.solvers.chain.dns import simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.bench import best_of
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force, run_scene
+from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.run import run_scene
 from pulsemap.solvers.studies.suite import resolve
 
 STIFF = (("damp-100", {}), ("damp-100", {"eps": 1.0}), ("damp-1000", {}), ("stiff-foundation", {}),
@@ -42,12 +43,12 @@ RTOLS = (1e-6, 1e-8)
 COLD = """
 import time
 t0 = time.process_time()
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.force_table import MonomialTable
 table = MonomialTable.of([[0, 1]], [[0.0] * 15 + [-1000.0]])
 force = OnSiteForce(lambda x, v: 0 * v, stiffness_hint=1000.0, monomials=table)
-res = simulate(40, 1.5, 1.0, (1, 20), force, window="auto", rtol=1e-6, atol=1e-8)
+res = simulate(Chain(40, 1.5, 1.0, force), (1, 20), window="auto", integrator=Integrator(rtol=1e-6, atol=1e-8))
 assert res.method == "Rodas4", res.engine_reason
 print(time.process_time() - t0)
 """
@@ -70,15 +71,15 @@ def engines(repeats: int) -> None:
     print("1. the compiled engine's choice under 'auto' (Rodas4 above 300x the contact rate, else Dormand-Prince)\n"
           "   vs the scipy stiff engine (contacts 1 .. first_perturbed + 20, moving window)")
     for name, overrides in STIFF:
-        scene = load_scene(resolve(name)).with_overrides(**overrides)
+        scene = with_overrides(load_scene(resolve(name)), **overrides)
         label = name + "".join(f" {k} {v:g}" for k, v in overrides.items())
         beads, _ = dns_span(scene)
         force = make_force(scene, beads)
         span = (1, scene.first_perturbed + 20)
 
         def run(**kw):
-            return lambda: timed(lambda: simulate(beads, scene.exponent, scene.velocity, span, force, window="auto",
-                                                  **kw))
+            return lambda: timed(lambda: simulate(Chain(beads, scene.exponent, scene.velocity, force), span,
+                                                  integrator=Integrator(**kw), window="auto"))
 
         ref = run(engine="scipy", method="Radau", rtol=1e-11, atol=1e-13)()[0]
         for rtol in RTOLS:
@@ -103,7 +104,7 @@ def cold() -> None:
 
 def suite_times(repeats: int) -> None:
     def dns_time(scene, method: str | None = None):
-        s = scene if method is None else scene.with_overrides(dns={"method": method})
+        s = scene if method is None else with_overrides(scene, dns={"method": method})
         out = run_scene(s, methods=["dns"], dns_window="auto")
         return out, out["timings_s"]["dns"]
 

@@ -20,12 +20,12 @@ import time
 import numpy as np
 
 from pulsemap.solvers.studies.points import dns_task, plain_chain
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.sweep import run_sweep
 
 
 def points(k: int, last: int) -> list[dict]:
-    chain = plain_chain(load_scene("vdp-mu3-v2.3").with_overrides(contacts=(16, last)), window="auto", rtol=1e-8)
+    chain = plain_chain(with_overrides(load_scene("vdp-mu3-v2.3"), contacts=(16, last)), window="auto", rtol=1e-8)
     return [{**chain, "params": {"mu": float(mu)}} for mu in np.linspace(1.8, 3.0, k)]
 
 

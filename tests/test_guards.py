@@ -14,6 +14,7 @@ import pytest
 from pulsemap.solvers.cli.main import main
 from pulsemap.solvers.models.codeload import map_module
 from pulsemap.solvers.models.map_iteration import iterate_map
+from pulsemap.solvers.data.scene import with_overrides
 
 SOFTENING = """\
 name = "softening"
@@ -117,7 +118,7 @@ def _map_run(n: float, variant: str, last: int = 60) -> dict:
     from pulsemap.solvers.studies.run import run_scene
     from pulsemap.solvers.data.scene import load_scene
 
-    scene = load_scene("fig8-eps0.1").with_overrides(exponent=n, contacts=(16, last), methods=("map",))
+    scene = with_overrides(load_scene("fig8-eps0.1"), exponent=n, contacts=(16, last), methods=("map",))
     return run_scene(scene, variant=variant, seed_peak=0.5)
 
 

@@ -60,6 +60,27 @@ def test_imports_run_one_way(path):
             assert module.split(".")[0] != "sympy", f"{path.relative_to(ROOT)} imports sympy at module level"
 
 
+
+def _private_imports(tree: ast.AST):
+    """Every ``from pulsemap... import _name`` (a private name taken across a module boundary)."""
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "pulsemap":
+            for alias in node.names:
+                if alias.name.startswith("_") and not alias.name.startswith("__"):
+                    yield f"from {node.module} import {alias.name}"
+
+
+def test_private_import_check_finds_one():
+    tree = ast.parse("from pulsemap.solvers.chain.dns import _real, simulate\nfrom pulsemap import __version__")
+    assert list(_private_imports(tree)) == ["from pulsemap.solvers.chain.dns import _real"]
+
+
+@pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_private_name_crosses_a_module(path):
+    """A name shared between modules is public (no underscore, a docstring), or the modules are one."""
+    found = list(_private_imports(ast.parse(path.read_text(encoding="utf-8"))))
+    assert not found, f"{path.relative_to(ROOT)}: {found}"
+
 @pytest.mark.process
 def test_the_command_and_a_run_load_no_sympy():
     code = ("import sys, pulsemap.solvers.cli.main, pulsemap.solvers.studies.run, pulsemap.solvers.studies.table; "

@@ -9,9 +9,9 @@ import pytest
 
 from conftest import scene_toml, write_scene
 from pulsemap.solvers.chain.peaks import StopRules
-from pulsemap.solvers.chain.dns import IMPLICIT_METHODS, simulate
+from pulsemap.solvers.chain.dns import IMPLICIT_METHODS, Chain, Integrator, simulate
 from pulsemap.solvers.chain.peaks import IMPLICIT, budget_advice
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.run import run_scene
 
 ALL = ["map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "dns"]
@@ -23,7 +23,7 @@ ALL = ["map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-
                               "unstable foundation"])
 def test_runs_raise_no_runtime_warning(sets, tmp_path):
     scene = load_scene(write_scene(tmp_path, scene_toml("quiet", beads=60, contacts=(16, 50), eps=0.3)))
-    scene = scene.with_overrides(**sets)
+    scene = with_overrides(scene, **sets)
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
         result = run_scene(scene, methods=ALL)
@@ -36,7 +36,9 @@ def test_the_step_budget_advice_does_not_suggest_the_method_in_use():
     for method in IMPLICIT_METHODS:
         assert "LSODA'" not in budget_advice(method) and "max_steps" in budget_advice(method)
     for method, expect in (("LSODA", "already an implicit method"), ("DOP853", "try method='LSODA'")):
-        res = simulate(60, 1.5, 1.0, (10, 50), method=method, stop=StopRules(max_steps=40), window="auto")
+        res = simulate(Chain(60, 1.5, 1.0), (10, 50),
+                       integrator=Integrator(method=method), stop=StopRules(max_steps=40), window="auto")
         assert res.stop_reason.startswith("step budget of 40 steps") and expect in res.stop_reason
-        res = simulate(60, 1.5, 1.0, (10, 50), method=method, stop=StopRules(max_steps=40))
+        res = simulate(Chain(60, 1.5, 1.0), (10, 50),
+                       integrator=Integrator(method=method), stop=StopRules(max_steps=40))
         assert res.stop_reason.startswith("step budget of 40 steps") and expect in res.stop_reason

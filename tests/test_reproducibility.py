@@ -30,6 +30,7 @@ except ModuleNotFoundError:  # pragma: no cover
     import tomli as tomllib  # type: ignore[no-redef]
 
 from pulsemap.solvers.cli.main import main
+from pulsemap.solvers.data.scene import with_overrides
 
 ROOT = Path(__file__).resolve().parent.parent
 TIMING_KEYS = frozenset({"timings_s", "timing_s"})
@@ -194,7 +195,7 @@ def test_a_different_seed_gives_different_draws(scene_file):
     from pulsemap.solvers.studies.run import run_scene
     from pulsemap.solvers.data.scene import load_scene
 
-    scenes = {seed: load_scene(str(scene_file)).with_overrides(params={"k": {"uniform": [0, 1], "seed": seed}})
+    scenes = {seed: with_overrides(load_scene(str(scene_file)), params={"k": {"uniform": [0, 1], "seed": seed}})
               for seed in (3, 4)}
     draws = {seed: sc.perturbation.bead_values("k", 40) for seed, sc in scenes.items()}
     # the contract: numpy's default_rng(seed).uniform(low, high, N), bead k at index k - 1

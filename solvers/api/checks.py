@@ -7,7 +7,7 @@ import difflib
 import math
 import numbers
 import re
-from typing import Any, Iterable, Mapping
+from typing import Any, Iterable, Mapping, Sequence
 
 
 def closest(word: str, known: Iterable[str]) -> str:
@@ -46,6 +46,33 @@ def merged_params(params: Any, keywords: Mapping[str, Any]) -> dict:
             raise ValueError(f"parameter {name!r} given twice (as a keyword and in params)")
         values[name] = value
     return values
+
+
+def run_choices(scene, methods: "Sequence[str] | None", profile: str | None, variant: str | None,
+                seed_peak: float | None = None, snapshots: Sequence[int] = ()):
+    """A run's methods, profile and variant (names the scene file accepts, the closest one named
+    otherwise; None: the scene's), its seed peak (finite, > 0) and snapshot contacts (integers within
+    the scene's contacts, with the DNS among the methods), checked where the input enters
+    (``pulsemap.run``, ``pulsemap run``); returns (methods, profile, variant, snapshots), or a
+    one-line RunError (a ValueError). The types were checked by the caller."""
+    from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, SceneError, check_choice
+    from pulsemap.solvers.studies.methods import RunError
+
+    if seed_peak is not None and not (math.isfinite(seed_peak) and seed_peak > 0):
+        raise RunError(f"seed peak must be a finite number > 0, got {seed_peak!r}")
+    try:
+        names = tuple(check_choice(m.strip(), "method", METHODS) for m in (scene.methods if methods is None else methods))
+        profile = check_choice(profile or scene.profile, "profile", PROFILES)
+        variant = check_choice(variant or scene.variant, "map variant", VARIANTS)
+    except SceneError as exc:
+        raise RunError(str(exc)) from None
+    c0, c1 = scene.contacts
+    for c in snapshots:
+        if isinstance(c, bool) or not isinstance(c, int) or not c0 <= c <= c1:
+            raise RunError(f"snapshot contact {c!r} must be an integer in the scene's contacts {c0}..{c1}")
+    if snapshots and "dns" not in names:
+        raise RunError("snapshots are taken by the DNS: add dns to the methods")
+    return names, profile, variant, tuple(sorted(set(snapshots)))
 
 
 def api_hint(message: str) -> str:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Sequence
 
+from pulsemap.solvers.api.checks import run_choices
 from pulsemap.solvers.api.result import Result
 from pulsemap.solvers.data.scene import Scene
 
@@ -54,6 +55,7 @@ def run(
             raise TypeError(f"{name} must be True or False, got {flag!r}")
     if rank and "dns" not in [m.strip() for m in (methods or scene.methods)]:
         raise ValueError("rank=True ranks every model against the DNS: add 'dns' to the methods")
+    methods, profile, variant, _ = run_choices(scene, methods, profile, variant)
     out = run_scene(scene, methods=methods, profile=profile, variant=variant, progress=progress)
     if rank:
         from pulsemap.solvers.studies.ranking import add_ranking

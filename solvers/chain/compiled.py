@@ -1,4 +1,4 @@
-"""Compiled (numba) moving-window DNS of paper Eq. 1: the engine behind ``simulate(engine="compiled")``.
+"""Compiled (numba) moving-window DNS of paper Eq. 1: the engine behind ``Integrator(engine="compiled")``.
 
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + F_i(x_i, x_i')       (paper Eq. 1)
 

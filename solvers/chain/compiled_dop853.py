@@ -15,10 +15,10 @@ of order 7 (compiled_track's nested form with 7 rows), on which the peak is loca
 Where it pays: between the rare openings of contacts a damped pulse is smooth, and order 8 reaches
 1e-6 peak error at about half the cost of order 5 (fig8-eps0.1); where the wake keeps closing and
 reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order 5 is ~3x cheaper.
-Hence opt-in (simulate(method="DOP853")), not the default.
+Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: 22f4e9d078bfc2f5
+# numba cache stamp: fa9ca95239125c63
 from __future__ import annotations
 
 import numpy as np

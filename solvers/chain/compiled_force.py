@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 22f4e9d078bfc2f5
+# numba cache stamp: fa9ca95239125c63
 from __future__ import annotations
 
 from pulsemap.solvers.chain.jit import types

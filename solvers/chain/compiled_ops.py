@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 22f4e9d078bfc2f5
+# numba cache stamp: fa9ca95239125c63
 from __future__ import annotations
 
 import numpy as np
@@ -54,7 +54,7 @@ NO_NRT = _no_nrt_options()
 
 
 @njit(cache=True, inline="always")
-def _pow(d: float, n: float) -> float:
+def pos_pow(d: float, n: float) -> float:
     """d^n for d > 0 (n = 1.5 and n = 0.5, the Hertz force and its slope's power, by a square root)."""
     if n == 1.5:
         return d * np.sqrt(d)
@@ -70,7 +70,7 @@ def rhs(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef)
     if has_left:
         d = left_x + left_v * (t - left_t) - y[0]
         if d > 0.0:
-            prev = _pow(d, n)
+            prev = pos_pow(d, n)
     for j in range(w):
         x = y[2 * j]
         v = y[2 * j + 1]
@@ -80,7 +80,7 @@ def rhs(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef)
             d = x
         else:
             d = 0.0
-        fj = _pow(d, n) if d > 0.0 else 0.0
+        fj = pos_pow(d, n) if d > 0.0 else 0.0
         acc = add_onsite(prev - fj, x, v, lo + j, exps, coef)
         out[2 * j] = v
         out[2 * j + 1] = acc
@@ -96,11 +96,11 @@ def window_energy(t, y, w, n, has_left, left_x, left_v, left_t):
         if j < w - 1:
             d = y[2 * j] - y[2 * j + 2]
             if d > 0.0:
-                e += _pow(d, n) * d / (n + 1.0)
+                e += pos_pow(d, n) * d / (n + 1.0)
     if has_left:
         d = left_x + left_v * (t - left_t) - y[0]
         if d > 0.0:
-            e += _pow(d, n) * d / (n + 1.0)
+            e += pos_pow(d, n) * d / (n + 1.0)
     return e
 
 
@@ -113,7 +113,7 @@ def segment_energy(y, a, b, n):
         if j < b - 1:
             d = y[2 * j] - y[2 * j + 2]
             if d > 0.0:
-                e += _pow(d, n) * d / (n + 1.0)
+                e += pos_pow(d, n) * d / (n + 1.0)
     return e
 
 

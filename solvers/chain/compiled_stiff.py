@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 22f4e9d078bfc2f5
+# numba cache stamp: fa9ca95239125c63
 from __future__ import annotations
 
 import numpy as np
@@ -26,7 +26,7 @@ from pulsemap.solvers.chain.jit import njit
 
 from pulsemap.solvers.chain.compiled_force import onsite_slopes
 from pulsemap.solvers.chain.compiled_kernel import start
-from pulsemap.solvers.chain.compiled_ops import NO_NRT, _pow, hermite_dense, rhs
+from pulsemap.solvers.chain.compiled_ops import NO_NRT, hermite_dense, pos_pow, rhs
 from pulsemap.solvers.chain.compiled_layout import ATOL, CAPACITY, EXP, H, NFEV, NJEV, NONFINITE, REJECTED, RTOL, T
 from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_in_step, track_step, window_now
 
@@ -65,13 +65,13 @@ def jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, band):
     if has_left:
         d = lx + lv * (t - lt) - y[0]
         if d > 0.0:
-            s[0] = n * _pow(d, n - 1.0)
+            s[0] = n * pos_pow(d, n - 1.0)
             ft = s[0] * lv
     for j in range(w - 1):
         d = y[2 * j] - y[2 * j + 2]
-        s[j + 1] = n * _pow(d, n - 1.0) if d > 0.0 else 0.0
+        s[j + 1] = n * pos_pow(d, n - 1.0) if d > 0.0 else 0.0
     d = y[2 * w - 2] if wall else 0.0  # the wall ahead
-    s[w] = n * _pow(d, n - 1.0) if d > 0.0 else 0.0
+    s[w] = n * pos_pow(d, n - 1.0) if d > 0.0 else 0.0
     for j in range(w):
         band[1, j], band[2, j] = onsite_slopes(y[2 * j], y[2 * j + 1], lo + j, exps, coef)
     return ft

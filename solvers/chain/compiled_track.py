@@ -17,7 +17,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci) and return codes: compiled_layout.py.
 """
 
-# numba cache stamp: 22f4e9d078bfc2f5
+# numba cache stamp: fa9ca95239125c63
 from __future__ import annotations
 
 import numpy as np
@@ -28,7 +28,7 @@ from pulsemap.solvers.chain.compiled_layout import (
     E_GONE, DRIFT, THRESH, LAST_PEAK_T, STALL, E_LAST, LO, HI, NEXT, STEPS, NFEV, HAS_LEFT, DIED_AT, WIDEST, SHIFTS,
     LOST, EXP, T_MAXC, SCALE_X, SCALE_V, AHEAD_THR, PEAK_FRAC, DEATH_FRAC, OVERTAKE, STALL_FAC, E_LIMIT, DELAY_FAC,
     BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY, PAUSE_EVERY)
-from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, _pow, pulse_lost, rhs, segment_energy, window_energy
+from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, pos_pow, pulse_lost, rhs, segment_energy, window_energy
 
 
 @njit(**NO_NRT)
@@ -209,7 +209,7 @@ def add_ahead(y, f, w, st, cf, ci):
         y[2 * w + 1] = 0.0
         f[2 * w] = 0.0
         d = y[2 * w - 2]
-        f[2 * w + 1] = _pow(d, cf[EXP]) if d > 0.0 else 0.0
+        f[2 * w + 1] = pos_pow(d, cf[EXP]) if d > 0.0 else 0.0
         st[HI] += 1
         w += 1
     if w > st[WIDEST]:

@@ -14,8 +14,8 @@ from __future__ import annotations
 import math
 import numbers
 import time as _time
-from dataclasses import replace
-from typing import TYPE_CHECKING, Sequence
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,7 +28,7 @@ from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the 
     make_solver, run_scipy)
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
 from pulsemap.solvers.chain.force_table import force_data
-from pulsemap.solvers.chain.front import SNAPSHOT_SPAN, FrontRecorder, check_snapshot_contacts, memo, state_at
+from pulsemap.solvers.chain.front import FrontRecorder, Snapshots, check_snapshot_contacts, memo, state_at
 from pulsemap.solvers.chain.launch import Launch
 from pulsemap.solvers.chain.peaks import PeakTracker, StopRules, contact_rate, scan_step, velocity_scale  # noqa: F401
 from pulsemap.solvers.chain.plan import plan, wants_force_data
@@ -37,7 +37,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from pulsemap.solvers.chain.window import WindowRule, WindowSpec
 
 
-# ----------------------------------------------------------------------------- validation
+# ----------------------------------------------------------------------------- the run's specs
 
 MAX_BEADS = 1_000_000
 """Longest chain simulate() accepts (the scene files' limit, data/scene/schema.MAX_BEADS)."""
@@ -45,44 +45,91 @@ MIN_RTOL = 100 * float(np.finfo(float).eps)
 """Smallest rtol float64 can deliver (scipy raises a smaller one to this silently)."""
 
 
+@dataclass(frozen=True)
+class Chain:
+    """The chain of paper Eq. 1 and how it starts: ``beads`` N, the contact ``exponent`` n, bead 1's
+    impact ``velocity`` v0, the on-site ``force`` F_i (an OnSiteForce; None: the bare chain), and
+    ``launch`` (chain/launch.Launch): an exact solitary wave instead of the impact (None: the impact).
+    One-line TypeError/ValueError naming the field on bad input."""
 
-def validate(
-    beads: int,
-    exponent: float,
-    velocity: float,
-    contacts: tuple[int, int],
-    method: str,
-    rtol: float,
-    atol: float,
-    stop: StopRules = StopRules(),
-) -> tuple[int, int]:
-    """Check simulate()'s arguments; return the contact range. One-line ValueErrors (TypeErrors for
-    a value of the wrong type), each naming the argument (a stop rule by its StopRules field)."""
+    beads: int
+    exponent: float
+    velocity: float
+    force: OnSiteForce | None = None
+    launch: Launch | None = None
+
+    def __post_init__(self) -> None:
+        beads, exponent, velocity = self.beads, self.exponent, self.velocity
+        _real(exponent, "exponent")
+        _real(velocity, "velocity")
+        if isinstance(beads, (str, bytes)):
+            raise TypeError(f"beads must be an integer, got {type(beads).__name__} {beads!r}")
+        if isinstance(beads, bool) or not isinstance(beads, (int, np.integer)) or beads < 2:
+            raise ValueError(f"beads must be an integer >= 2, got {beads!r}; use chain_length_for(last_contact)")
+        if beads > MAX_BEADS:
+            raise ValueError(f"beads = {beads} is beyond the supported {MAX_BEADS}: use a shorter chain")
+        if not math.isfinite(exponent) or exponent <= 1.0:
+            raise ValueError(f"exponent must be a finite number > 1 (Hertz: 1.5), got {exponent!r}")
+        if not math.isfinite(velocity):
+            raise ValueError(f"velocity must be finite, got {velocity!r}")
+        if velocity <= 0.0:
+            raise ValueError(f"velocity must be > 0 (bead 1 pushes into the chain), got {velocity!r}")
+        _scaling.check_velocity_range(float(velocity))
+        if self.force is not None and not isinstance(self.force, OnSiteForce):
+            raise TypeError(f"force must be an OnSiteForce or None, got {type(self.force).__name__}")
+        if self.launch is not None and not isinstance(self.launch, Launch):
+            raise TypeError(f"launch must be a solvers.chain.launch.Launch or None, got {type(self.launch).__name__}")
+        object.__setattr__(self, "beads", int(beads))
+        object.__setattr__(self, "exponent", float(exponent))
+        object.__setattr__(self, "velocity", float(velocity))
+
+
+@dataclass(frozen=True)
+class Integrator:
+    """How Eq. 1 is integrated: ``method`` (equations.METHODS; 'auto' lets plan() choose), the
+    tolerances ``rtol`` and ``atol``, and the ``engine`` (equations.ENGINES: 'compiled' where it
+    applies, else scipy; 'scipy' always scipy). One-line TypeError/ValueError naming the field."""
+
+    method: str = "auto"
+    rtol: float = 1e-10
+    atol: float = 1e-12
+    engine: str = "compiled"
+
+    def __post_init__(self) -> None:
+        method, rtol, atol = self.method, self.rtol, self.atol
+        _real(rtol, "rtol")
+        _real(atol, "atol")
+        if not isinstance(method, str):
+            raise TypeError(f"method must be a string ({', '.join(METHODS)}), got {type(method).__name__}")
+        if method not in METHODS:
+            raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+        if not (math.isfinite(rtol) and rtol > 0.0):
+            raise ValueError(f"rtol must be a finite number > 0, got {rtol!r}")
+        if rtol < MIN_RTOL:
+            raise ValueError(f"rtol = {rtol:g} is below what float64 can deliver: give rtol >= {MIN_RTOL:.2g} "
+                             "(100 x machine epsilon)")
+        if not (math.isfinite(atol) and atol > 0.0):
+            raise ValueError(f"atol must be a finite number > 0, got {atol!r}")
+        if self.engine not in ENGINES:
+            raise ValueError(f"unknown engine {self.engine!r}; choose one of {', '.join(ENGINES)}")
+
+
+def check_run(chain: Chain, contacts: tuple[int, int], stop: StopRules) -> tuple[int, int]:
+    """Check what simulate() takes beyond its specs' own checks: the contact range against the chain
+    and the stop rules; return the range. One-line ValueErrors (TypeErrors for a value of the wrong
+    type), each naming the argument (a stop rule by its StopRules field)."""
+    if not isinstance(chain, Chain):
+        raise TypeError(f"chain must be a Chain (solvers.chain.dns), got {type(chain).__name__}")
     if not isinstance(stop, StopRules):
-        raise TypeError(f"stop must be a StopRules (solvers.chain.peaks) or None, got {type(stop).__name__}")
+        raise TypeError(f"stop must be a StopRules (solvers.chain.peaks), got {type(stop).__name__}")
     peak_fraction, death_fraction, stall_factor = stop.peak_fraction, stop.death_fraction, stop.stall_factor
     overtake_factor, t_max, max_steps = stop.overtake_factor, stop.t_max, stop.max_steps
-    for name, value in (("exponent", exponent), ("velocity", velocity), ("rtol", rtol), ("atol", atol),
-                        ("peak_fraction", peak_fraction), ("death_fraction", death_fraction),
+    for name, value in (("peak_fraction", peak_fraction), ("death_fraction", death_fraction),
                         ("stall_factor", stall_factor), ("overtake_factor", overtake_factor)):
         _real(value, name)
     if t_max is not None:
         _real(t_max, "t_max")
-    if isinstance(beads, (str, bytes)):
-        raise TypeError(f"beads must be an integer, got {type(beads).__name__} {beads!r}")
-    if not isinstance(method, str):
-        raise TypeError(f"method must be a string ({', '.join(METHODS)}), got {type(method).__name__}")
-    if isinstance(beads, bool) or not isinstance(beads, (int, np.integer)) or beads < 2:
-        raise ValueError(f"beads must be an integer >= 2, got {beads!r}; use chain_length_for(last_contact)")
-    if beads > MAX_BEADS:
-        raise ValueError(f"beads = {beads} is beyond the supported {MAX_BEADS}: use a shorter chain")
-    if not math.isfinite(exponent) or exponent <= 1.0:
-        raise ValueError(f"exponent must be a finite number > 1 (Hertz: 1.5), got {exponent!r}")
-    if not math.isfinite(velocity):
-        raise ValueError(f"velocity must be finite, got {velocity!r}")
-    if velocity <= 0.0:
-        raise ValueError(f"velocity must be > 0 (bead 1 pushes into the chain), got {velocity!r}")
-    _scaling.check_velocity_range(float(velocity))
+    beads = chain.beads
     try:
         first, last = (int(c) for c in contacts)
     except (TypeError, ValueError):
@@ -94,15 +141,6 @@ def validate(
             f"contacts {contacts!r} must satisfy 1 <= first <= last <= beads-1 = {beads - 1}; "
             f"fix the range or use beads=chain_length_for({last})"
         )
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
-    if not (math.isfinite(rtol) and rtol > 0.0):
-        raise ValueError(f"rtol must be a finite number > 0, got {rtol!r}")
-    if rtol < MIN_RTOL:
-        raise ValueError(f"rtol = {rtol:g} is below what float64 can deliver: give rtol >= {MIN_RTOL:.2g} "
-                         "(100 x machine epsilon)")
-    if not (math.isfinite(atol) and atol > 0.0):
-        raise ValueError(f"atol must be a finite number > 0, got {atol!r}")
     if not 0.0 < peak_fraction < 1.0:
         raise ValueError(f"peak_fraction must lie in (0, 1), got {peak_fraction!r}")
     if not 0.0 <= death_fraction < 1.0:
@@ -140,28 +178,21 @@ def _window_energies(force: OnSiteForce | None, res: DNSResult) -> DNSResult:
 
 
 def simulate(
-    beads: int,
-    exponent: float,
-    velocity: float,
+    chain: Chain,
     contacts: tuple[int, int],
-    force: OnSiteForce | None = None,
     *,
-    method: str = "auto",
-    rtol: float = 1e-10,
-    atol: float = 1e-12,
-    stop: StopRules | None = None,
-    progress: bool = False,
+    integrator: Integrator = Integrator(),
+    stop: StopRules = StopRules(),
     window: "WindowSpec | int | str | WindowRule | None" = None,
-    snapshots: "Sequence[int] | None" = None,
-    snapshot_span: tuple[int, int] = SNAPSHOT_SPAN,
-    launch: "Launch | None" = None,
-    engine: str = "compiled",
+    snapshots: Snapshots = Snapshots(),
+    progress: bool = False,
 ) -> DNSResult:
-    """Integrate Eq. 1 and return the leading-edge peaks of contacts[0]..contacts[1].
+    """Integrate Eq. 1 for ``chain`` (a Chain: N, n, v0, F_i, start) and return the leading-edge
+    peaks of contacts[0]..contacts[1].
 
-    ``launch`` (solvers/chain/launch.py): start from an exact solitary wave of amplitude A
+    ``chain.launch`` (solvers/chain/launch.py): start from an exact solitary wave of amplitude A
     centred on a contact instead of the impact v0 on bead 1 (default None: the impact). With a
-    launch, ``velocity`` is not used: the wave's velocity scale A^((n+1)/2) takes its place in
+    launch, ``chain.velocity`` is not used: the wave's velocity scale A^((n+1)/2) takes its place in
     the thresholds, and only contacts after the centre are tracked.
 
     ``window=None`` (default) integrates the whole chain. ``window=WindowSpec(...)``
@@ -174,9 +205,9 @@ def simulate(
     int, a WindowRule) stands for WindowSpec(size). The windowed cost per contact does not grow
     with N. Its ``energy_drift`` counts the energy carried out by dropped beads.
 
-    All contacts 1..last are tracked (``stop``, a peaks.StopRules, default StopRules(): each one's
-    acceptance threshold is ``peak_fraction`` times the previous contact's peak; contact 1 uses the
-    scale v0^(2/(n+1))). The run stops when the last contact has peaked, when the pulse dies (a peak
+    All contacts 1..last are tracked (``stop``, a peaks.StopRules: each one's acceptance threshold
+    is ``peak_fraction`` times the previous contact's peak; contact 1 uses the scale
+    v0^(2/(n+1))). The run stops when the last contact has peaked, when the pulse dies (a peak
     below ``death_fraction`` times the first requested contact's peak), when no new contact peaks
     within ``stall_factor`` times the last inter-peak delay, at ``t_max``, or when the state becomes
     non-finite or the energy grows beyond 1e6 times its initial value. A contact whose first
@@ -187,43 +218,42 @@ def simulate(
     contact marked alive).
 
     As each requested contact peaks, the pulse's and the chain's energy are recorded
-    (front.py); ``snapshots``: contacts at whose peak time the strains of contacts
-    k - snapshot_span[0] .. k + snapshot_span[1] are kept.
+    (front.py); ``snapshots`` (a front.Snapshots): contacts at whose peak time the strains of
+    contacts k - span[0] .. k + span[1] are kept.
 
-    ``engine="compiled"`` (default) runs chain/compiled.py (numba Dormand-Prince 5(4) for method
-    'auto' or 'RK45', numba DOP853 for 'DOP853' (order 8: cheaper on a smooth, damped pulse, dearer
-    where the wake keeps reopening contacts), the force as a monomial table or, for a
-    non-polynomial smooth R, a generated numba function; Rodas4 with the exact Jacobian when 'auto'
-    finds the force stiff) where it applies, else the scipy engine;
-    ``engine="scipy"`` always the scipy engine. The result's ``engine_reason`` says which and why.
+    ``integrator`` (an Integrator: method, rtol, atol, engine): ``engine="compiled"`` (default)
+    runs chain/compiled.py (numba Dormand-Prince 5(4) for method 'auto' or 'RK45', numba DOP853
+    for 'DOP853' (order 8: cheaper on a smooth, damped pulse, dearer where the wake keeps reopening
+    contacts), the force as a monomial table or, for a non-polynomial smooth R, a generated numba
+    function; Rodas4 with the exact Jacobian when 'auto' finds the force stiff) where it applies,
+    else the scipy engine; ``engine="scipy"`` always the scipy engine. The result's
+    ``engine_reason`` says which and why.
     """
-    if force is not None and not isinstance(force, OnSiteForce):
-        raise TypeError(f"force must be an OnSiteForce or None, got {type(force).__name__}")
+    if not isinstance(integrator, Integrator):
+        raise TypeError(f"integrator must be an Integrator (solvers.chain.dns), got {type(integrator).__name__}")
+    if not isinstance(snapshots, Snapshots):
+        raise TypeError(f"snapshots must be a Snapshots (solvers.chain.front), got {type(snapshots).__name__}")
     if not isinstance(progress, bool):
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
-    stop = StopRules() if stop is None else stop
-    first, last = validate(beads, exponent, velocity, contacts, method, rtol, atol, stop)
-    beads, exponent, velocity = int(beads), float(exponent), float(velocity)
+    first, last = check_run(chain, contacts, stop)
+    beads, exponent, velocity, force, launch = chain.beads, chain.exponent, chain.velocity, chain.force, chain.launch
+    method, rtol, atol, engine = integrator.method, integrator.rtol, integrator.atol, integrator.engine
     if launch is None and _scaling.needs_rescaling(velocity):  # a rescaled run at v0 = 1 (solvers/chain/scaling.py)
         _scaling.check_force_range(force, exponent, velocity, beads)
         scale = _scaling.Scaling(exponent, velocity)
         unit = simulate(
-            beads, exponent, 1.0, (first, last), scale.force(force), method=method, rtol=rtol, atol=atol,
+            replace(chain, velocity=1.0, force=scale.force(force)), (first, last), integrator=integrator,
             stop=replace(stop, t_max=None if stop.t_max is None else float(stop.t_max) / scale.tau),
-            progress=progress, window=window, snapshots=snapshots, snapshot_span=snapshot_span, engine=engine)
+            window=window, snapshots=snapshots, progress=progress)
         return scale.result(unit)
     if launch is not None:
-        if not isinstance(launch, Launch):
-            raise TypeError(f"launch must be a solvers.chain.launch.Launch or None, got {type(launch).__name__}")
         launch.check(exponent, first, beads)
         velocity = launch.velocity_scale(exponent)
-    front = FrontRecorder(first, last, exponent, check_snapshot_contacts(snapshots, first, last),
-                          _check_span(snapshot_span))
-    if engine not in ENGINES:
-        raise ValueError(f"unknown engine {engine!r}; choose one of {', '.join(ENGINES)}")
-    data, force_reason = force_data(force) if wants_force_data(engine, method, bool(snapshots)) else (None, "")
+    front = FrontRecorder(first, last, exponent, check_snapshot_contacts(snapshots.contacts, first, last),
+                          snapshots.span)
+    data, force_reason = force_data(force) if wants_force_data(engine, method, bool(snapshots.contacts)) else (None, "")
     how = plan(engine=engine, method=method, force=force, velocity=velocity, exponent=exponent, rtol=rtol,
-               window=window, snapshots=bool(snapshots), force_reason=force_reason)
+               window=window, snapshots=bool(snapshots.contacts), force_reason=force_reason)
     chosen = how.method
     t_limit = default_t_max(last, velocity, exponent) if stop.t_max is None else float(stop.t_max)
     budget = default_max_steps(last) if stop.max_steps is None else int(stop.max_steps)
@@ -305,13 +335,3 @@ def _locate(force: OnSiteForce | None, beads: int, exc: ForceNotFinite) -> Force
             except ForceNotFinite as found:
                 return found.at(exc.t + c * h)
     return exc
-
-
-def _check_span(span) -> tuple[int, int]:
-    try:
-        behind, ahead = (int(s) for s in span)
-    except (TypeError, ValueError):
-        raise ValueError(f"snapshot_span must be a pair (behind, ahead) of integers >= 0, got {span!r}") from None
-    if behind < 0 or ahead < 0:
-        raise ValueError(f"snapshot_span must be a pair (behind, ahead) of integers >= 0, got {span!r}")
-    return behind, ahead

@@ -117,6 +117,31 @@ class FrontRecorder:
                 self.snapshots.append(Snapshot(k, float(peak.time), lo, strains))
 
 
+@dataclass(frozen=True)
+class Snapshots:
+    """The strain profiles a DNS keeps: at the peak time of each contact k in ``contacts``, the strains
+    of contacts k - span[0] .. k + span[1] (``span``: how many behind and ahead). One-line ValueError
+    on a bad span; the contacts are checked against the run's range by check_snapshot_contacts."""
+
+    contacts: tuple[int, ...] = ()
+    span: tuple[int, int] = SNAPSHOT_SPAN
+
+    def __post_init__(self) -> None:
+        try:
+            behind, ahead = (int(s) for s in self.span)
+        except (TypeError, ValueError):
+            raise ValueError(f"snapshot span must be a pair (behind, ahead) of integers >= 0, got {self.span!r}"
+                             ) from None
+        if behind < 0 or ahead < 0:
+            raise ValueError(f"snapshot span must be a pair (behind, ahead) of integers >= 0, got {self.span!r}")
+        try:
+            contacts = tuple(self.contacts or ())
+        except TypeError:
+            raise ValueError(f"snapshot contacts must be a sequence of integers, got {self.contacts!r}") from None
+        object.__setattr__(self, "contacts", contacts)
+        object.__setattr__(self, "span", (behind, ahead))
+
+
 def check_snapshot_contacts(contacts: Sequence[int] | None, first: int, last: int) -> frozenset:
     """The requested snapshot contacts as a set; each must lie in first..last (one-line ValueError)."""
     if not contacts:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from pulsemap.symbolic import cache
-from pulsemap.solvers.chain.dns import chain_length_for, simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, chain_length_for, simulate
 from pulsemap.solvers.chain.peaks import velocity_scale
 
 NAMESPACE = "kappa"
@@ -42,7 +42,8 @@ def measure_kappa(exponent: float, *, rtol: float = 1e-10) -> dict:
     while True:
         lo, hi = contact - HALF_WINDOW, contact + HALF_WINDOW
         beads = chain_length_for(hi)
-        res = simulate(beads, exponent, 1.0, (lo, hi), method="DOP853", rtol=rtol, atol=1e-12, engine="scipy")
+        res = simulate(Chain(beads, exponent, 1.0), (lo, hi),
+                       integrator=Integrator(method="DOP853", rtol=rtol, atol=1e-12, engine="scipy"))
         if not np.all(res.alive):
             raise RuntimeError(f"kappa(n={exponent}): unperturbed DNS ended early: {res.stop_reason}")
         spread = formation_spread(res.peaks, HALF_WINDOW)

@@ -12,7 +12,7 @@ wave must fit in the chain behind contact c; ``min_centre``). The whole chain is
 DOP853 and dense output; the leading-edge peak of each contact is the maximum of delta_k(t) near
 its predicted time, refined as the root of delta_k' = v_k - v_{k+1} on the dense output.
 
-``Launch`` gives the same initial state to ``dns.simulate(..., launch=Launch(A, c))``, so either
+``Launch`` gives the same initial state to ``dns.simulate(Chain(..., launch=Launch(A, c)), ...)``, so either
 engine (compiled or scipy), full chain or moving window, with its peak tracking and stop rules,
 can run from the travelling wave: contacts
 1..c have peaked by t = 0 and only contacts after c are tracked; the wave's velocity scale

@@ -86,7 +86,7 @@ def call_recovering_numba_cache(func: Callable[[argparse.Namespace], int], args:
     return func(args)
 
 
-def _stdout_document(args: argparse.Namespace) -> bool:
+def stdout_document(args: argparse.Namespace) -> bool:
     """True when --json - or --csv - asks for the document on stdout (at most one of them may)."""
     dashes = [f"--{option} -" for option in ("json", "csv") if getattr(args, option, None) == "-"]
     if len(dashes) > 1:
@@ -102,7 +102,7 @@ def _fileno(stream) -> int | None:
 
 
 @contextlib.contextmanager
-def _text_to_stderr():
+def text_to_stderr():
     """While a document goes to stdout, everything a command prints goes to stderr.
 
     print() is redirected in Python; when stdout and stderr are real files, file descriptor 1 is

@@ -18,13 +18,13 @@ from typing import Callable, NoReturn, Sequence
 from pulsemap.solvers.cli.common import (  # noqa: F401 (re-exported: the sub-command modules' helpers)
     SET_HELP,
     UsageError,
-    _stdout_document,
-    call_recovering_numba_cache,
-    _text_to_stderr,
     add_set_option,
+    call_recovering_numba_cache,
     load_scene_with_sets,
     number,
     progress_log,
+    stdout_document,
+    text_to_stderr,
     write_json,
     write_text,
 )
@@ -153,8 +153,10 @@ def cmd_derive(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------------- run
 def cmd_run(args: argparse.Namespace) -> int:
     """``pulsemap run SCENE``: DNS, map and long-wave peaks per contact, errors, timings."""
+    from pulsemap.solvers.api.checks import run_choices
     from pulsemap.solvers.studies.ranking import add_ranking
-    from pulsemap.solvers.studies.run import plot, run_scene, to_csv, to_text
+    from pulsemap.solvers.studies.run import run_scene
+    from pulsemap.solvers.studies.run.report import plot, to_csv, to_text
     from pulsemap.solvers.studies.run.report import nothing_ran
 
     scene = load_scene_with_sets(args.scene, args.sets)
@@ -165,7 +167,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.rank and "dns" not in [m.strip() for m in (methods or scene.methods)]:
         raise UsageError("--rank ranks every model against the DNS: add dns to the methods")
     snapshots = _contact_list(args.snapshots, "--snapshots") if args.snapshots else ()
-    result = run_scene(scene, methods=methods, profile=args.profile, variant=args.variant,
+    methods, profile, variant, snapshots = run_choices(scene, methods, args.profile, args.variant, args.seed_peak,
+                                                       snapshots)
+    result = run_scene(scene, methods=methods, profile=profile, variant=variant,
                        progress=not args.quiet, seed_peak=args.seed_peak, snapshots=snapshots)
     why = nothing_ran(result)
     if why:
@@ -402,8 +406,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                                       _option_strings(parser)))
         _check_outputs(args)
         func: Callable[[argparse.Namespace], int] = args.func
-        if _stdout_document(args):
-            with _text_to_stderr():
+        if stdout_document(args):
+            with text_to_stderr():
                 return call_recovering_numba_cache(func, args)
         return call_recovering_numba_cache(func, args)
     except BrokenPipeError:  # e.g. piped into `head`

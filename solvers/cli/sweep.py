@@ -123,10 +123,11 @@ def cmd_ensemble(args: argparse.Namespace) -> int:
     """``pulsemap ensemble``: M random realisations, map and DNS of each, statistics per contact."""
     from pulsemap.solvers.studies.ensemble import ensemble, plot, to_text
     from pulsemap.solvers.cli.common import load_scene_with_sets
+    from pulsemap.solvers.data.scene import with_overrides
 
     scene = load_scene_with_sets(args.scene, args.sets)
     if args.contacts:
-        scene = scene.with_overrides(contacts=tuple(args.contacts))
+        scene = with_overrides(scene, contacts=tuple(args.contacts))
     with executor_for(args) as (ex, workers):
         report = ensemble(scene, args.realisations, args.seed, profile=args.profile, variant=args.variant,
                           out=args.out, executor=ex, max_workers=workers, progress=not args.quiet,
@@ -136,11 +137,14 @@ def cmd_ensemble(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """``pulsemap sweep``: a scene over a grid of values of any scene key."""
+    from pulsemap.solvers.api.checks import run_choices
     from pulsemap.solvers.cli.common import load_scene_with_sets, write_json
     from pulsemap.solvers.studies.scene_sweep import scene_sweep, to_text
 
     scene = load_scene_with_sets(args.scene, args.sets)
     methods = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else None
+    if methods:
+        methods = list(run_choices(scene, methods, None, None)[0])
     with executor_for(args) as (ex, workers):
         report = scene_sweep(scene, args.over, methods=methods, out=args.out, executor=ex, max_workers=workers,
                              progress=not args.quiet, retry_failed=args.retry_failed)

@@ -10,8 +10,8 @@ from typing import Mapping
 
 import numpy as np
 
-from pulsemap.solvers.models.map_step import (Array, MapRun, _no_root, _run, contact_params, contact_params_table,
-                                              forcing_ratio, step)
+from pulsemap.solvers.models.map_step import (Array, MapRun, contact_params, contact_params_table, forcing_ratio,
+                                              map_run, no_root_message, step)
 
 def has_power_table(module: ModuleType) -> bool:
     """Whether the generated module carries Eq. 23's power-term table (the compiled kernel's input)."""
@@ -32,9 +32,10 @@ def _coefficient_rows(module: ModuleType, args: tuple, rows: int) -> tuple[Array
     return stack(k1), stack(k2)
 
 
-def _iterate_compiled(module: ModuleType, seed_A: float, seed_contact: int, last_contact: int, eps: float,
-                      params: Mapping[str, object], death_fraction: float) -> MapRun:
-    """The compiled kernel over all contacts; Python's bracketing fallback where Newton fails."""
+def iterate_compiled(module: ModuleType, seed_A: float, seed_contact: int, last_contact: int, eps: float,
+                     params: Mapping[str, object], death_fraction: float) -> MapRun:
+    """The map (Eq. 23) iterated by the compiled kernel over all contacts; Python's bracketing fallback
+    where Newton fails (map_iteration.iterate_map's 'compiled' engine)."""
     from pulsemap.solvers.models import map_kernel
 
     contacts = np.arange(seed_contact + 1, last_contact + 1)
@@ -79,7 +80,7 @@ def _iterate_compiled(module: ModuleType, seed_A: float, seed_contact: int, last
         if code == 3:
             status, message = "died", f"pulse died at contact {i}: A fell below {death_fraction:g} of its seed"
         else:
-            status, message = "no root", _no_root(i, a_prev, module, last_contact)
+            status, message = "no root", no_root_message(i, a_prev, module, last_contact)
         break
-    return _run(module, seed_A, seed_contact, contacts[:pos], A[:pos], ratio[:pos], status, message, fallbacks,
+    return map_run(module, seed_A, seed_contact, contacts[:pos], A[:pos], ratio[:pos], status, message, fallbacks,
                 "compiled")

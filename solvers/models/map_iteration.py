@@ -22,10 +22,10 @@ import math
 from types import ModuleType
 from typing import Mapping
 
-from pulsemap.solvers.models.map_compiled import _iterate_compiled, has_power_table
+from pulsemap.solvers.models.map_compiled import has_power_table, iterate_compiled
 from pulsemap.solvers.models.map_step import (  # noqa: F401  (re-exported: the map's public names)
-    Array, MapIterationError, MapRun, _no_root, _run, check_seed, contact_params, contact_params_table, eps0_ratio,
-    forcing_ratio, step)
+    Array, MapIterationError, MapRun, check_seed, contact_params, contact_params_table, eps0_ratio, forcing_ratio, map_run,
+    no_root_message, step)
 
 ENGINES = ("auto", "compiled", "python")
 
@@ -68,7 +68,7 @@ def iterate_map(
     """
     check_seed(seed_A, MapIterationError, "the map's seed amplitude", seed_contact, last_contact)
     if _engine(module, engine, last_contact - seed_contact) == "compiled":
-        return _iterate_compiled(module, float(seed_A), seed_contact, last_contact, float(eps), params, death_fraction)
+        return iterate_compiled(module, float(seed_A), seed_contact, last_contact, float(eps), params, death_fraction)
     return _iterate_python(module, float(seed_A), seed_contact, last_contact, float(eps), params, death_fraction)
 
 
@@ -85,7 +85,7 @@ def _iterate_python(module: ModuleType, seed_A: float, seed_contact: int, last_c
         sol, used_fallback = step(module, a_prev, eps, args, guess)
         fallbacks += used_fallback
         if sol is None or not all(math.isfinite(s) and s > 0 for s in sol):
-            status, message = "no root", _no_root(i, a_prev, module, last_contact)
+            status, message = "no root", no_root_message(i, a_prev, module, last_contact)
             break
         a_i = sol[0]
         if a_i < death_fraction * seed_A:
@@ -98,4 +98,4 @@ def _iterate_python(module: ModuleType, seed_A: float, seed_contact: int, last_c
         ratio = a_i / a_prev
         guess = tuple(s * ratio for s in sol)
         a_prev = a_i
-    return _run(module, seed_A, seed_contact, contacts, amps, ratios, status, message, fallbacks, "python")
+    return map_run(module, seed_A, seed_contact, contacts, amps, ratios, status, message, fallbacks, "python")

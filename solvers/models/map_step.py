@@ -160,15 +160,17 @@ def check_seed(seed_A: float, error: type[ValueError], name: str = "the seed amp
         raise error(f"last contact {last_contact} must come after the seed contact {seed_contact}")
 
 
-def _no_root(i: int, a_prev: float, module: ModuleType, last_contact: int) -> str:
+def no_root_message(i: int, a_prev: float, module: ModuleType, last_contact: int) -> str:
+    """Why the map (Eq. 23) stops at contact i - 1: no positive root A_i from A_{i-1} = ``a_prev``."""
     return (
         f"no positive root of the map at contact {i} (A_{i - 1} = {a_prev:.6g}, peak "
         f"{a_prev * float(module.S0):.6g}): the reduction breaks down there; the map stops at contact {i - 1}"
     )
 
 
-def _run(module: ModuleType, seed_A: float, seed_contact: int, contacts, amps, ratios, status: str, message: str,
-         fallbacks: int, engine: str) -> MapRun:
+def map_run(module: ModuleType, seed_A: float, seed_contact: int, contacts, amps, ratios, status: str, message: str,
+            fallbacks: int, engine: str) -> MapRun:
+    """The MapRun of amplitudes ``amps`` at ``contacts`` (peaks A_i S0), either engine's result."""
     A = np.asarray(amps, dtype=float)
     return MapRun(
         contacts=np.asarray(contacts, dtype=int),

@@ -100,7 +100,7 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     """Peaks P_0.. of one canonical segment run (DNS with a moving window, no cache), on the engine and
     method ``simulate`` chooses for the force. SegmentRunError when the run ends other than by its
     last contact, its pulse's death or a blow-up."""
-    from pulsemap.solvers.chain.dns import simulate
+    from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
     from pulsemap.solvers.chain.launch import Launch
     from pulsemap.solvers.chain.peaks import StopRules
     from pulsemap.solvers.chain.window import WindowSpec
@@ -119,8 +119,8 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
             eps[fp - 1 + bead] *= 1.0 + delta
     force = onsite_force(force_module(spec.R, names), beads, fp, eps, values)
     scale = min(1.0, amplitude, amplitude ** ((spec.n + 1.0) / 2.0))
-    res = simulate(beads, spec.n, 1.0, (entry, entry + CONTACTS), force, launch=Launch(float(amplitude), centre),
-                   rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale,
+    res = simulate(Chain(beads, spec.n, 1.0, force, launch=Launch(float(amplitude), centre)), (entry, entry + CONTACTS),
+                   integrator=Integrator(rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale),
                    window=WindowSpec("auto", spec.window_accuracy), stop=StopRules(death_fraction=DEATH))
     if not res.stop_reason.startswith(PULSE_ENDS):
         raise SegmentRunError(f"segment run of R = {spec.R} (eps {spec.eps:g}) launched at amplitude {amplitude:.6g} "

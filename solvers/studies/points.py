@@ -15,7 +15,7 @@ import math
 from typing import Any, Mapping, Sequence
 
 from pulsemap.symbolic.param_forms import RandomDraw
-from pulsemap.solvers.chain.dns import chain_length_for, simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, chain_length_for, simulate
 from pulsemap.solvers.studies.forcing import bead_params, chain_force
 from pulsemap.solvers.studies.sweep import SweepError, generated_ref, load_generated
 
@@ -104,10 +104,10 @@ def _dns(chain: Mapping[str, Any], values: Mapping[str, Any]) -> dict:
     force = chain_force(load_generated(chain["force"]), chain, values)
     opts = chain["dns"]
     first, last = (int(c) for c in chain["contacts"])
-    kw = {} if opts.get("window") is None else {"window": opts["window"]}
-    res = simulate(int(chain["beads"]), float(chain["exponent"]), float(chain["velocity"]), (first, last), force,
-                   method=opts.get("method", "auto"), rtol=float(opts["rtol"]), atol=float(opts["atol"]),
-                   engine=opts.get("engine", "compiled"), **kw)
+    integrator = Integrator(method=opts.get("method", "auto"), rtol=float(opts["rtol"]), atol=float(opts["atol"]),
+                            engine=opts.get("engine", "compiled"))
+    res = simulate(Chain(int(chain["beads"]), float(chain["exponent"]), float(chain["velocity"]), force), (first, last),
+                   integrator=integrator, window=opts.get("window"))
     contacts = list(range(first, last + 1))
     peaks = on_contacts(contacts, res.contacts, res.peaks, res.alive)
     live = [c for c, p in zip(contacts, peaks) if p is not None]

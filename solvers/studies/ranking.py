@@ -30,7 +30,8 @@ def rank_models(scene: Scene, result: dict) -> list[dict]:
     """[{model, title, the error (studies/errors.py), peaks, info}] for every model defined for this R,
     least RMS first; [] without a DNS. Models refused for this R (e.g. momentum with a foundation
     term) are left out."""
-    from pulsemap.solvers.studies.run import RunError, run_scene
+    from pulsemap.solvers.studies.methods import RunError
+    from pulsemap.solvers.studies.run import run_scene
 
     if (result.get("peaks") or {}).get("dns") is None or not result.get("dns"):
         return []

@@ -22,6 +22,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Callable, Sequence
 
+from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.progress import Progress
 
 STIFF_SCENE, YARDSTICK = "damp-100", "nonstiff"
@@ -152,7 +153,7 @@ def run_case(ref: str, *, check: bool = True, repeats: int = 1) -> dict:
     if check and result["peaks"]["dns"] is not None:
         second = other_method(dns["method"])
         span = check_contacts(scene.contacts)
-        tighter = scene.with_overrides(dns={"rtol": max(dns["rtol"] / 100.0, 1e-13),
+        tighter = with_overrides(scene, dns={"rtol": max(dns["rtol"] / 100.0, 1e-13),
                                             "atol": scene.dns["atol"] / 100.0, "method": second}, contacts=span)
         check_run = run_scene(tighter, methods=["dns"], dns_window="auto")
         err, odd = max_rel(result["peaks"]["dns"], check_run["peaks"]["dns"])  # zip: over the check's contacts

@@ -26,7 +26,7 @@ from pulsemap.solvers.data.scene.overrides import with_sets
 from pulsemap.solvers.data.records import append_record, read_keyed
 from pulsemap.solvers.studies.progress import Progress
 from pulsemap.solvers.studies.run import run_scene
-from pulsemap.solvers.data.scene import builtin_scenes, load_scene
+from pulsemap.solvers.data.scene import builtin_scenes, load_scene, with_overrides
 
 #: Bump when what a row holds or how it is computed changes (old rows are then recomputed).
 TABLE_VERSION = 4
@@ -87,7 +87,7 @@ def winner(errors: dict) -> tuple[str | None, float | None, str | None, float | 
 
 def _scene(name: str, eps: float | None, sets: tuple = ()):
     scene = with_sets(load_scene(name), sets)
-    return scene if eps is None else scene.with_overrides(eps=eps)
+    return scene if eps is None else with_overrides(scene, eps=eps)
 
 
 def scene_row(name: str, progress: bool = False, columns=COLUMNS, eps: float | None = None,

@@ -15,13 +15,14 @@ import pytest
 
 from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain.force_table import MonomialTable
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain.window import rule_for_accuracy
 import pulsemap.solvers.data as data_package
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force, run_scene
+from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.run import run_scene
 
 PEAK_TOL = 1e-7
 COMPILED = dict(rtol=1e-10, atol=1e-12, window=WindowSpec(accuracy=1e-8))
@@ -40,10 +41,11 @@ def rule_of(reason: str) -> str:
 SUITE = Path(data_package.__file__).parent / "scenes" / "suite"
 
 
-def scene_run(name: str, **kw):
+def scene_run(name: str, window=None, **kw):
     scene = load_scene(SUITE / f"{name}.toml" if (SUITE / f"{name}.toml").is_file() else name)
     beads, span = dns_span(scene)
-    return simulate(beads, scene.exponent, scene.velocity, span, make_force(scene, beads), **kw)
+    return simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span,
+                    integrator=Integrator(**kw), window=window)
 
 
 @pytest.mark.parametrize("name", ["fig6-eps0.1", "fig6-eps0.3", "fig7-eps0.1", "fig7-eps0.3", "fig8-eps0.1",
@@ -65,18 +67,19 @@ def test_paper_scenes_agree_with_scipy(name):
 def test_energy_conserved_without_perturbation():
     """R = 0: Eq. 1 conserves kinetic + contact energy; the window counts what dropped beads carried."""
     for window in (None, "auto"):
-        res = simulate(200, 1.5, 1.0, (1, 190), rtol=1e-10, atol=1e-12, window=window)
+        res = simulate(Chain(200, 1.5, 1.0), (1, 190), integrator=Integrator(rtol=1e-10, atol=1e-12), window=window)
         assert res.engine == "compiled" and res.stop_reason == "last contact peaked"
         assert res.energy_drift is not None and 0.0 < res.energy_drift < 1e-7
         assert np.max(np.abs(res.total_energy / res.energy_initial - 1.0)) < 1e-7 and res.energy_initial == 0.5
-    loose = simulate(200, 1.5, 1.0, (1, 190), rtol=1e-6, atol=1e-8, window="auto")
+    loose = simulate(Chain(200, 1.5, 1.0), (1, 190), integrator=Integrator(rtol=1e-6, atol=1e-8), window="auto")
     assert loose.energy_drift > 10 * res.energy_drift
 
 
 def test_unperturbed_peaks_match_scipy_full_chain():
     """Full chain (window=None) on both engines: the solitary wave's peaks agree."""
-    fast = simulate(80, 1.5, 1.0, (1, 70), rtol=1e-10, atol=1e-12)
-    ref = simulate(80, 1.5, 1.0, (1, 70), engine="scipy", method="DOP853", rtol=1e-12, atol=1e-14)
+    fast = simulate(Chain(80, 1.5, 1.0), (1, 70), integrator=Integrator(rtol=1e-10, atol=1e-12))
+    ref = simulate(Chain(80, 1.5, 1.0), (1, 70),
+                   integrator=Integrator(method="DOP853", rtol=1e-12, atol=1e-14, engine="scipy"))
     assert fast.mode == "full" and fast.engine == "compiled" and fast.window_beads == 80
     assert rel(fast.peaks, ref.peaks) < PEAK_TOL
 
@@ -98,8 +101,11 @@ def test_million_beads_cost_the_same_window():
     scene = load_scene("vdp-mu3-v2.3")
     force = make_force(scene, 140)
     assert force.monomials.coefficients.shape[1] == scene.first_perturbed  # uniform R: no O(N) table
-    small = simulate(140, scene.exponent, scene.velocity, (15, 120), force, **COMPILED)
-    huge = simulate(1_000_000, scene.exponent, scene.velocity, (15, 120), force, **COMPILED)
+    tol = Integrator(rtol=1e-10, atol=1e-12)
+    small = simulate(Chain(140, scene.exponent, scene.velocity, force), (15, 120), integrator=tol,
+                     window=WindowSpec(accuracy=1e-8))
+    huge = simulate(Chain(1_000_000, scene.exponent, scene.velocity, force), (15, 120), integrator=tol,
+                     window=WindowSpec(accuracy=1e-8))
     assert huge.window_beads == small.window_beads <= rule_for_accuracy(1e-8).behind + 12
     assert huge.beads == 1_000_000 and huge.stop_reason == small.stop_reason == "last contact peaked"
     assert np.array_equal(huge.peaks, small.peaks) and huge.nfev == small.nfev
@@ -124,19 +130,20 @@ def test_engine_selection_and_reasons():
     beads, span = dns_span(scene)
     force = make_force(scene, beads)
     short = (15, 30)
-    assert simulate(beads, 1.5, 1.0, short, force).engine == "compiled"
-    by_request = simulate(beads, 1.5, 1.0, short, force, engine="scipy")
+    assert simulate(Chain(beads, 1.5, 1.0, force), short).engine == "compiled"
+    by_request = simulate(Chain(beads, 1.5, 1.0, force), short, integrator=Integrator(engine="scipy"))
     assert by_request.engine == "scipy" and "requested" in by_request.engine_reason
-    dop = simulate(beads, 1.5, 1.0, short, force, method="DOP853")  # tests/chain/test_compiled_dop853.py
+    dop = simulate(Chain(beads, 1.5, 1.0, force), short,
+                   integrator=Integrator(method="DOP853"))  # tests/chain/test_compiled_dop853.py
     assert dop.engine == "compiled" and dop.method == "DOP853" and "DOP853" in dop.engine_reason
-    lsoda = simulate(beads, 1.5, 1.0, short, force, method="LSODA")
+    lsoda = simulate(Chain(beads, 1.5, 1.0, force), short, integrator=Integrator(method="LSODA"))
     assert lsoda.engine == "scipy" and "LSODA has no compiled kernel" in lsoda.engine_reason
-    assert "monomial table (dense form" in simulate(beads, 1.5, 1.0, short, force).engine_reason
-    sine = scene.with_overrides(R="-mu*sin(u)")  # tests/chain/test_compiled_jit.py compares its peaks
-    res = simulate(beads, 1.5, 1.0, short, make_force(sine, beads))
+    assert "monomial table (dense form" in simulate(Chain(beads, 1.5, 1.0, force), short).engine_reason
+    sine = with_overrides(scene, R="-mu*sin(u)")  # tests/chain/test_compiled_jit.py compares its peaks
+    res = simulate(Chain(beads, 1.5, 1.0, make_force(sine, beads)), short)
     assert res.engine == "compiled" and "generated numba function" in res.engine_reason
     with pytest.raises(ValueError, match="engine"):
-        simulate(beads, 1.5, 1.0, short, force, engine="numba")
+        simulate(Chain(beads, 1.5, 1.0, force), short, integrator=Integrator(engine="numba"))
 
 
 def test_stiff_scene_goes_to_the_compiled_rosenbrock_kernel():
@@ -148,10 +155,10 @@ def test_stiff_scene_goes_to_the_compiled_rosenbrock_kernel():
 
 
 def test_scene_key_and_run_record_the_engine():
-    scene = load_scene("fig8-eps0.1").with_overrides(contacts=(16, 30), dns={"engine": "scipy"})
+    scene = with_overrides(load_scene("fig8-eps0.1"), contacts=(16, 30), dns={"engine": "scipy"})
     out = run_scene(scene, methods=["dns"])
     assert out["dns"]["engine"] == "scipy" and out["scene"]["dns"]["engine"] == "scipy"
-    fast = run_scene(scene.with_overrides(dns={"engine": "compiled"}), methods=["dns"])
+    fast = run_scene(with_overrides(scene, dns={"engine": "compiled"}), methods=["dns"])
     assert fast["dns"]["engine"] == "compiled"
     got, ref = np.array(fast["peaks"]["dns"], float), np.array(out["peaks"]["dns"], float)
     assert rel(got, ref) < 1e-6
@@ -159,18 +166,19 @@ def test_scene_key_and_run_record_the_engine():
     from pulsemap.solvers.studies.points import dns_task, plain_chain
 
     assert dns_task(plain_chain(scene))["method"] == "DOP853"  # scipy, method 'auto'
-    assert dns_task(plain_chain(scene.with_overrides(dns={"engine": "compiled"})))["method"] == "RK45"
+    assert dns_task(plain_chain(with_overrides(scene, dns={"engine": "compiled"})))["method"] == "RK45"
 
 
 def test_blow_up_and_step_budget_stop_like_scipy():
     unstable = load_scene(SUITE / "unstable.toml")
     beads, span = dns_span(unstable)
     force = make_force(unstable, beads)
-    fast = simulate(beads, 1.5, 1.0, span, force, rtol=1e-8, atol=1e-10, window="auto")
-    ref = simulate(beads, 1.5, 1.0, span, force, rtol=1e-8, atol=1e-10, window="auto", engine="scipy", method="RK45")
+    fast = simulate(Chain(beads, 1.5, 1.0, force), span, integrator=Integrator(rtol=1e-8, atol=1e-10), window="auto")
+    ref = simulate(Chain(beads, 1.5, 1.0, force), span,
+                   integrator=Integrator(method="RK45", rtol=1e-8, atol=1e-10, engine="scipy"), window="auto")
     assert fast.engine == "compiled" and fast.blew_up and ref.blew_up
     assert rule_of(fast.stop_reason) == rule_of(ref.stop_reason)
-    budget = simulate(200, 1.5, 1.0, (1, 190), stop=StopRules(max_steps=50), window="auto")
+    budget = simulate(Chain(200, 1.5, 1.0), (1, 190), stop=StopRules(max_steps=50), window="auto")
     assert budget.steps == 50 and budget.stop_reason.startswith("step budget of 50 steps used up")
     assert budget.alive.sum() < 190 and np.all(np.isfinite(budget.peaks[budget.alive]))
 
@@ -183,7 +191,7 @@ def test_monomial_table_is_the_generated_force():
                     ("fig8-eps0.1", "-mu*(1 + i/50)*(v - u)^2*v")):
         scene = load_scene(name)
         if R is not None:
-            scene = scene.with_overrides(R=R)
+            scene = with_overrides(scene, R=R)
         beads = scene.beads or 140
         force = make_force(scene, beads)
         table: MonomialTable = force.monomials
@@ -198,9 +206,9 @@ def test_extreme_velocity_runs_compiled_in_the_unit_frame(name, v0):
     """v0 outside [1e-3, 1e3] runs at v0 = 1 (chain/scaling.py) with the table scaled like the force."""
     scene = load_scene(name)
     force = make_force(scene, 60)
-    kw = dict(rtol=1e-10, atol=1e-12, window="auto")
-    fast = simulate(60, 1.5, v0, (15, 40), force, **kw)
-    ref = simulate(60, 1.5, v0, (15, 40), force, engine="scipy", method="DOP853", **kw)
+    fast = simulate(Chain(60, 1.5, v0, force), (15, 40), integrator=Integrator(rtol=1e-10, atol=1e-12), window="auto")
+    ref = simulate(Chain(60, 1.5, v0, force), (15, 40), window="auto",
+                   integrator=Integrator(engine="scipy", method="DOP853", rtol=1e-10, atol=1e-12))
     assert fast.engine == "compiled" and ref.engine == "scipy" and np.array_equal(fast.alive, ref.alive)
     assert fast.alive.sum() >= 5 and rel(fast.peaks[fast.alive], ref.peaks[ref.alive]) < PEAK_TOL
 

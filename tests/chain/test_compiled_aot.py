@@ -17,12 +17,12 @@ import pytest
 
 import pulsemap
 from pulsemap.solvers.chain import compiled, compiled_aot, plan
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, simulate
 from pulsemap.solvers.chain.force_table import JitForce, MonomialTable
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain.window import rule_for_accuracy
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force
+from pulsemap.solvers.studies.forcing import make_force
 
 STATE = ("peaks", "times", "pulse_e", "total_e", "st", "fs", "y")
 
@@ -62,7 +62,7 @@ def test_the_ahead_of_time_kernel_is_taken_and_equals_the_jit_kernel_bit_for_bit
 
 
 def test_a_run_with_no_force_takes_the_table_kernel_and_equals_the_jit_run():
-    first = simulate(40, 1.5, 1.0, (5, 30), window="auto")
+    first = simulate(Chain(40, 1.5, 1.0), (5, 30), window="auto")
     run = compiled.prepare(40, 1.5, 1.0, (5, 30), None, rule=None, rtol=1e-8, atol=1e-10,
                            stop=StopRules(t_max=1e4, max_steps=10**6))
     assert compiled_aot.form_of(compiled.kernel_args(run)) == "table"

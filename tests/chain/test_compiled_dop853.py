@@ -16,20 +16,21 @@ import pytest
 
 from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain import compiled_dop853 as dop
-from pulsemap.solvers.chain.dns import simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force
+from pulsemap.solvers.studies.forcing import make_force
 
 PEAK_TOL = 1e-7
 COMPILED = dict(method="DOP853", rtol=1e-11, atol=1e-13, window=WindowSpec(accuracy=1e-8))
 REFERENCE = dict(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window=WindowSpec(accuracy=1e-8))
 
 
-def scene_run(name: str, **kw):
+def scene_run(name: str, window=None, **kw):
     scene = load_scene(name)
     beads, span = dns_span(scene)
-    return simulate(beads, scene.exponent, scene.velocity, span, make_force(scene, beads), **kw)
+    return simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span,
+                    integrator=Integrator(**kw), window=window)
 
 
 def rel(a, b) -> float:
@@ -97,11 +98,13 @@ def test_paper_scenes_agree_with_scipy(name):
 def test_energy_conserved_without_perturbation():
     """R = 0: kinetic + contact energy is conserved (full chain and window), and less so at a loose rtol."""
     for window in (None, "auto"):
-        res = simulate(200, 1.5, 1.0, (1, 190), method="DOP853", rtol=1e-10, atol=1e-12, window=window)
+        res = simulate(Chain(200, 1.5, 1.0), (1, 190),
+                       integrator=Integrator(method="DOP853", rtol=1e-10, atol=1e-12), window=window)
         assert res.engine == "compiled" and res.method == "DOP853" and res.stop_reason == "last contact peaked"
         assert 0.0 < res.energy_drift < 1e-8
         assert np.max(np.abs(res.total_energy / res.energy_initial - 1.0)) < 1e-8
-    loose = simulate(200, 1.5, 1.0, (1, 190), method="DOP853", rtol=1e-5, atol=1e-7, window="auto")
+    loose = simulate(Chain(200, 1.5, 1.0), (1, 190),
+                     integrator=Integrator(method="DOP853", rtol=1e-5, atol=1e-7), window="auto")
     assert loose.energy_drift > 10 * res.energy_drift
 
 
@@ -121,9 +124,9 @@ def test_a_scene_asking_for_dop853_runs_it_and_says_so():
     record names it; `[dns] engine = "scipy"` still gets the reference engine; the peaks agree."""
     from pulsemap.solvers.studies.run import run_scene
 
-    scene = load_scene("fig8-eps0.1").with_overrides(contacts=(16, 30), dns={"method": "DOP853"})
+    scene = with_overrides(load_scene("fig8-eps0.1"), contacts=(16, 30), dns={"method": "DOP853"})
     fast = run_scene(scene, methods=["dns"])
-    ref = run_scene(scene.with_overrides(dns={"engine": "scipy"}), methods=["dns"])
+    ref = run_scene(with_overrides(scene, dns={"engine": "scipy"}), methods=["dns"])
     assert fast["dns"]["engine"] == "compiled" and fast["dns"]["method"] == "DOP853"
     assert "DOP853" in fast["dns"]["engine_reason"] and ref["dns"]["engine"] == "scipy"
     got, want = np.array(fast["peaks"]["dns"], float), np.array(ref["peaks"]["dns"], float)

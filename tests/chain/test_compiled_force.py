@@ -13,10 +13,10 @@ import pytest
 
 from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain.force_table import MonomialTable
-from pulsemap.solvers.chain.dns import simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force
+from pulsemap.solvers.studies.forcing import make_force
 
 W, N = 7, 1.5
 DENSE_EXPONENTS = [[0, 1], [1, 0], [2, 1], [3, 0], [3, 1], [2, 0], [1, 1]]
@@ -80,13 +80,13 @@ def test_dense_form_only_where_it_fits(exponents, dense):
 def test_general_table_runs_agree_with_scipy():
     """An R the dense form cannot hold (u^5 and v^3) runs the monomial loop; its peaks equal the
     independent scipy engine's to 1e-7 on every live contact."""
-    scene = load_scene("fig8-eps0.1").with_overrides(R="-mu*v - 0.5*u^5 - 0.2*v^3")
+    scene = with_overrides(load_scene("fig8-eps0.1"), R="-mu*v - 0.5*u^5 - 0.2*v^3")
     beads, span = dns_span(scene)
     force = make_force(scene, beads)
     assert force.monomials.kernel_args[1].ndim == 2 and force.monomials.describe == "monomial table"
-    args = (beads, scene.exponent, scene.velocity, (span[0], min(span[1], 60)), force)
-    fast = simulate(*args, rtol=1e-10, atol=1e-12, window=WindowSpec(accuracy=1e-8))
-    ref = simulate(*args, engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13,
+    args = (Chain(beads, scene.exponent, scene.velocity, force), (span[0], min(span[1], 60)))
+    fast = simulate(*args, integrator=Integrator(rtol=1e-10, atol=1e-12), window=WindowSpec(accuracy=1e-8))
+    ref = simulate(*args, integrator=Integrator(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13),
                    window=WindowSpec(accuracy=1e-8))
     assert fast.engine == "compiled" and np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 10
     assert fast.engine_reason.endswith(", monomial table")

@@ -17,16 +17,16 @@ import pytest
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.symbolic.cache import cache_dir
 from pulsemap.symbolic.codegen import PACKAGE_DIR, regenerate_text
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.equations import make_rhs
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.models.codeload import force_module, jit_force_module
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force
+from pulsemap.solvers.studies.forcing import make_force
 
 PEAK_TOL = 1e-7
-FAST = dict(rtol=1e-10, atol=1e-12, window="auto")
-REFERENCE = dict(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13, window="auto")
+FAST = Integrator(rtol=1e-10, atol=1e-12)
+REFERENCE = Integrator(engine="scipy", method="DOP853", rtol=1e-11, atol=1e-13)
 
 
 def rule_of(reason: str) -> str:
@@ -34,7 +34,7 @@ def rule_of(reason: str) -> str:
 
 
 def scene_with(R: str, **params):
-    scene = load_scene("fig8-eps0.1").with_overrides(R=R, params=params)
+    scene = with_overrides(load_scene("fig8-eps0.1"), R=R, params=params)
     beads, span = dns_span(scene)
     return scene, beads, span, make_force(scene, beads)
 
@@ -43,8 +43,8 @@ def scene_with(R: str, **params):
 def test_non_polynomial_R_agrees_with_the_scipy_engine(R):
     scene, beads, span, force = scene_with(R, mu=1.0)
     assert force.monomials is None and force.jit is not None
-    fast = simulate(beads, scene.exponent, scene.velocity, span, force, **FAST)
-    ref = simulate(beads, scene.exponent, scene.velocity, span, force, **REFERENCE)
+    fast = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, integrator=FAST, window="auto")
+    ref = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, integrator=REFERENCE, window="auto")
     assert fast.engine == "compiled" and fast.method == "RK45" and ref.engine == "scipy"
     assert "generated numba function" in fast.engine_reason
     assert np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 20
@@ -57,9 +57,10 @@ def test_stiff_non_polynomial_R_runs_rosenbrock_with_the_numba_jacobian():
     """-mu v/(1 + v^2) with eps mu = 1000: Rodas4 takes dF/dv from the generated dF/dv function."""
     scene, beads, _, force = scene_with("-mu*v/(1+v^2)", mu=10000.0)
     span = (1, scene.first_perturbed + 20)
-    fast = simulate(beads, scene.exponent, scene.velocity, span, force, rtol=1e-9, atol=1e-11, window="auto")
-    ref = simulate(beads, scene.exponent, scene.velocity, span, force, engine="scipy", method="Radau", rtol=1e-11,
-                   atol=1e-13, window="auto")
+    fast = simulate(Chain(beads, scene.exponent, scene.velocity, force), span,
+                    integrator=Integrator(rtol=1e-9, atol=1e-11), window="auto")
+    ref = simulate(Chain(beads, scene.exponent, scene.velocity, force), span,
+                   integrator=Integrator(method="Radau", rtol=1e-11, atol=1e-13, engine="scipy"), window="auto")
     assert fast.engine == "compiled" and fast.method == "Rodas4" and "numba" in fast.engine_reason
     assert np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 10
     assert np.max(np.abs(fast.peaks[fast.alive] / ref.peaks[ref.alive] - 1.0)) < PEAK_TOL
@@ -68,7 +69,8 @@ def test_stiff_non_polynomial_R_runs_rosenbrock_with_the_numba_jacobian():
 @pytest.mark.parametrize("R", ["-mu*sign(v)", "-mu*abs(v)*v"])
 def test_non_smooth_R_stays_on_the_scipy_engine_with_the_reason(R):
     scene, beads, _, force = scene_with(R, mu=1.0)
-    res = simulate(beads, scene.exponent, scene.velocity, (15, 25), force, window="auto", stop=StopRules(max_steps=200_000))
+    res = simulate(Chain(beads, scene.exponent, scene.velocity, force), (15, 25),
+                   window="auto", stop=StopRules(max_steps=200_000))
     assert res.engine == "scipy" and res.engine_reason.startswith("non-smooth R")
 
 
@@ -78,7 +80,7 @@ def test_the_compiled_right_hand_side_is_eq1_with_the_numpy_force():
     random parameter equals the scipy engine's (numpy force module) on a random state."""
     from pulsemap.solvers.chain.compiled_ops import rhs
 
-    scene = load_scene("fig13-seed1").with_overrides(R="-k*v/(1+v^2) - 0.3*sin(u)*exp(-i/50)")
+    scene = with_overrides(load_scene("fig13-seed1"), R="-k*v/(1+v^2) - 0.3*sin(u)*exp(-i/50)")
     beads = 60
     force = make_force(scene, beads)
     data = force.jit()

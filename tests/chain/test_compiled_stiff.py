@@ -14,10 +14,10 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from pulsemap.solvers.chain.force_table import MonomialTable
-from pulsemap.solvers.chain.dns import simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force
+from pulsemap.solvers.studies.forcing import make_force
 from pulsemap.solvers.studies.suite import resolve
 
 STIFF_TOL = 1e-7
@@ -31,16 +31,16 @@ def rel(a, b) -> float:
     return float(np.max(np.abs(np.asarray(a) / np.asarray(b) - 1.0)))
 
 
-def stiff_run(name: str, stiffer: bool = False, **kw):
+def stiff_run(name: str, stiffer: bool = False, window=None, **kw):
     """The scene's chain and force from contact 1 (the unperturbed approach is integrated by the
     stiff method too) to 20 past the first perturbed bead: the strong on-site force kills the pulse.
     ``stiffer``: eps raised so that 'auto' takes Rodas4 on the compiled engine (STIFFER)."""
     scene = load_scene(resolve(name))
     if stiffer and STIFFER[name]:
-        scene = scene.with_overrides(**STIFFER[name])
+        scene = with_overrides(scene, **STIFFER[name])
     beads, _ = dns_span(scene)
-    return simulate(beads, scene.exponent, scene.velocity, (1, scene.first_perturbed + 20), make_force(scene, beads),
-                    **kw)
+    return simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), (1, scene.first_perturbed + 20),
+                    integrator=Integrator(**kw), window=window)
 
 
 @pytest.mark.parametrize("stiffer", [False, pytest.param(True, marks=pytest.mark.slow)], ids=["suite", "stiffer"])
@@ -52,7 +52,7 @@ def test_stiff_suite_scenes_agree_with_radau(name, stiffer):
     from pulsemap.solvers.chain.plan import is_stiff
 
     ref = stiff_run(name, stiffer, **RADAU)
-    scene = load_scene(resolve(name)).with_overrides(**(STIFFER[name] if stiffer else {}))
+    scene = with_overrides(load_scene(resolve(name)), **(STIFFER[name] if stiffer else {}))
     beads, _ = dns_span(scene)
     rosenbrock = is_stiff(make_force(scene, beads), scene.velocity, scene.exponent)
     assert rosenbrock == (stiffer or name == "damp-1000")

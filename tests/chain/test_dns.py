@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from pulsemap.solvers.chain.peaks import StopRules
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.equations import (
     DNSResult,
     OnSiteForce,
@@ -17,6 +19,7 @@ from pulsemap.solvers.chain.equations import (
     make_jacobians,
     make_rhs,
 )
+from pulsemap.solvers.chain.front import Snapshots
 from pulsemap.solvers.chain.peaks import scan_step
 
 FIRST_PERTURBED = 16
@@ -44,8 +47,8 @@ def rel(a: np.ndarray, b: np.ndarray) -> float:
 def unperturbed(request) -> tuple[float, DNSResult, DNSResult]:
     n = request.param
     beads = chain_length_for(40)
-    slow = simulate(beads, n, 1.0, (1, 40))
-    fast = simulate(beads, n, 4.0, (1, 40))
+    slow = simulate(Chain(beads, n, 1.0), (1, 40))
+    fast = simulate(Chain(beads, n, 4.0), (1, 40))
     return n, slow, fast
 
 
@@ -65,8 +68,8 @@ def test_energy_conserved(unperturbed):
 
 
 def test_energy_drift_shrinks_with_tolerance():
-    loose = simulate(30, 1.5, 1.0, (1, 20), rtol=1e-9, atol=1e-11)
-    tight = simulate(30, 1.5, 1.0, (1, 20), rtol=1e-12, atol=1e-14)
+    loose = simulate(Chain(30, 1.5, 1.0), (1, 20), integrator=Integrator(rtol=1e-9, atol=1e-11))
+    tight = simulate(Chain(30, 1.5, 1.0), (1, 20), integrator=Integrator(rtol=1e-12, atol=1e-14))
     assert tight.energy_drift < 1e-10
     assert tight.energy_drift < loose.energy_drift
 
@@ -99,8 +102,8 @@ def test_homogeneity_of_delays(unperturbed):
 
 def test_two_tolerances_agree():
     beads = chain_length_for(30)
-    loose = simulate(beads, 1.5, 1.0, (1, 30), rtol=1e-8, atol=1e-10)
-    tight = simulate(beads, 1.5, 1.0, (1, 30), rtol=1e-11, atol=1e-13)
+    loose = simulate(Chain(beads, 1.5, 1.0), (1, 30), integrator=Integrator(rtol=1e-8, atol=1e-10))
+    tight = simulate(Chain(beads, 1.5, 1.0), (1, 30), integrator=Integrator(rtol=1e-11, atol=1e-13))
     assert rel(loose.peaks, tight.peaks) < 1e-6
     assert rel(np.diff(loose.peak_times), np.diff(tight.peak_times)) < 1e-6
     assert tight.nfev > loose.nfev  # the tighter run did more work
@@ -141,9 +144,9 @@ def test_noisy_rest_state_gives_no_early_peaks():
     offsets = np.random.default_rng(3).uniform(-1e-10, 1e-10, beads)
     noisy = OnSiteForce(lambda x, v: -0.05 * (x - offsets))
     clean = OnSiteForce(lambda x, v: -0.05 * x)
-    ref = simulate(beads, 1.5, 1.0, (1, 30), clean)
+    ref = simulate(Chain(beads, 1.5, 1.0, clean), (1, 30))
     for fraction in (1e-2, 1e-300):
-        res = simulate(beads, 1.5, 1.0, (1, 30), noisy, stop=StopRules(peak_fraction=fraction))
+        res = simulate(Chain(beads, 1.5, 1.0, noisy), (1, 30), stop=StopRules(peak_fraction=fraction))
         assert res.alive.all()
         assert np.all(np.diff(res.peak_times) > 0.5)
         assert rel(res.peaks, ref.peaks) < 1e-6
@@ -156,14 +159,15 @@ def test_noisy_rest_state_gives_no_early_peaks():
 @pytest.fixture(scope="module")
 def damped_reference() -> DNSResult:
     beads = chain_length_for(30)
-    return simulate(beads, 1.5, 1.0, (16, 30), damping(0.3, beads), method="DOP853", rtol=1e-9,
-                    engine="scipy")
+    return simulate(Chain(beads, 1.5, 1.0, damping(0.3, beads)), (16, 30),
+                    integrator=Integrator(method="DOP853", rtol=1e-9, engine="scipy"))
 
 
 @pytest.mark.parametrize("method", ["Radau", "BDF", "LSODA", "RK45"])
 def test_methods_agree_on_damped_chain(damped_reference, method):
     beads = damped_reference.beads
-    res = simulate(beads, 1.5, 1.0, (16, 30), damping(0.3, beads), method=method, rtol=1e-9)
+    res = simulate(Chain(beads, 1.5, 1.0, damping(0.3, beads)), (16, 30),
+                   integrator=Integrator(method=method, rtol=1e-9))
     assert res.method == method
     assert res.alive.all() and damped_reference.alive.all()
     assert rel(res.peaks, damped_reference.peaks) < 1e-6
@@ -175,13 +179,13 @@ def test_finite_difference_jacobian_path_agrees(damped_reference):
     beads = damped_reference.beads
     f = damping(0.3, beads)
     no_jac = OnSiteForce(force=f.force, stiffness_hint=0.3)
-    res = simulate(beads, 1.5, 1.0, (16, 30), no_jac, method="LSODA", rtol=1e-9)
+    res = simulate(Chain(beads, 1.5, 1.0, no_jac), (16, 30), integrator=Integrator(method="LSODA", rtol=1e-9))
     assert rel(res.peaks, damped_reference.peaks) < 1e-6
 
 
 def test_damped_peaks_decrease_and_pulse_dies():
     beads = chain_length_for(50)
-    res = simulate(beads, 1.5, 1.0, (16, 50), damping(0.3, beads))
+    res = simulate(Chain(beads, 1.5, 1.0, damping(0.3, beads)), (16, 50))
     live = res.peaks[res.alive]
     assert len(live) > 10
     assert np.all(np.diff(live) < 0)
@@ -195,7 +199,7 @@ def test_damped_peaks_decrease_and_pulse_dies():
 def test_amplitude_death_keeps_the_dying_peak():
     """A peak below death_fraction x the first requested peak ends the run at that contact."""
     beads = chain_length_for(40)
-    res = simulate(beads, 1.5, 1.0, (16, 40), damping(0.3, beads), stop=StopRules(death_fraction=0.5))
+    res = simulate(Chain(beads, 1.5, 1.0, damping(0.3, beads)), (16, 40), stop=StopRules(death_fraction=0.5))
     assert res.stop_reason.startswith("pulse died at contact")
     k = int(res.stop_reason.split()[4])
     i = k - 16
@@ -206,7 +210,7 @@ def test_amplitude_death_keeps_the_dying_peak():
 
 def test_strong_damping_finishes_quickly_with_implicit_method():
     beads = chain_length_for(45)
-    res = simulate(beads, 1.5, 1.0, (16, 45), damping(100.0, beads))
+    res = simulate(Chain(beads, 1.5, 1.0, damping(100.0, beads)), (16, 45))
     assert res.method in ("Radau", "BDF", "LSODA")
     assert res.stop_reason.startswith("pulse died")
     assert res.alive.sum() <= 1 and not res.alive[1:].any()
@@ -214,7 +218,8 @@ def test_strong_damping_finishes_quickly_with_implicit_method():
     assert res.wall_time_s < 5.0
     assert res.nfev < 50_000
     assert res.njev >= 1  # stiff: the banded analytic Jacobian was used
-    explicit = simulate(beads, 1.5, 1.0, (16, 45), damping(100.0, beads), method="DOP853", engine="scipy")
+    explicit = simulate(Chain(beads, 1.5, 1.0, damping(100.0, beads)), (16, 45),
+                        integrator=Integrator(method="DOP853", engine="scipy"))
     assert explicit.stop_reason.startswith("pulse died")
     assert res.peaks[0] == pytest.approx(explicit.peaks[0], rel=1e-6)
 
@@ -279,27 +284,27 @@ def test_energy_and_chain_length():
 
 
 def test_energy_blowup_stops_run():
-    res = simulate(20, 1.5, 1.0, (1, 9), OnSiteForce(lambda x, v: 5.0 * v))
+    res = simulate(Chain(20, 1.5, 1.0, OnSiteForce(lambda x, v: 5.0 * v)), (1, 9))
     assert "energy grew" in res.stop_reason
     assert not res.alive.any() and np.isnan(res.peaks).all()
 
 
 def test_nonfinite_force_stops_run():
-    res = simulate(20, 1.5, 1.0, (1, 9), OnSiteForce(lambda x, v: np.where(np.abs(x) > 0.5, np.nan, 0.0)))
+    res = simulate(Chain(20, 1.5, 1.0, OnSiteForce(lambda x, v: np.where(np.abs(x) > 0.5, np.nan, 0.0))), (1, 9))
     assert "non-finite" in res.stop_reason or "integrator failed" in res.stop_reason
     assert res.alive.sum() < 9
 
 
 def test_t_max_keeps_measured_peaks():
-    res = simulate(20, 1.5, 1.0, (1, 9), stop=StopRules(t_max=3.0))
+    res = simulate(Chain(20, 1.5, 1.0), (1, 9), stop=StopRules(t_max=3.0))
     assert res.stop_reason.startswith("t_max reached")
     assert res.alive[:2].all() and not res.alive[2:].any()
     assert np.isnan(res.peaks[2:]).all() and np.isfinite(res.peaks[:2]).all()
 
 
 def test_reports_only_requested_range():
-    res = simulate(30, 1.5, 1.0, (10, 12))
-    full = simulate(30, 1.5, 1.0, (1, 12))
+    res = simulate(Chain(30, 1.5, 1.0), (10, 12))
+    full = simulate(Chain(30, 1.5, 1.0), (1, 12))
     assert list(res.contacts) == [10, 11, 12]
     assert np.array_equal(res.peaks, full.peaks[9:])
 
@@ -335,18 +340,18 @@ def test_bad_arguments(kwargs, pattern):
     args = dict(beads=20, exponent=1.5, velocity=1.0, contacts=(1, 5))
     args.update(kwargs)
     stop = {k: args.pop(k) for k in ("peak_fraction", "death_fraction", "t_max", "stall_factor") if k in args}
-    if stop:
-        args["stop"] = StopRules(**stop)
+    integrator = {k: args.pop(k) for k in ("method", "rtol", "atol") if k in args}
     with pytest.raises(ValueError, match=pattern):
-        simulate(**args)
+        simulate(Chain(args.pop("beads"), args.pop("exponent"), args.pop("velocity")), args.pop("contacts"),
+                 integrator=Integrator(**integrator), stop=StopRules(**stop))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["LSODA", "BDF", "Radau"])
 def test_long_chain_methods_agree(method):
     """140 beads to contact 120 (the paper's chain), implicit vs DOP853 at rtol 1e-10."""
-    ref = simulate(140, 1.5, 1.0, (1, 120), method="DOP853", engine="scipy")
-    res = simulate(140, 1.5, 1.0, (1, 120), method=method)
+    ref = simulate(Chain(140, 1.5, 1.0), (1, 120), integrator=Integrator(method="DOP853", engine="scipy"))
+    res = simulate(Chain(140, 1.5, 1.0), (1, 120), integrator=Integrator(method=method))
     assert res.alive.all() and rel(res.peaks, ref.peaks) < 1e-6
     assert res.energy_drift < 1e-6
 
@@ -367,8 +372,8 @@ def unstable(k: float, beads: int, velocity_term: bool = False, first: int = FIR
 def test_blow_up_stops_with_reason_and_keeps_measured_peaks(window, velocity_term):
     beads = chain_length_for(60)
     force = unstable(200.0, beads, velocity_term)
-    res = simulate(beads, 1.5, 1.0, (1, 60), force, window=window)
-    clean = simulate(beads, 1.5, 1.0, (1, 15), window=window)
+    res = simulate(Chain(beads, 1.5, 1.0, force), (1, 60), window=window)
+    clean = simulate(Chain(beads, 1.5, 1.0), (1, 15), window=window)
     assert res.blew_up and res.stop_reason.startswith("blow-up")
     assert "energy grew" in res.stop_reason or "non-finite" in res.stop_reason
     # the precursor ahead of the pulse is amplified as soon as it reaches bead 16, so the run
@@ -381,18 +386,18 @@ def test_blow_up_stops_with_reason_and_keeps_measured_peaks(window, velocity_ter
 
 
 def test_step_budget_bounds_a_run():
-    res = simulate(60, 1.5, 1.0, (1, 50), stop=StopRules(max_steps=40), engine="scipy")
+    res = simulate(Chain(60, 1.5, 1.0), (1, 50), integrator=Integrator(engine="scipy"), stop=StopRules(max_steps=40))
     assert res.stop_reason.startswith("step budget of 40 steps")
     assert res.steps == 40 and not res.blew_up
     assert 0 < res.alive.sum() < 50 and np.isfinite(res.peaks[res.alive]).all()
-    win = simulate(60, 1.5, 1.0, (1, 50), stop=StopRules(max_steps=40), window="auto")
+    win = simulate(Chain(60, 1.5, 1.0), (1, 50), stop=StopRules(max_steps=40), window="auto")
     assert win.stop_reason.startswith("step budget")
 
 
 @pytest.mark.parametrize("bad", [0, -3, 2.5, True])
 def test_bad_step_budget(bad):
     with pytest.raises(ValueError, match="max_steps"):
-        simulate(20, 1.5, 1.0, (1, 5), stop=StopRules(max_steps=bad))
+        simulate(Chain(20, 1.5, 1.0), (1, 5), stop=StopRules(max_steps=bad))
 
 
 def test_run_output_of_an_unstable_scene_has_a_warning_and_no_nan(tmp_path):
@@ -411,3 +416,18 @@ def test_run_output_of_an_unstable_scene_has_a_warning_and_no_nan(tmp_path):
         assert any("blow-up" in w for w in out["warnings"])
         json.dumps(out, allow_nan=False)  # raises on NaN/inf anywhere
         assert all(p is None for p in out["peaks"]["dns"][5:])
+
+
+def test_run_specs_are_frozen_values_checked_when_made():
+    """Chain, Integrator and Snapshots normalise what they hold, compare by value and refuse edits."""
+    chain = Chain(np.int64(40), 2, 1)
+    assert type(chain.beads) is int and type(chain.exponent) is float and type(chain.velocity) is float
+    assert chain == Chain(40, 2.0, 1.0) and hash(chain) == hash(Chain(40, 2.0, 1.0))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        chain.beads = 50
+    assert Snapshots([30, 20], span=[1, 2]) == Snapshots((30, 20), (1, 2))
+    assert Integrator() == Integrator("auto", 1e-10, 1e-12, "compiled")
+    with pytest.raises(ValueError, match="unknown engine 'numba'"):
+        Integrator(engine="numba")
+    with pytest.raises(TypeError, match="launch must be"):
+        Chain(40, 1.5, 1.0, launch=(0.7, 8))

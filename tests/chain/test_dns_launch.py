@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from pulsemap.symbolic.profile import exact_profile
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.launch import Launch
 
 
@@ -17,7 +17,8 @@ from pulsemap.solvers.chain.launch import Launch
 def test_launched_wave_keeps_its_peak_and_speed(window, amplitude, engine):
     """Unperturbed chain: every peak is A S(0) and contact k peaks at (k - c) A^(-s) (Eq. 32), on both engines."""
     n = 1.5
-    res = simulate(50, n, 1.0, (9, 40), launch=Launch(amplitude, 8), window=window, engine=engine)
+    res = simulate(Chain(50, n, 1.0, launch=Launch(amplitude, 8)), (9, 40),
+                   integrator=Integrator(engine=engine), window=window)
     assert res.engine == engine
     assert np.all(res.alive) and res.stop_reason == "last contact peaked"
     assert res.energy_drift < 1e-7  # the launched wave's energy (the window's share) is kept
@@ -39,9 +40,10 @@ def test_a_launch_into_a_perturbed_chain_agrees_on_both_engines(R, stiff):
     scene = with_sets(load_scene("fig8-eps0.1"), [f"perturbation.R={R}", f"perturbation.params.mu={1000.0 if stiff else 0.3}",
                                                    "perturbation.eps=1.0", f"chain.first_perturbed={first}"])
     force = make_force(scene, beads)
-    kw = dict(launch=Launch(0.7, centre), window="auto", rtol=1e-10, atol=1e-13)
-    fast = simulate(beads, 1.5, 1.0, (centre + 1, 45), force, **kw)
-    ref = simulate(beads, 1.5, 1.0, (centre + 1, 45), force, engine="scipy", **kw)
+    chain = Chain(beads, 1.5, 1.0, force, launch=Launch(0.7, centre))
+    fast = simulate(chain, (centre + 1, 45), window="auto", integrator=Integrator(rtol=1e-10, atol=1e-13))
+    ref = simulate(chain, (centre + 1, 45),
+                   window="auto", integrator=Integrator(engine="scipy", rtol=1e-10, atol=1e-13))
     assert fast.engine == "compiled" and ref.engine == "scipy"
     assert fast.method == ("Rodas4" if stiff else "RK45")
     assert np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 2
@@ -72,7 +74,7 @@ def test_launch_state_is_the_travelling_wave():
 ])
 def test_bad_launch_is_refused(launch, contacts, beads, words):
     with pytest.raises(ValueError, match=words):
-        simulate(beads, 1.5, 1.0, contacts, launch=launch)
+        simulate(Chain(beads, 1.5, 1.0, launch=launch), contacts)
 
 
 @pytest.mark.parametrize("amplitude, centre", [(0.0, 7), (float("nan"), 7), (1.0, 0), (1.0, 2.5)])
@@ -83,4 +85,4 @@ def test_bad_launch_values(amplitude, centre):
 
 def test_launch_must_be_a_launch():
     with pytest.raises(TypeError, match="launch"):
-        simulate(40, 1.5, 1.0, (9, 20), launch=(1.0, 8))
+        simulate(Chain(40, 1.5, 1.0, launch=(1.0, 8)), (9, 20))

@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 
 from pulsemap.symbolic.profile import exact_profile
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 
 
 @pytest.mark.parametrize("n", [1.5, 2.5])
 def test_unperturbed_pulse_speed_and_peak_match_the_profile(n):
     """Delay between contacts = A^(-s) with A = peak / S(0) (erratum 4, docs/errata.rst: not Eq. 6 as printed)."""
-    res = simulate(50, n, 1.0, (25, 40), rtol=1e-11, atol=1e-13)
+    res = simulate(Chain(50, n, 1.0), (25, 40), integrator=Integrator(rtol=1e-11, atol=1e-13))
     s = (n - 1) / 2
     S0 = exact_profile(n).S0
     A = res.peaks / S0
@@ -26,7 +26,7 @@ def test_dns_strain_follows_the_travelling_wave_shape():
     from scipy.integrate import solve_ivp
 
     n, beads = 1.5, 40
-    res = simulate(beads, n, 1.0, (29, 31), rtol=1e-11, atol=1e-13)
+    res = simulate(Chain(beads, n, 1.0), (29, 31), integrator=Integrator(rtol=1e-11, atol=1e-13))
     p = exact_profile(n)
     A = res.peaks[1] / p.S0
     T = res.peak_times[1]
@@ -53,11 +53,11 @@ def test_overtake_predicate():
 
 def test_wake_overtaking_a_dying_pulse_ends_the_primary_pulse():
     """Linear foundation (paper Fig. 6, eps = 0.1): the pulse fades, the wake arrives first."""
-    from pulsemap.solvers.studies.run import make_force
+    from pulsemap.solvers.studies.forcing import make_force
     from pulsemap.solvers.data.scene import load_scene
 
     sc = load_scene("fig6-eps0.1")
-    res = simulate(131, 1.5, 1.0, (15, 120), make_force(sc, 131))
+    res = simulate(Chain(131, 1.5, 1.0, make_force(sc, 131)), (15, 120))
     assert "overtook" in res.stop_reason
     live = res.peaks[res.alive]
     assert 20 < live.size < 60
@@ -76,10 +76,10 @@ def test_delay_jump_ends_the_primary_pulse():
 
 def test_strong_damping_stops_at_the_end_of_the_solitary_front():
     """eps mu = 1 (Fig. 8, eps = 1): a slow compression follows the pulse; it is not the pulse."""
-    from pulsemap.solvers.studies.run import make_force
+    from pulsemap.solvers.studies.forcing import make_force
     from pulsemap.solvers.data.scene import load_scene
 
     sc = load_scene("fig8-eps1")
-    res = simulate(131, 1.5, 1.0, (15, 120), make_force(sc, 131))
+    res = simulate(Chain(131, 1.5, 1.0, make_force(sc, 131)), (15, 120))
     assert "solitary" in res.stop_reason
     assert res.alive.sum() < 15 and res.t_end < 100

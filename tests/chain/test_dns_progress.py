@@ -7,7 +7,7 @@ import re
 import pytest
 
 from pulsemap.solvers.chain import dns_progress
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.dns_progress import DNSProgress, duration
 
 
@@ -33,9 +33,10 @@ def test_duration(seconds, text):
 @pytest.mark.parametrize("window", [None, "auto"])
 def test_a_run_with_progress_reports_on_stderr_and_one_without_is_silent(window, capsys, monkeypatch):
     monkeypatch.setattr(dns_progress, "EVERY_S", 0.0)
-    simulate(60, 1.5, 1.0, (10, 40), progress=True, window=window, engine="scipy")  # the compiled engine reports none
+    simulate(Chain(60, 1.5, 1.0), (10, 40),
+             integrator=Integrator(engine="scipy"), progress=True, window=window)  # the compiled engine reports none
     err = capsys.readouterr().err.splitlines()
     assert err and all(re.match(r"^\[dns(-window)?\] contact \d+/40, t = ", line) for line in err)
     assert any("ETA" in line for line in err)
-    simulate(60, 1.5, 1.0, (10, 40), progress=False, window=window, engine="scipy")
+    simulate(Chain(60, 1.5, 1.0), (10, 40), integrator=Integrator(engine="scipy"), progress=False, window=window)
     assert capsys.readouterr().err == ""

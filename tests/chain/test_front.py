@@ -11,7 +11,8 @@ import pytest
 
 from pulsemap.symbolic.balance import balance_constants
 from pulsemap.symbolic.profile import exact_profile
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.front import Snapshots
+from pulsemap.solvers.chain.dns import Chain, simulate
 from pulsemap.solvers.chain.equations import OnSiteForce, chain_length_for
 from pulsemap.solvers.chain.front import pulse_speed
 
@@ -21,7 +22,7 @@ FIRST, LAST = 20, 50
 
 @pytest.fixture(scope="module")
 def unperturbed():
-    return simulate(chain_length_for(LAST), N, 1.0, (FIRST, LAST), snapshots=[30, LAST])
+    return simulate(Chain(chain_length_for(LAST), N, 1.0), (FIRST, LAST), snapshots=Snapshots([30, LAST]))
 
 
 @pytest.fixture(scope="module")
@@ -72,8 +73,8 @@ def test_snapshot_is_the_profile_around_the_peak(unperturbed, wave_amplitude):
 
 
 def test_window_records_the_same_front():
-    full = simulate(chain_length_for(60), N, 1.0, (20, 60), snapshots=[40])
-    win = simulate(chain_length_for(60), N, 1.0, (20, 60), window="auto", snapshots=[40])
+    full = simulate(Chain(chain_length_for(60), N, 1.0), (20, 60), snapshots=Snapshots([40]))
+    win = simulate(Chain(chain_length_for(60), N, 1.0), (20, 60), snapshots=Snapshots([40]), window="auto")
     assert win.mode.startswith("window")
     assert win.pulse_energy == pytest.approx(full.pulse_energy, rel=1e-7)
     assert win.total_energy == pytest.approx(full.total_energy, rel=1e-6)
@@ -84,7 +85,7 @@ def test_damping_drains_the_pulse_and_the_chain():
     beads = chain_length_for(40)
     mask = (np.arange(1, beads + 1) >= 16).astype(float)
     force = OnSiteForce(force=lambda x, v: -0.1 * mask * v)
-    res = simulate(beads, N, 1.0, (16, 40), force)
+    res = simulate(Chain(beads, N, 1.0, force), (16, 40))
     live = res.alive & np.isfinite(res.pulse_energy)
     assert live.sum() > 5
     assert np.all(np.diff(res.total_energy[live]) < 0)  # work of -mu v is negative
@@ -102,10 +103,10 @@ def test_pulse_speed_of_a_partial_run():
 
 
 @pytest.mark.parametrize("kwargs, pattern", [
-    ({"snapshots": [5]}, "snapshot contact 5"),
-    ({"snapshots": [2.5]}, "snapshot contact"),
-    ({"snapshot_span": (-1, 2)}, "snapshot_span"),
+    ({"contacts": [5]}, "snapshot contact 5"),
+    ({"contacts": [2.5]}, "snapshot contact"),
+    ({"span": (-1, 2)}, "snapshot span"),
 ])
 def test_bad_snapshot_arguments(kwargs, pattern):
     with pytest.raises(ValueError, match=pattern):
-        simulate(chain_length_for(30), N, 1.0, (20, 30), **kwargs)
+        simulate(Chain(chain_length_for(30), N, 1.0), (20, 30), snapshots=Snapshots(**kwargs))

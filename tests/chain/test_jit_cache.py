@@ -108,12 +108,12 @@ def test_ready_says_so_once_when_it_compiles_and_nothing_when_the_cache_is_warm(
 
 
 def test_a_compiled_run_reports_its_kernel_compile_apart_from_the_integration():
-    from pulsemap.solvers.chain.dns import simulate
+    from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 
-    first = simulate(40, 1.5, 1.0, (5, 30), window="auto")
-    again = simulate(40, 1.5, 1.0, (5, 30), window="auto")
+    first = simulate(Chain(40, 1.5, 1.0), (5, 30), window="auto")
+    again = simulate(Chain(40, 1.5, 1.0), (5, 30), window="auto")
     assert first.engine == again.engine == "compiled"
     assert first.compile_s >= 0.0 and again.compile_s == 0.0  # this process has the kernel now
     assert np.array_equal(first.peaks, again.peaks) and again.wall_time_s > 0.0
-    scipy_run = simulate(40, 1.5, 1.0, (5, 30), engine="scipy", rtol=1e-8)
+    scipy_run = simulate(Chain(40, 1.5, 1.0), (5, 30), integrator=Integrator(rtol=1e-8, engine="scipy"))
     assert scipy_run.compile_s == 0.0

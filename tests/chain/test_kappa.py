@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import pulsemap.solvers.chain.kappa as kappa_mod
-from pulsemap.solvers.chain.dns import chain_length_for, simulate
+from pulsemap.solvers.chain.dns import Chain, chain_length_for, simulate
 from pulsemap.solvers.chain.kappa import kappa, peak_from_velocity, velocity_from_peak
 
 
@@ -18,7 +18,7 @@ def private_cache(tmp_path, monkeypatch):
 @pytest.mark.parametrize("n", [1.5, 3.0])
 def test_peak_from_velocity_matches_direct_dns(n):
     v0 = 2.3
-    res = simulate(chain_length_for(35), n, v0, (25, 35))
+    res = simulate(Chain(chain_length_for(35), n, v0), (25, 35))
     assert res.alive.all()
     assert peak_from_velocity(v0, n) == pytest.approx(res.peaks[5], rel=1e-6)
 

@@ -9,7 +9,7 @@ import pytest
 
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain import scaling
-from pulsemap.solvers.chain.dns import MIN_RTOL, OnSiteForce, simulate
+from pulsemap.solvers.chain.dns import MIN_RTOL, Chain, Integrator, OnSiteForce, simulate
 from pulsemap.solvers.chain.scaling import FORCE_LIMIT, Scaling, ScalingError
 
 N, CONTACTS = 40, (10, 25)
@@ -24,8 +24,8 @@ def damping(mu: float, first: int = 10) -> OnSiteForce:
 @pytest.mark.parametrize("n", [1.5, 2.5])
 @pytest.mark.parametrize("v0", [1e-150, 1e-30, 1e-6, 1e6, 1e30, 1e150])
 def test_unperturbed_runs_at_any_velocity_are_the_unit_run_rescaled(n, v0):
-    unit = simulate(N, n, 1.0, CONTACTS, window="auto")
-    res = simulate(N, n, v0, CONTACTS, window="auto")
+    unit = simulate(Chain(N, n, 1.0), CONTACTS, window="auto")
+    res = simulate(Chain(N, n, v0), CONTACTS, window="auto")
     lam = v0 ** (2 / (n + 1))
     tau = lam ** ((1 - n) / 2)
     assert res.alive.all() and "rescaled" in res.stop_reason
@@ -38,10 +38,12 @@ def test_unperturbed_runs_at_any_velocity_are_the_unit_run_rescaled(n, v0):
 def test_the_force_mapping_agrees_with_a_direct_run(monkeypatch):
     """Damped chain at v0 = 30 (inside float range either way): rescaled and direct runs agree."""
     force = damping(0.2)
-    direct = simulate(N, 1.5, 30.0, CONTACTS, force, rtol=1e-11, atol=1e-13)  # 30 is in DIRECT_RANGE
+    direct = simulate(Chain(N, 1.5, 30.0, force), CONTACTS,
+                      integrator=Integrator(rtol=1e-11, atol=1e-13))  # 30 is in DIRECT_RANGE
     assert "rescaled" not in direct.stop_reason and direct.alive.all()
     monkeypatch.setattr(scaling, "DIRECT_RANGE", (0.1, 10.0))
-    rescaled = simulate(N, 1.5, 30.0, CONTACTS, force, rtol=1e-11, atol=1e-13 / 30.0 ** 0.8)
+    rescaled = simulate(Chain(N, 1.5, 30.0, force), CONTACTS,
+                        integrator=Integrator(rtol=1e-11, atol=1e-13 / 30.0 ** 0.8))
     assert "rescaled" in rescaled.stop_reason
     np.testing.assert_allclose(rescaled.peaks, direct.peaks, rtol=1e-8)
     np.testing.assert_allclose(rescaled.peak_times, direct.peak_times, rtol=1e-8)
@@ -66,25 +68,25 @@ def test_scaled_force_and_its_derivatives():
 def test_a_perturbed_chain_is_refused_where_its_unit_frame_force_is_too_large():
     force = damping(0.3)
     with pytest.raises(ScalingError) as info:
-        simulate(N, 1.5, 1e-100, CONTACTS, force)
+        simulate(Chain(N, 1.5, 1e-100, force), CONTACTS)
     message = str(info.value)
     assert "\n" not in message and f"limit {FORCE_LIMIT:g}" in message
     lo = float(message.split("v0 in [")[1].split(",")[0])
     # damping mu in the unit frame is mu * tau = mu * v0^(-1/5) (n = 3/2): the limit at v0 = (0.3 / 1e8)^5
     assert lo == pytest.approx((0.3 / FORCE_LIMIT) ** 5, rel=1e-6)
-    simulate(N, 1.5, lo * 1.01, (10, 11), force, stop=StopRules(max_steps=50))  # inside: accepted (and bounded)
+    simulate(Chain(N, 1.5, lo * 1.01, force), (10, 11), stop=StopRules(max_steps=50))  # inside: accepted (and bounded)
     with pytest.raises(ScalingError):
-        simulate(N, 1.5, lo / 1.01, (10, 11), force)
+        simulate(Chain(N, 1.5, lo / 1.01, force), (10, 11))
 
 
 @pytest.mark.parametrize("v0", [1e-300, 1e300, 1e-151, 1e151])
 def test_velocities_whose_energy_is_not_a_float_are_refused_with_the_range(v0):
     with pytest.raises(ValueError, match=r"outside \[1e-150, 1e\+150\]"):
-        simulate(N, 1.5, v0, CONTACTS)
+        simulate(Chain(N, 1.5, v0), CONTACTS)
 
 
 @pytest.mark.parametrize("rtol", [1e-300, 1e-16, MIN_RTOL / 2])
 def test_a_tolerance_float64_cannot_deliver_is_refused(rtol):
     with pytest.raises(ValueError, match=f"rtol >= {MIN_RTOL:.2g}"):
-        simulate(N, 1.5, 1.0, CONTACTS, rtol=rtol)
+        simulate(Chain(N, 1.5, 1.0), CONTACTS, integrator=Integrator(rtol=rtol))
     assert math.isclose(MIN_RTOL, 100 * np.finfo(float).eps)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pulsemap.solvers.chain.window import WindowSpec
-from pulsemap.solvers.chain.dns import OnSiteForce, make_rhs, simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, OnSiteForce, make_rhs, simulate
 from pulsemap.solvers.chain.window import (
     MIN_WIDTH,
     WindowRule,
@@ -19,7 +19,7 @@ from pulsemap.solvers.chain.window import (
 )
 
 BEADS, LAST = 200, 190
-TIGHT = dict(method="DOP853", rtol=1e-12, atol=1e-14, engine="scipy")  # integrator error << window error
+TIGHT = Integrator(method="DOP853", rtol=1e-12, atol=1e-14, engine="scipy")  # integrator error << window error
 
 
 def damping(eps_mu: float, beads: int, first: int = 16, restrict: bool = True) -> OnSiteForce:
@@ -43,8 +43,8 @@ def rel(a, b) -> float:
 
 @pytest.fixture(scope="module")
 def unperturbed():
-    full = simulate(BEADS, 1.5, 1.0, (1, LAST), **TIGHT)
-    win = simulate(BEADS, 1.5, 1.0, (1, LAST), **TIGHT, window=WindowSpec(accuracy=1e-8))
+    full = simulate(Chain(BEADS, 1.5, 1.0), (1, LAST), integrator=TIGHT)
+    win = simulate(Chain(BEADS, 1.5, 1.0), (1, LAST), integrator=TIGHT, window=WindowSpec(accuracy=1e-8))
     return full, win
 
 
@@ -75,8 +75,8 @@ def test_window_energy_and_formed_peaks(unperturbed):
 @pytest.mark.parametrize("eps_mu", [0.01, 0.3])
 def test_window_matches_full_chain_damped(eps_mu):
     beads, last = 80, 70
-    full = simulate(beads, 1.5, 1.0, (16, last), damping(eps_mu, beads), **TIGHT)
-    win = simulate(beads, 1.5, 1.0, (16, last), damping(eps_mu, beads), **TIGHT, window="auto")
+    full = simulate(Chain(beads, 1.5, 1.0, damping(eps_mu, beads)), (16, last), integrator=TIGHT)
+    win = simulate(Chain(beads, 1.5, 1.0, damping(eps_mu, beads)), (16, last), integrator=TIGHT, window="auto")
     assert np.array_equal(win.alive, full.alive) and win.alive.sum() >= 15
     ok = full.alive
     assert rel(win.peaks[ok], full.peaks[ok]) < 1e-8
@@ -85,25 +85,25 @@ def test_window_matches_full_chain_damped(eps_mu):
 
 def test_force_without_restrict_is_embedded():
     beads = 80
-    a = simulate(beads, 1.5, 1.0, (16, 60), damping(0.05, beads), window=24)
-    b = simulate(beads, 1.5, 1.0, (16, 60), damping(0.05, beads, restrict=False), window=24)
+    a = simulate(Chain(beads, 1.5, 1.0, damping(0.05, beads)), (16, 60), window=24)
+    b = simulate(Chain(beads, 1.5, 1.0, damping(0.05, beads, restrict=False)), (16, 60), window=24)
     assert np.array_equal(a.peaks, b.peaks)
 
 
 @pytest.mark.parametrize("method, engine", [("DOP853", "scipy"), ("RK45", "fortran"), ("LSODA", "auto")])
 def test_engines_and_methods_agree(method, engine):
     beads = 80
-    ref = simulate(beads, 1.5, 1.0, (16, 70), damping(0.05, beads), **TIGHT)
-    res = simulate(beads, 1.5, 1.0, (16, 70), damping(0.05, beads), method=method, rtol=1e-10,
-                   atol=1e-12, window=WindowSpec(engine=engine))
+    ref = simulate(Chain(beads, 1.5, 1.0, damping(0.05, beads)), (16, 70), integrator=TIGHT)
+    res = simulate(Chain(beads, 1.5, 1.0, damping(0.05, beads)), (16, 70),
+                   integrator=Integrator(method=method, rtol=1e-10, atol=1e-12), window=WindowSpec(engine=engine))
     assert res.mode == f"window/{'scipy' if method == 'LSODA' else engine}"
     assert res.alive.all() and rel(res.peaks, ref.peaks) < 1e-6
 
 
 def test_narrow_ahead_extends_the_window_without_error():
     """ahead = 2: the precursor reaches the window's edge; the step is redone wider."""
-    full = simulate(60, 1.5, 1.0, (1, 50), **TIGHT)
-    win = simulate(60, 1.5, 1.0, (1, 50), **TIGHT, window=WindowRule(behind=8, ahead=2, chunk=4))
+    full = simulate(Chain(60, 1.5, 1.0), (1, 50), integrator=TIGHT)
+    win = simulate(Chain(60, 1.5, 1.0), (1, 50), integrator=TIGHT, window=WindowRule(behind=8, ahead=2, chunk=4))
     assert rel(win.peaks, full.peaks) < 1e-9
     assert win.window_shifts > (50 - 8) // 4  # extensions on top of the regular shifts
 
@@ -111,10 +111,11 @@ def test_narrow_ahead_extends_the_window_without_error():
 def test_free_boundary_is_worse_than_coast_on_a_dying_pulse():
     beads = 60
     f = damping(0.3, beads)
-    full = simulate(beads, 1.5, 1.0, (16, 36), f, **TIGHT)
+    full = simulate(Chain(beads, 1.5, 1.0, f), (16, 36), integrator=TIGHT)
     errs = {}
     for boundary in ("coast", "free"):
-        w = simulate(beads, 1.5, 1.0, (16, 36), f, **TIGHT, window=WindowRule(behind=8, boundary=boundary))
+        w = simulate(Chain(beads, 1.5, 1.0, f), (16, 36),
+                     integrator=TIGHT, window=WindowRule(behind=8, boundary=boundary))
         errs[boundary] = rel(w.peaks, full.peaks)
     assert errs["coast"] < errs["free"]
 
@@ -155,7 +156,7 @@ def test_bad_window_arguments(window):
     with pytest.raises(ValueError, match="window"):
         resolve_rule(window, 1e-8)
     with pytest.raises(ValueError, match="window"):
-        simulate(40, 1.5, 1.0, (1, 20), window=window)
+        simulate(Chain(40, 1.5, 1.0), (1, 20), window=window)
 
 
 def test_quintic_step_locates_an_analytic_maximum():
@@ -196,7 +197,7 @@ def test_exact_stepper_is_the_method_order():
 
 def test_scene_force_is_restricted_to_the_window():
     """run.make_force gives restrict(): windowed scene DNS = full chain, O(window) force calls."""
-    from pulsemap.solvers.studies.run import make_force
+    from pulsemap.solvers.studies.forcing import make_force
     from pulsemap.solvers.data.scene import load_scene
 
     scene = load_scene("fig8-eps0.1")
@@ -205,8 +206,8 @@ def test_scene_force_is_restricted_to_the_window():
     x, v = np.linspace(0.1, 0.2, 80), np.linspace(-1.0, 1.0, 80)
     assert np.allclose(part.force(x[20:30], v[20:30]), force.force(x, v)[20:30])
     assert np.allclose(part.dforce_dv(x[20:30], v[20:30]), force.dforce_dv(x, v)[20:30])
-    full = simulate(80, 1.5, 1.0, (10, 60), force, **TIGHT)
-    win = simulate(80, 1.5, 1.0, (10, 60), force, **TIGHT, window=WindowSpec(accuracy=1e-8))
+    full = simulate(Chain(80, 1.5, 1.0, force), (10, 60), integrator=TIGHT)
+    win = simulate(Chain(80, 1.5, 1.0, force), (10, 60), integrator=TIGHT, window=WindowSpec(accuracy=1e-8))
     assert np.array_equal(full.alive, win.alive) and rel(win.peaks[win.alive], full.peaks[full.alive]) < 1e-8
 
 
@@ -219,10 +220,10 @@ def test_windowed_chain_energy_only_without_R(engine):
 
     scene = load_scene("fig8-eps0.1")
     force = make_force(scene, 140)
-    kw = dict(rtol=1e-9, atol=1e-11, engine=engine)
-    damped = simulate(140, 1.5, 1.0, (15, 45), force, window="auto", **kw)
-    full = simulate(140, 1.5, 1.0, (15, 45), force, **kw)
+    kw = Integrator(rtol=1e-9, atol=1e-11, engine=engine)
+    damped = simulate(Chain(140, 1.5, 1.0, force), (15, 45), integrator=kw, window="auto")
+    full = simulate(Chain(140, 1.5, 1.0, force), (15, 45), integrator=kw)
     assert damped.total_energy is None and np.all(np.isfinite(damped.pulse_energy))
     assert np.all(np.diff(full.total_energy) < 0)  # damping: the chain loses energy
-    free = simulate(140, 1.5, 1.0, (15, 45), None, window="auto", **kw)
+    free = simulate(Chain(140, 1.5, 1.0, None), (15, 45), integrator=kw, window="auto")
     assert np.allclose(free.total_energy, free.energy_initial, rtol=1e-6)

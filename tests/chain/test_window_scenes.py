@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from pulsemap.solvers.chain.window import WindowSpec
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import builtin_scenes, load_scene
 from pulsemap.solvers.data.scene.files import suite_scene_names
 from pulsemap.solvers.studies.forcing import make_force
@@ -26,12 +26,13 @@ def test_the_window_rule_holds_on_every_scene(name):
     sc = load_scene(name)
     beads, span = dns_span(sc)
     force = None if (sc.perturbation.R == 0 or sc.perturbation.eps == 0) else make_force(sc, beads)
-    tight = dict(rtol=1e-12, atol=1e-14)
-    full = simulate(beads, sc.exponent, sc.velocity, span, force, **tight)
+    tight = Integrator(rtol=1e-12, atol=1e-14)
+    full = simulate(Chain(beads, sc.exponent, sc.velocity, force), span, integrator=tight)
     ref = {c: p for c, p, a in zip(full.contacts, full.peaks, full.alive) if a}
     assert full.mode == "full" and ref, "no live contact: nothing to compare"
     for accuracy in ACCURACIES:
-        win = simulate(beads, sc.exponent, sc.velocity, span, force, window=WindowSpec(accuracy=accuracy), **tight)
+        win = simulate(Chain(beads, sc.exponent, sc.velocity, force), span,
+                       integrator=tight, window=WindowSpec(accuracy=accuracy))
         got = {c: p for c, p, a in zip(win.contacts, win.peaks, win.alive) if a}
         assert win.mode.startswith("window")
         assert set(got) == set(ref), f"the window for {accuracy:g} changed where the pulse dies"

@@ -33,6 +33,7 @@ import pytest
 
 from conftest import scene_toml, write_scene
 from pulsemap.solvers.cli.main import main
+from pulsemap.solvers.data.scene import with_overrides
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -351,9 +352,15 @@ def _scene_error():
 
 
 def _run_error():
-    from pulsemap.solvers.studies.run import RunError
+    from pulsemap.solvers.studies.methods import RunError
 
     return RunError
+
+
+def _run_choices(methods=None, seed_peak=None, snapshots=()):
+    from pulsemap.solvers.api.checks import run_choices
+
+    return run_choices(_scene(), methods, None, None, seed_peak, snapshots)
 
 
 def _map_error():
@@ -413,21 +420,22 @@ API: list[tuple[str, Callable[[], object], Callable[[], type], list[str]]] = [
     ("bead values: zero beads", lambda: _pert().bead_values("mu", 0), _perturbation_error, ["beads", "positive"]),
     ("bead values: wrong length", lambda: _pert(params={"mu": [1.0, 2.0]}).bead_values("mu", 5),
      _perturbation_error, ["'mu'", "2 per-bead values", "5 beads"]),
-    ("scene override: beads negative", lambda: _scene().with_overrides(beads=-3), _scene_error, ["beads = -3", ">= 3"]),
-    ("scene override: velocity a string", lambda: _scene().with_overrides(velocity="1"), _scene_error,
+    ("scene override: beads negative", lambda: with_overrides(_scene(), beads=-3), _scene_error, ["beads = -3", ">= 3"]),
+    ("scene override: velocity a string", lambda: with_overrides(_scene(), velocity="1"), _scene_error,
      ["velocity", "number"]),
-    ("scene override: unknown field", lambda: _scene().with_overrides(veloctiy=1.0), _scene_error,
+    ("scene override: unknown field", lambda: with_overrides(_scene(), veloctiy=1.0), _scene_error,
      ["'veloctiy'", "did you mean 'velocity'"]),
-    ("scene override: eps inf", lambda: _scene().with_overrides(eps=math.inf), _scene_error, ["eps", "not finite"]),
-    ("scene override: parameter not used", lambda: _scene().with_overrides(R="-v", params={"mu": 1.0}), _scene_error,
+    ("scene override: eps inf", lambda: with_overrides(_scene(), eps=math.inf), _scene_error, ["eps", "not finite"]),
+    ("scene override: parameter not used", lambda: with_overrides(_scene(), R="-v", params={"mu": 1.0}), _scene_error,
      ["'mu'", "not used"]),
-    ("run: unknown method", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), methods=["mpa"]),
+    ("run: unknown method", lambda: importlib.import_module("pulsemap").run(_scene(), methods=["mpa"]),
      _run_error, ["'mpa'", "did you mean 'map'"]),
-    ("run: no methods", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), methods=[]),
-     _run_error, ["no method to run"]),
-    ("run: seed peak nan", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), seed_peak=math.nan),
-     _run_error, ["seed peak", "finite"]),
-    ("run: unknown profile", lambda: importlib.import_module("pulsemap.solvers.studies.run").run_scene(_scene(), profile="spline"),
+    ("run: seed peak nan", lambda: _run_choices(seed_peak=math.nan), _run_error, ["seed peak", "finite"]),
+    ("run: snapshot outside the contacts", lambda: _run_choices(methods=["dns"], snapshots=(5,)), _run_error,
+     ["snapshot contact 5", "scene's contacts"]),
+    ("run: snapshots without the DNS", lambda: _run_choices(methods=["map"], snapshots=(20,)), _run_error,
+     ["snapshots are taken by the DNS"]),
+    ("run: unknown profile", lambda: importlib.import_module("pulsemap").run(_scene(), profile="spline"),
      _run_error, ["profile 'spline'"]),
     ("map: seed amplitude negative", lambda: _iterate(-1.0), _map_error, ["seed amplitude", "> 0"]),
     ("map: last contact before seed", lambda: _iterate(1.0, 15, 10), _map_error, ["last contact 10", "seed contact 15"]),
@@ -473,8 +481,8 @@ def test_an_expression_starting_with_minus_is_not_an_option(expr, capsys):
 def test_override_of_R_keeps_only_the_parameters_it_uses():
     """Not an error: a new R without new params keeps the old values R uses and drops the rest."""
     scene = _scene()
-    assert dict(scene.with_overrides(R="-v").perturbation.params) == {}
-    assert dict(scene.with_overrides(R="-2*mu*v").perturbation.params) == {"mu": 1.0}
+    assert dict(with_overrides(scene, R="-v").perturbation.params) == {}
+    assert dict(with_overrides(scene, R="-2*mu*v").perturbation.params) == {"mu": 1.0}
 
 
 # --------------------------------------------------------------------------- files that are not files

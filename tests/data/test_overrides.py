@@ -9,7 +9,7 @@ import pytest
 from conftest import scene_toml, write_scene
 from pulsemap.solvers.cli.main import main
 from pulsemap.solvers.data.scene.overrides import parse_assignment, scene_keys, with_sets
-from pulsemap.solvers.data.scene import SceneError, load_scene
+from pulsemap.solvers.data.scene import SceneError, load_scene, with_overrides
 
 
 def test_a_set_equals_the_same_value_in_the_file(tmp_path):
@@ -76,7 +76,7 @@ def test_every_scene_command_refuses_an_unknown_key_before_running(capsys, comma
 
 
 def _five_ways(tmp_path, dotted: dict, fields: dict, toml_edit):
-    """The same change through --set, pulsemap.scene(**kw), Scene.with_overrides, a TOML file and a dict."""
+    """The same change through --set, pulsemap.scene(**kw), with_overrides, a TOML file and a dict."""
     import pulsemap
     from pulsemap.solvers.data.scene import parse_scene
 
@@ -87,7 +87,7 @@ def _five_ways(tmp_path, dotted: dict, fields: dict, toml_edit):
     return {
         "set": with_sets(base, lines),
         "api": pulsemap.scene("fig8-eps0.3", name="x", **dotted),
-        "fields": base.with_overrides(name="x", **fields),
+        "fields": with_overrides(base, name="x", **fields),
         "dict": pulsemap.scene({**data, "name": "x"}),
         "toml": parse_scene({**data, "name": "x"}, base.source),
     }

@@ -30,8 +30,8 @@ def test_every_plot_names_its_own_error_when_matplotlib_is_missing(monkeypatch):
     from pulsemap.solvers.studies.bifurcation import plot as bifurcation_plot
     from pulsemap.solvers.studies.ensemble import EnsembleError
     from pulsemap.solvers.studies.ensemble import plot as ensemble_plot
-    from pulsemap.solvers.studies.run import RunError
-    from pulsemap.solvers.studies.run import plot as run_plot
+    from pulsemap.solvers.studies.methods import RunError
+    from pulsemap.solvers.studies.run.report import plot as run_plot
 
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     for plot, error in ((run_plot, RunError), (bench_plot, BenchError), (bifurcation_plot, BifurcationError),
@@ -100,7 +100,7 @@ def test_run_figure_has_a_legend_entry_per_line_and_marks_the_stop():
 
 
 def test_run_plot_writes_a_png(tmp_path):
-    from pulsemap.solvers.studies.run import plot
+    from pulsemap.solvers.studies.run.report import plot
 
     figures()
     path = tmp_path / "run.png"

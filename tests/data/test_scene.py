@@ -18,6 +18,7 @@ from pulsemap.solvers.data.scene import (
     builtin_scenes,
     load_scene,
     parse_scene,
+    with_overrides,
 )
 
 EXPECTED_BUILTINS = sorted(
@@ -107,19 +108,19 @@ def test_model_and_dns_tables(tmp_path):
 
 def test_with_overrides():
     scene = load_scene("fig8-eps0.3")
-    other = scene.with_overrides(eps=0.5, beads=200, dns={"rtol": 1e-6})
+    other = with_overrides(scene, eps=0.5, beads=200, dns={"rtol": 1e-6})
     assert other.perturbation.eps == 0.5 and other.beads == 200
     assert dict(other.dns) == {"rtol": 1e-6, "atol": 1e-12, "method": "auto"}
     assert scene.perturbation.eps == 0.3  # unchanged
-    assert scene.with_overrides(methods=["dns", "map"]).methods == ("map", "dns")
+    assert with_overrides(scene, methods=["dns", "map"]).methods == ("map", "dns")
     with pytest.raises(SceneError, match="beyond a chain of 100 beads"):
-        scene.with_overrides(beads=100)
+        with_overrides(scene, beads=100)
     with pytest.raises(SceneError, match="did you mean 'beads'"):
-        scene.with_overrides(bead=200)
+        with_overrides(scene, bead=200)
     with pytest.raises(SceneError, match="velocity"):
-        scene.with_overrides(velocity=float("nan"))
+        with_overrides(scene, velocity=float("nan"))
     with pytest.raises(SceneError, match="R\\(0,0\\)"):
-        scene.with_overrides(R="1 - mu*v")
+        with_overrides(scene, R="1 - mu*v")
 
 
 # --------------------------------------------------------------------------- bad input

@@ -28,8 +28,10 @@ from pulsemap.symbolic.profile import exact_profile
 from pulsemap.symbolic.sources import BALANCE_METHOD as SOURCES_BALANCE_METHOD
 from pulsemap.solvers.models.balance_eval import evaluate_balance_law, iterate_balance_map
 from pulsemap.solvers.models.codeload import balance_module
-from pulsemap.solvers.studies.run import MODELS, run_scene, to_csv
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.studies.methods import MODELS
+from pulsemap.solvers.studies.run import run_scene
+from pulsemap.solvers.studies.run.report import to_csv
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 
 VDP = "-(u - mu*(1 - u^2)*v)"
 GENERATED = Path(codegen.PACKAGE_DIR)
@@ -283,13 +285,13 @@ def test_momentum_balance_refuses_a_term_without_v():
 
 
 def test_run_refuses_momentum_for_a_foundation_and_solves_site_dependent_laws():
-    res = run_scene(load_scene("fig6-eps0.1").with_overrides(contacts=(16, 30)),
+    res = run_scene(with_overrides(load_scene("fig6-eps0.1"), contacts=(16, 30)),
                     methods=["momentum-map", "energy-map", "energy-law"])
     assert res["peaks"]["momentum-map"] is None
     assert "diverges" in res["momentum-map"]["refused"]
     assert any(w.startswith("momentum-map refused") for w in res["warnings"])
     assert res["peaks"]["energy-map"][0] is not None and res["peaks"]["energy-law"][0] is not None
-    site = run_scene(load_scene("fig13-seed1").with_overrides(contacts=(16, 30)), methods=["energy-map", "energy-law"])
+    site = run_scene(with_overrides(load_scene("fig13-seed1"), contacts=(16, 30)), methods=["energy-map", "energy-law"])
     # random per-bead stiffness: the law with piecewise-constant coefficients (derive/site_law.py)
     assert site["peaks"]["energy-law"][0] is not None and site["peaks"]["energy-map"][0] is not None
     assert site["energy-law"]["law_kind"] == "quadrature (site-dependent)"
@@ -310,7 +312,7 @@ def test_scene_file_lists_balance_models(tmp_path):
 
 
 def test_run_names_every_model_and_measures_errors():
-    scene = load_scene("fig8-eps0.1").with_overrides(contacts=(16, 40))
+    scene = with_overrides(load_scene("fig8-eps0.1"), contacts=(16, 40))
     res = run_scene(scene, methods=list(MODELS) + ["dns"])
     json.dumps(res)
     assert set(MODELS) == {"map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "relaxed", "dressed-law"}
@@ -333,7 +335,7 @@ def test_energy_law_converges_to_the_dns_as_eps_vanishes_for_damping():
     (the wake carries momentum): its decay rate is off by the factor (9/5 for n = 3/2) of the rates."""
     errs, mom = [], []
     for eps in (0.01, 0.003):
-        scene = load_scene("fig8-eps0.1").with_overrides(eps=eps, contacts=(16, 70))
+        scene = with_overrides(load_scene("fig8-eps0.1"), eps=eps, contacts=(16, 70))
         res = run_scene(scene, methods=["dns", "energy-law", "momentum-law", "map"])
         errs.append(res["errors"]["energy-law"]["max_pct"])
         d = np.array(res["peaks"]["dns"], float)
@@ -350,7 +352,7 @@ def test_energy_law_converges_to_the_dns_for_foundations_and_van_der_pol(name):
     """As eps -> 0 the energy balance's error vanishes (first-order theory), the paper map's does not."""
     errs, maps = [], []
     for eps in (0.01, 0.003):
-        res = run_scene(load_scene(name).with_overrides(eps=eps, contacts=(16, 70)), methods=["dns", "energy-law", "map"])
+        res = run_scene(with_overrides(load_scene(name), eps=eps, contacts=(16, 70)), methods=["dns", "energy-law", "map"])
         errs.append(res["errors"]["energy-law"]["max_pct"])
         maps.append(res["errors"]["map"]["max_pct"])
     print(f"{name}: energy-law max % {errs}, paper map {maps}")

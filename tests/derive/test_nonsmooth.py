@@ -8,7 +8,7 @@ from pulsemap.symbolic.balance import BalanceError, balance_expand
 from pulsemap.symbolic.codegen_force import DELTA
 from pulsemap.symbolic.expansion import ExpansionError, expand
 from pulsemap.symbolic.expression import parse_expression
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, simulate
 from pulsemap.solvers.chain.equations import OnSiteForce, choose_method
 from pulsemap.solvers.models.codeload import force_module
 
@@ -48,7 +48,7 @@ def test_coulomb_friction_dns_runs_loses_energy_and_the_pulse_dies():
                         dforce_dv=lambda x, v: mod.force_dv(x, v, *args),
                         stiffness_hint=float(np.max(np.abs(mod.force_dv(0 * idx, 0 * idx, *args)))))
     assert choose_method(force, 1.0, 1.5) == "LSODA"  # the ramp is stiff: 'auto' goes implicit
-    run = simulate(beads, 1.5, 1.0, (first, 40), force, stop=StopRules(max_steps=200_000))
+    run = simulate(Chain(beads, 1.5, 1.0, force), (first, 40), stop=StopRules(max_steps=200_000))
     live = np.isfinite(run.peaks)
     peaks = run.peaks[live]
     assert 6 <= live.sum() < len(run.peaks)  # the pulse decays to nothing at a finite contact

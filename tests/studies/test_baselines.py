@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pulsemap.solvers.studies.bench.baselines import baseline_script, grid_peaks, script_rhs
-from pulsemap.solvers.chain.dns import make_rhs, simulate
+from pulsemap.solvers.chain.dns import Chain, make_rhs, simulate
 
 
 def test_script_rhs_is_eq1():
@@ -19,7 +19,7 @@ def test_script_rhs_is_eq1():
 
 
 def test_baseline_peaks_agree_with_simulate_to_sampling_accuracy():
-    ref = simulate(40, 1.5, 1.0, (1, 30))
+    ref = simulate(Chain(40, 1.5, 1.0), (1, 30))
     res = baseline_script(40, 1.5, 1.0, (1, 30), dt_sample=0.01)
     assert res.alive.all()
     assert np.max(np.abs(res.peaks / ref.peaks - 1)) < 1e-3
@@ -33,7 +33,7 @@ def test_baseline_damped_chain():
     mask = (np.arange(1, 41) >= 16).astype(float)
     from pulsemap.solvers.chain.dns import OnSiteForce
 
-    ref = simulate(40, 1.5, 1.0, (16, 30), OnSiteForce(lambda x, v: -eps_mu * mask * v))
+    ref = simulate(Chain(40, 1.5, 1.0, OnSiteForce(lambda x, v: -eps_mu * mask * v)), (16, 30))
     res = baseline_script(40, 1.5, 1.0, (16, 30), lambda i, x, v: -eps_mu * v if i >= 16 else 0.0,
                           t_end=ref.peak_times[-1] + 3.0)
     assert res.alive.all()

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from conftest import scene_toml
-from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bench import peak_error
 from pulsemap.solvers.studies.forcing import make_force
@@ -101,8 +101,8 @@ def test_script_peaks_agree_with_the_dns_within_its_tolerance(name, tiny_path):
     scene = load_scene(str(tiny_path) if name == "tiny" else name)
     beads, span = dns_span(scene)
     force = make_force(scene, beads)
-    ref = simulate(beads, scene.exponent, scene.velocity, span, force, engine="scipy", method="DOP853",
-                   rtol=1e-12, atol=1e-14)
+    ref = simulate(Chain(beads, scene.exponent, scene.velocity, force), span,
+                   integrator=Integrator(method="DOP853", rtol=1e-12, atol=1e-14, engine="scipy"))
     contacts = list(ref.contacts)
     ref_peaks = on_contacts(contacts, ref.contacts, ref.peaks, ref.alive)
     t_end = float(np.nanmax(ref.peak_times[ref.alive])) + 2.0

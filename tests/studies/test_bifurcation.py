@@ -9,7 +9,7 @@ from pulsemap.solvers.studies.bifurcation import (
     BifurcationError, bifurcation, bracket, classify, predict, predicted_threshold, stable_peak,
 )
 from pulsemap.solvers.studies.points import dns_task, plain_chain
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 
 VDP_SCENE = "vdp-mu3-v2.3"
 
@@ -164,7 +164,7 @@ def test_cli_bifurcation_retry_failed_reruns_recorded_errors(tmp_path):
 def test_dns_stationary_amplitude_at_mu3_equals_the_stable_root():
     """Both impulses settle on one amplitude, within 0.5 % of Eq. 41's stable root (both profiles),
     and the DNS amplitude is converged in its tolerance."""
-    sc = load_scene(VDP_SCENE).with_overrides(contacts=(16, 200))
+    sc = with_overrides(load_scene(VDP_SCENE), contacts=(16, 200))
     base = plain_chain(sc, window="auto", rtol=1e-8)
     amps = {}
     for v0, rtol in ((2.3, 1e-8), (0.3, 1e-8), (2.3, 1e-10)):

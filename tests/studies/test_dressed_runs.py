@@ -12,6 +12,7 @@ from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
 from pulsemap.solvers.studies import dressed as dc
+from pulsemap.solvers.data.scene import with_overrides
 
 
 def test_shipped_calibration_is_reproduced_and_k1_is_the_energy_balance():
@@ -75,7 +76,7 @@ def test_dressed_law_beats_the_energy_law_on_damping():
     from pulsemap.solvers.data.scene import load_scene
     from pulsemap.solvers.studies.run import run_scene
 
-    res = run_scene(load_scene("fig8-eps0.1").with_overrides(contacts=(16, 60)), methods=["dns", "energy-law", "dressed-law"])
+    res = run_scene(with_overrides(load_scene("fig8-eps0.1"), contacts=(16, 60)), methods=["dns", "energy-law", "dressed-law"])
     d, e = res["errors"]["dressed-law"]["rms_pct"], res["errors"]["energy-law"]["rms_pct"]
     assert d < 1 and d < e / 10
     info = res["dressed-law"]

@@ -9,13 +9,13 @@ from pulsemap.solvers.studies.ensemble import EnsembleError, derived_seed, ensem
 from pulsemap.solvers.studies.forcing import bead_params
 from pulsemap.solvers.studies.points import plain_chain
 from pulsemap.solvers.studies.run import run_scene
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 
 FIG13 = "fig13-seed1"
 
 
 def _scene(last=30):
-    return load_scene(FIG13).with_overrides(contacts=(16, last))
+    return with_overrides(load_scene(FIG13), contacts=(16, last))
 
 
 def test_derived_seeds_are_reproducible_distinct_and_independent_of_the_ensemble_size():
@@ -45,7 +45,7 @@ def test_a_realisation_equals_pulsemap_run_of_that_seed(tmp_path):
     j = 2
     seed = derived_seed(11, j)
     assert rep["derived_seeds"][j] == {"k": seed}
-    ref = run_scene(sc.with_overrides(params={"k": {"uniform": [0, 1], "seed": seed}}),
+    ref = run_scene(with_overrides(sc, params={"k": {"uniform": [0, 1], "seed": seed}}),
                     methods=["dns", "map", "relaxed"])
     res = recs[j]["result"]
     k0 = res["contacts"].index(16)

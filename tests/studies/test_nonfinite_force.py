@@ -11,18 +11,19 @@ import numpy as np
 import pytest
 
 from conftest import scene_toml, write_scene
-from pulsemap.solvers.chain.dns import ForceNotFinite, simulate
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.chain.dns import Chain, ForceNotFinite, Integrator, simulate
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.models.codeload import force_module, jit_force_module
 from pulsemap.solvers.studies.points import dns_span
-from pulsemap.solvers.studies.run import make_force, run_scene
+from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.run import run_scene
 
 SINGULAR = "u*exp(1/(u-1))"  # infinite just past u = 1, which every bead of the default chain passes
 
 
 def _scene(tmp_path, **sets):
     text = scene_toml("nonfinite", beads=60, contacts=(16, 40), methods=("dns",))
-    return load_scene(write_scene(tmp_path, text)).with_overrides(**sets)
+    return with_overrides(load_scene(write_scene(tmp_path, text)), **sets)
 
 
 def test_numpy_force_module_does_not_evaluate_R_where_eps_is_zero():
@@ -80,7 +81,8 @@ def test_coefficient_singular_on_an_unperturbed_bead_is_never_evaluated(tmp_path
 def _failure(scene, engine: str) -> ForceNotFinite:
     beads, span = dns_span(scene)
     with pytest.raises(ForceNotFinite) as info:
-        simulate(beads, scene.exponent, scene.velocity, span, make_force(scene, beads), engine=engine, window="auto")
+        simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span,
+                 integrator=Integrator(engine=engine), window="auto")
     return info.value
 
 

@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 
 import pulsemap.solvers.studies.run as run_mod
-from pulsemap.solvers.studies.run import run_scene, to_csv
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.studies.run import run_scene
+from pulsemap.solvers.studies.run.report import to_csv
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 
 
 def _small(name, last=40, **kw):
-    return load_scene(name).with_overrides(contacts=(16, last), **kw)
+    return with_overrides(load_scene(name), contacts=(16, last), **kw)
 
 
 def test_run_json_contract_and_seed_from_dns():
@@ -100,7 +101,7 @@ def test_seed_from_a_given_peak_equals_seed_from_that_amplitude():
 
 def test_plot_in_the_papers_style(tmp_path):
     pytest.importorskip("matplotlib")
-    from pulsemap.solvers.studies.run import plot
+    from pulsemap.solvers.studies.run.report import plot
 
     res = run_scene(_small("fig8-eps0.1", 30), methods=["map", "longwave"])
     out = tmp_path / "p.png"

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.suite import (
     CHECK_CONTACTS,
     check_contacts,
@@ -91,7 +91,7 @@ def test_a_long_scene_is_checked_over_its_first_contacts(tmp_path, monkeypatch):
     rtol = scene.dns["rtol"] / 100
     assert row["method"] == "RK45" and row["dns_error_vs"] == f"LSODA rtol {rtol:g} to 25"
     first = run_scene(scene, dns_window="auto")["peaks"]["dns"]
-    check = run_scene(scene.with_overrides(dns={"rtol": rtol, "atol": scene.dns["atol"] / 100, "method": "LSODA"}),
+    check = run_scene(with_overrides(scene, dns={"rtol": rtol, "atol": scene.dns["atol"] / 100, "method": "LSODA"}),
                       methods=["dns"], dns_window="auto")["peaks"]["dns"]
     assert len(first) == 25 and row["dns_error"] == pytest.approx(max_rel(first[:10], check[:10])[0], rel=1e-6)
     assert 0 < row["dns_error"] < 1e-5

@@ -13,7 +13,7 @@ import pytest
 from pulsemap.solvers.data.records import encode_record
 
 from pulsemap.solvers.studies.points import dns_task, plain_chain
-from pulsemap.solvers.data.scene import load_scene
+from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.sweep import SweepError, load_generated, point_key, read_records, run_sweep
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -21,7 +21,7 @@ VDP = "vdp-mu3-v2.3"
 
 
 def _vdp_points(values, last=30, v0=2.3):
-    chain = plain_chain(load_scene(VDP).with_overrides(contacts=(16, last)))
+    chain = plain_chain(with_overrides(load_scene(VDP), contacts=(16, last)))
     return [{**chain, "params": {"mu": float(mu)}, "velocity": v0} for mu in values]
 
 

@@ -9,7 +9,8 @@ import pytest
 from conftest import write_scene
 from pulsemap.solvers.cli.main import main
 from pulsemap.solvers.data.scene import load_scene
-from pulsemap.solvers.studies.run import MODELS, run_scene
+from pulsemap.solvers.studies.methods import MODELS
+from pulsemap.solvers.studies.run import run_scene
 
 SCENE = """name = "r0"
 [chain]

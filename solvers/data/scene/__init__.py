@@ -36,6 +36,7 @@ file within :mod:`~pulsemap.solvers.data.scene.toml_bounds`), :mod:`~pulsemap.so
 """
 
 from pulsemap.solvers.data.scene.files import builtin_scene_path, builtin_scenes, load_scene
+from pulsemap.solvers.data.scene.overrides import with_overrides
 from pulsemap.solvers.data.scene.parse import check_choice, parse_scene
 from pulsemap.solvers.data.scene.schema import (
     ALIASES,
@@ -72,4 +73,5 @@ __all__ = [
     "check_choice",
     "load_scene",
     "parse_scene",
+    "with_overrides",
 ]

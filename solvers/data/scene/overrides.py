@@ -20,7 +20,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-from pulsemap.solvers.data.scene.parse import parse_scene
+from pulsemap.solvers.data.scene.parse import override_changes, parse_scene
 from pulsemap.solvers.data.scene.schema import SceneError
 from pulsemap.solvers.data.scene.spec import Scene
 
@@ -93,7 +93,7 @@ def set_key(data: dict, key: str, value: Any) -> None:
 
 def apply_overrides(scene: Scene, changes: Iterable[tuple[str, Any]]) -> Scene:
     """``scene`` with each (dotted key, value) applied in order, validated like a scene file: the one
-    override mechanism behind ``--set``, ``pulsemap.scene(name, **kw)`` and ``Scene.with_overrides``.
+    override mechanism behind ``--set``, ``pulsemap.scene(name, **kw)`` and :func:`with_overrides`.
 
     Keys are checked against the scene file's (:func:`check_key`); a text key given a number keeps it as
     written (R = 0); tuples are arrays; a new R keeps the parameters it names and those given with it
@@ -117,6 +117,16 @@ def apply_overrides(scene: Scene, changes: Iterable[tuple[str, Any]]) -> Scene:
                                           if k in named or k in given}
     data.pop("source", None)
     return parse_scene(data, scene.source or scene.name)
+
+
+def with_overrides(scene: Scene, **kw: Any) -> Scene:
+    """A copy of ``scene`` with some fields replaced, validated like a scene file (:func:`apply_overrides`).
+
+    Keys are the Scene's field names; also ``R``, ``eps`` and ``params`` (raw values, as in a scene
+    file) to rebuild the perturbation (a new ``R`` without ``params`` keeps the current
+    parameters it uses and drops the others). ``dns`` is merged over the current DNS options.
+    """
+    return apply_overrides(scene, override_changes(scene, kw))
 
 
 def with_sets(scene: Scene, assignments: Iterable[str | tuple[str, Any]]) -> Scene:

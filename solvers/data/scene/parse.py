@@ -47,7 +47,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 
 def override_changes(scene: Scene, kw: Mapping[str, Any]) -> list[tuple[str, Any]]:
-    """:meth:`Scene.with_overrides` keywords -> (dotted key, value) changes for apply_overrides."""
+    """overrides.with_overrides keywords -> (dotted key, value) changes for apply_overrides."""
     allowed = sorted(FIELD_KEYS.keys() | {"dns", "perturbation"})
     changes: list[tuple[str, Any]] = []
     try:

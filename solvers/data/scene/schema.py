@@ -49,7 +49,7 @@ EXAMPLES = {
 }
 
 
-#: Fields of a Scene (Scene.with_overrides) by their dotted key in the scene file.
+#: Fields of a Scene (overrides.with_overrides) by their dotted key in the scene file.
 FIELD_KEYS = {"beads": "chain.beads", "exponent": "chain.exponent", "first_perturbed": "chain.first_perturbed",
               "velocity": "excitation.velocity", "contacts": "output.contacts", "methods": "output.methods",
               "profile": "model.profile", "variant": "model.variant", "R": "perturbation.R",

@@ -62,15 +62,3 @@ class Scene:
             "model": {"profile": self.profile, "variant": self.variant},
             "dns": dict(self.dns),
         }
-
-    def with_overrides(self, **kw: Any) -> "Scene":
-        """A copy with some fields replaced, validated like a scene file (data/scene/overrides.apply_overrides).
-
-        Keys are the field names; also ``R``, ``eps`` and ``params`` (raw values, as in a scene
-        file) to rebuild the perturbation (a new ``R`` without ``params`` keeps the current
-        parameters it uses and drops the others). ``dns`` is merged over the current DNS options.
-        """
-        from pulsemap.solvers.data.scene.overrides import apply_overrides  # both rebuild Scenes: imported here
-        from pulsemap.solvers.data.scene.parse import override_changes
-
-        return apply_overrides(self, override_changes(self, kw))

@@ -9,7 +9,7 @@ For one scene (``bench_scene``):
 * the compiled engine (numba RK45 and DOP853, moving window) and the careful user's vectorised script
   (studies/bench/reference_script.py) over their ladders, and each of the three engines once more cold
   (first call of a fresh process, empty numba cache): :mod:`~pulsemap.solvers.studies.bench.engines`;
-* baseline (b): the full-chain vectorised DNS (``simulate(window=None)``), same ladder;
+* baseline (b): the full-chain vectorised DNS (``simulate(..., window=None)``), same ladder;
 * baseline (a): the script a user writes today (solvers/baselines.py: loop RHS, solve_ivp RK45,
   peaks off a sampled grid) over a ladder of tolerances and sampling steps;
 * every reduced model run.py offers (``run.MODELS``: the map of Eq. 23 for each profile and

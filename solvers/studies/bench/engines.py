@@ -3,7 +3,7 @@ runs and the ratios of ``pulsemap bench``.
 
 Lines (warm: one warm-up, then best of K, as every other line of the benchmark):
 
-* ``compiled``: ``simulate(engine="compiled", window="auto", method="RK45")``, the numba
+* ``compiled``: ``simulate(..., integrator=Integrator(engine="compiled", method="RK45"), window="auto")``, the numba
   Dormand-Prince 5(4) moving-window engine, over ``ladder.compiled_rtols``;
 * ``dns``: the scipy engine on the moving window (studies/bench/__init__.py's DNS lines, every method);
 * ``script``: studies/bench/reference_script.py (vectorised full-chain DOP853, dense-output peaks) over
@@ -122,7 +122,7 @@ def _child(scene, job: dict) -> dict:
 
 def _first_call(scene_path: str, job: dict) -> dict:
     """In the child: build the force (not timed), then time the first call of the job's line."""
-    from pulsemap.solvers.chain.dns import simulate
+    from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
     from pulsemap.solvers.studies.forcing import make_force
     from pulsemap.solvers.studies.points import dns_span, on_contacts
     from pulsemap.solvers.studies.bench.reference_script import GRID_STEP, script_peaks
@@ -137,8 +137,9 @@ def _first_call(scene_path: str, job: dict) -> dict:
                            GRID_STEP * job["contact_time"])
         alive, engine = res.peaks == res.peaks, "script"
     else:
-        res = simulate(beads, scene.exponent, scene.velocity, span, force, method=job["method"], window="auto",
-                       engine="compiled" if job["kind"] == "compiled" else "scipy", **tolerances(scene, job["rtol"]))
+        integrator = Integrator(method=job["method"], engine="compiled" if job["kind"] == "compiled" else "scipy",
+                                **tolerances(scene, job["rtol"]))
+        res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, integrator=integrator, window="auto")
         alive, engine = res.alive, res.engine
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     return {"first_call_s": wall, "first_call_cpu_s": cpu, "engine": engine,

@@ -8,6 +8,7 @@ from typing import Callable
 
 import numpy as np
 
+from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.bench.measure import Ladder, Point, best_of, fmt, peak_error, tolerances
 
 __all__ = ["dns_points", "model_points", "reference_run", "script_points", "script_span"]
@@ -18,7 +19,7 @@ def reference_run(scene, rtol: float) -> dict:
     compiled one) at ``rtol``: its result dict."""
     from pulsemap.solvers.studies.run import run_scene
 
-    tuned = scene.with_overrides(dns={**tolerances(scene, rtol), "method": "DOP853", "engine": "scipy"})
+    tuned = with_overrides(scene, dns={**tolerances(scene, rtol), "method": "DOP853", "engine": "scipy"})
     return run_scene(tuned, methods=["dns"])
 
 
@@ -26,7 +27,7 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
                log: Callable[[str], None], engine: str = "scipy", rtols=None) -> list[Point]:
     """The DNS of the scene over the tolerance ladder (``rtols``, default ladder.rtols) for each method
     (window or full chain) on ``engine`` ("scipy": the reference engine, "compiled": the numba one)."""
-    from pulsemap.solvers.chain.dns import simulate
+    from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
     from pulsemap.solvers.studies.points import dns_span, on_contacts
     from pulsemap.solvers.studies.forcing import make_force
 
@@ -37,8 +38,8 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
     for method in methods:
         for rtol in (ladder.rtols if rtols is None else rtols):
             def run(method=method, rtol=rtol):
-                res = simulate(beads, scene.exponent, scene.velocity, span, force, method=method, window=window,
-                               engine=engine, **tolerances(scene, rtol))
+                res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, window=window,
+                               integrator=Integrator(method=method, engine=engine, **tolerances(scene, rtol)))
                 return res, res.wall_time_s
 
             res, best = best_of(run, ladder.repeats)
@@ -56,13 +57,13 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
 def script_span(scene) -> tuple[float, float]:
     """(t_end, contact time) of a script run: 3 contact times past the last live peak of a windowed
     DNS at rtol 1e-8 (as short as a user who knows when the pulse gets there would make it)."""
-    from pulsemap.solvers.chain.dns import contact_rate, simulate
+    from pulsemap.solvers.chain.dns import Chain, Integrator, contact_rate, simulate
     from pulsemap.solvers.studies.forcing import make_force
     from pulsemap.solvers.studies.points import dns_span
 
     beads, span = dns_span(scene)
-    probe = simulate(beads, scene.exponent, scene.velocity, span, make_force(scene, beads),
-                     window="auto", **tolerances(scene, 1e-8))
+    probe = simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span,
+                     window="auto", integrator=Integrator(**tolerances(scene, 1e-8)))
     contact_time = 1.0 / contact_rate(scene.velocity, scene.exponent)
     return float(np.nanmax(probe.peak_times[probe.alive])) + 3.0 * contact_time, contact_time
 
@@ -105,16 +106,17 @@ def script_points(scene, contacts: list[int], ref: list, ladder: Ladder,
 
 def model_points(scene, reference: dict, ref: list, ladder: Ladder, log: Callable[[str], None]) -> list[Point]:
     """Every reduced model run.py offers, each profile (and map variant), against the reference."""
-    from pulsemap.solvers.studies import run as run_mod
     from pulsemap.solvers.data.scene import PROFILES, VARIANTS
+    from pulsemap.solvers.studies.methods import MODELS
+    from pulsemap.solvers.studies.run import run_scene
 
     out = []
-    for model in run_mod.MODELS:
+    for model in MODELS:
         for profile in PROFILES:
             for variant in (VARIANTS if model == "map" else (None,)):
                 def run(model=model, profile=profile, variant=variant):
-                    r = run_mod.run_scene(scene, methods=[model], profile=profile,
-                                          variant=variant or scene.variant, reuse_dns=reference)
+                    r = run_scene(scene, methods=[model], profile=profile,
+                                  variant=variant or scene.variant, reuse_dns=reference)
                     return r, float(r["timings_s"].get(model, math.nan))
 
                 try:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
+from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.points import dns_task
 from pulsemap.solvers.studies.sweep import run_sweep
 
@@ -73,7 +74,7 @@ def base_chain(scene, last: int, rtol: float, window: "int | str | None" = "auto
     """The plain chain of the DNS probes (contacts first_perturbed - 1 .. last; bifurcation() checks last)."""
     from pulsemap.solvers.studies.points import plain_chain
 
-    sc = scene.with_overrides(contacts=(scene.first_perturbed, int(last)), beads=None)
+    sc = with_overrides(scene, contacts=(scene.first_perturbed, int(last)), beads=None)
     return plain_chain(sc, window=window, rtol=rtol)
 
 

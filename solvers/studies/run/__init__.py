@@ -5,7 +5,8 @@ then seeded from v0 through kappa_n), no long-wave law for a site-dependent pert
 chain only as long as the contacts need. In a run with the DNS, the map and the law start from
 the DNS peak at the last unperturbed contact (first_perturbed - 1), converted by Eq. 32.
 
-:func:`run_scene` is four steps: check the choices (:func:`start_run`), the DNS or a reused one
+:func:`run_scene` is four steps: lay out the result (:func:`start_run`; the choices were checked where
+they entered, :func:`pulsemap.solvers.api.checks.run_choices`), the DNS or a reused one
 (:func:`run_dns`, :func:`reuse_dns_run`), the reduced models
 (:func:`pulsemap.solvers.studies.run.models.run_models`) and the errors against the DNS
 (:func:`compare_with_dns`). The force is :mod:`~pulsemap.solvers.studies.forcing`, the error
@@ -22,64 +23,30 @@ from typing import Sequence
 
 from pulsemap.symbolic.provenance import provenance
 from pulsemap.solvers import __version__
-from pulsemap.solvers.chain.dns import simulate
-from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene, SceneError, check_choice
+from pulsemap.solvers.chain.front import Snapshots
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import force_failure, make_force
-from pulsemap.solvers.studies.methods import (
-    BALANCE_METHODS,
-    DRIFT_WARN,
-    EPS_WARN,
-    FORCING_WARN,
-    MODEL_TITLES,
-    MODELS,
-    WIDTH_WARN,
-    Choice,
-    RunError,
-)
+from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
 from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
-from pulsemap.solvers.studies.run.report import plot, to_csv, to_text
 from pulsemap.solvers.studies.run.state import RunState
 
-__all__ = [
-    "BALANCE_METHODS",
-    "DRIFT_WARN",
-    "EPS_WARN",
-    "FORCING_WARN",
-    "MODELS",
-    "MODEL_TITLES",
-    "WIDTH_WARN",
-    "Choice",
-    "RunError",
-    "RunState",
-    "make_force",
-    "plot",
-    "run_scene",
-    "to_csv",
-    "to_text",
-]
+__all__ = ["run_scene"]
 
 
 def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, variant: str | None,
               seed_peak: float | None, snapshots: Sequence[int] = ()) -> RunState:
-    """Check every choice before anything runs (one-line error with the closest name) and lay out the result.
+    """Lay out the result of a run (None: the scene's methods, profile, variant).
 
-    The types were checked where the input entered (``pulsemap.run``, the CLI's parser): asserted here."""
+    Names and ranges were checked where the input entered (``pulsemap.run``, the CLI:
+    api/checks.run_choices): asserted here."""
     assert isinstance(scene, Scene), type(scene)
-    assert methods is None or (isinstance(methods, (list, tuple)) and all(isinstance(m, str) for m in methods)), methods
-    assert all(value is None or isinstance(value, str) for value in (profile, variant)), (profile, variant)
-    assert seed_peak is None or (isinstance(seed_peak, numbers.Real) and not isinstance(seed_peak, bool)), seed_peak
-    if seed_peak is not None and not (isinstance(seed_peak, (int, float)) and math.isfinite(seed_peak) and seed_peak > 0):
-        raise RunError(f"seed peak must be a finite number > 0, got {seed_peak!r}")
-    methods = tuple(methods) if methods is not None else tuple(scene.methods)
-    if not methods:
-        raise RunError(f"no method to run: give at least one of {', '.join(METHODS)} (or None for the scene's)")
-    try:
-        methods = tuple(check_choice(m.strip() if isinstance(m, str) else m, "method", METHODS) for m in methods)
-        choice = Choice(check_choice(profile or scene.profile, "profile", PROFILES),
-                        check_choice(variant or scene.variant, "map variant", VARIANTS))
-    except SceneError as exc:
-        raise RunError(str(exc)) from None
+    methods = tuple(scene.methods) if methods is None else tuple(methods)
+    assert methods and all(m in METHODS for m in methods), methods
+    choice = Choice(profile or scene.profile, variant or scene.variant)
+    assert choice.profile in PROFILES and choice.variant in VARIANTS, choice
+    assert seed_peak is None or (isinstance(seed_peak, numbers.Real) and math.isfinite(seed_peak) and seed_peak > 0), seed_peak
     c0, c1 = scene.contacts
     contacts = list(range(c0, c1 + 1))
     out: dict = {
@@ -100,11 +67,7 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
         out["warnings"].append("map: the paper's Eq. 23 drifts even without perturbation (A shrinks by "
                                "(1 + f7/(2 f1))^(-1/P) per contact, docs/errata.rst item 5); --variant corrected "
                                "or 1d keeps A constant")
-    for c in snapshots:
-        if isinstance(c, bool) or not isinstance(c, int) or not c0 <= c <= c1:
-            raise RunError(f"snapshot contact {c!r} must be an integer in the scene's contacts {c0}..{c1}")
-    if snapshots and "dns" not in methods:
-        raise RunError("snapshots are taken by the DNS: add dns to the methods")
+    assert all(isinstance(c, int) and c0 <= c <= c1 for c in snapshots) and (not snapshots or "dns" in methods), snapshots
     return RunState(scene, methods, choice, out, given_seed=seed_peak, contacts=contacts,
                     snapshots=tuple(sorted(set(snapshots))))
 
@@ -121,14 +84,11 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
-        res = simulate(
-            beads, scene.exponent, scene.velocity, span, force,
-            method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
-            atol=float(scene.dns.get("atol", 1e-12)), progress=progress,
-            engine=scene.dns.get("engine", "compiled"),
-            snapshots=[c for c in state.snapshots if span[0] <= c <= span[1]],
-            window=dns_window_of(scene, dns_window),
-        )
+        integrator = Integrator(method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
+                                atol=float(scene.dns.get("atol", 1e-12)), engine=scene.dns.get("engine", "compiled"))
+        res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, integrator=integrator,
+                       snapshots=Snapshots([c for c in state.snapshots if span[0] <= c <= span[1]]),
+                       progress=progress, window=dns_window_of(scene, dns_window))
     except ArithmeticError as exc:  # R not finite (or not real) where the chain went
         raise RunError(force_failure(scene, beads, exc, "DNS")) from None
     state.timings["dns_compile"] = res.compile_s  # numba compiling or loading the kernel, apart from integrating
