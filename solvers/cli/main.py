@@ -20,6 +20,7 @@ from pulsemap.solvers.cli.common import (  # noqa: F401 (re-exported: the sub-co
     UsageError,
     _stdout_document,
     call_recovering_numba_cache,
+    json_safe,
     _text_to_stderr,
     add_set_option,
     load_scene_with_sets,
@@ -93,6 +94,18 @@ def cmd_profile(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------------ derive
 def cmd_derive(args: argparse.Namespace) -> int:
     """``pulsemap derive``: expansion, map (Eq. 23), long-wave law (Eq. 30), Eq. 41; or a balance model."""
+    from pulsemap.symbolic import printed
+
+    t0 = time.perf_counter()
+    options = None if args.model == "dressed" else _derive_options(args)
+    hit = None if options is None else printed.load(options)
+    if hit is not None:  # the same input derived before by this code: its printed forms, without sympy
+        text, doc = hit
+        print(text)
+        if args.json:
+            seconds = round(time.perf_counter() - t0, 6)
+            write_json(args.json, {**doc, "timings_s": {"cache": seconds, "total": seconds}})
+        return 0
     from pulsemap.symbolic.derivation import derive_model, to_json, to_latex, to_text
     from pulsemap.symbolic.perturbation import check_all_used, make_perturbation, parse_cli_param
 
@@ -144,10 +157,19 @@ def cmd_derive(args: argparse.Namespace) -> int:
         max_seconds=args.max_seconds,
         progress=progress_log(args.quiet),
     )
-    print(to_latex(d) if args.latex else to_text(d))
+    text, doc = to_latex(d) if args.latex else to_text(d), json_safe(to_json(d))
+    print(text)
     if args.json:
-        write_json(args.json, to_json(d))
+        write_json(args.json, doc)
+    printed.store(options, text, doc)
     return 0
+
+
+def _derive_options(args: argparse.Namespace) -> dict:
+    """Everything of ``pulsemap derive``'s arguments that its printed output depends on."""
+    names = ("expr", "param", "eps", "n", "profile", "variant", "model", "fold", "A0", "i0", "dps", "sympy_seconds",
+             "latex")
+    return {name: getattr(args, name) for name in names}
 
 
 # --------------------------------------------------------------------------------- run
