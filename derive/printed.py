@@ -36,16 +36,17 @@ def key(options: dict) -> str:
 
 
 def _check(value: Any) -> str | None:
-    ok = isinstance(value, dict) and isinstance(value.get("printed"), str) and isinstance(value.get("json"), dict)
-    return None if ok else "not a {'printed': text, 'json': document} entry"
+    ok = (isinstance(value, dict) and isinstance(value.get("printed"), str)
+          and (value.get("json") is None or isinstance(value.get("json"), dict)))
+    return None if ok else "not a {'printed': text, 'json': document or null} entry"
 
 
-def load(options: dict) -> tuple[str, dict] | None:
-    """(printed report, JSON document) stored for ``options``, or None."""
+def load(options: dict) -> tuple[str, dict | None] | None:
+    """(printed report, JSON document or None: not stored) stored for ``options``, or None."""
     hit = cache.load(NAMESPACE, key(options), _check)
     return None if hit is None else (hit["printed"], hit["json"])
 
 
-def store(options: dict, printed: str, document: dict) -> None:
-    """Store the printed report and the JSON document (finite numbers only: NaN as None) for ``options``."""
+def store(options: dict, printed: str, document: dict | None) -> None:
+    """Store the printed report and the JSON document (None: not asked for) for ``options``."""
     cache.store(NAMESPACE, key(options), {"printed": printed, "json": document})

@@ -99,7 +99,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     options = None if args.model == "dressed" else _derive_options(args)
     hit = None if options is None else printed.load(options)
-    if hit is not None:  # the same input derived before by this code: its printed forms, without sympy
+    if hit is not None and (hit[1] is not None or not args.json):  # derived before by this code: no sympy
         text, doc = hit
         print(text)
         if args.json:
@@ -157,11 +157,11 @@ def cmd_derive(args: argparse.Namespace) -> int:
         max_seconds=args.max_seconds,
         progress=progress_log(args.quiet),
     )
-    text, doc = to_latex(d) if args.latex else to_text(d), json_safe(to_json(d))
+    text, doc = to_latex(d) if args.latex else to_text(d), json_safe(to_json(d)) if args.json else None
     print(text)
     if args.json:
         write_json(args.json, doc)
-    printed.store(options, text, doc)
+    printed.store(options, text, doc)  # the JSON only when asked: printing it costs up to seconds
     return 0
 
 

@@ -101,3 +101,13 @@ def test_a_failed_derivation_is_not_stored(own_cache, derivations, capsys):
         assert main(["derive", "-mu*v", "--param", "mu=1", "--fold", "nu"]) == 2
         assert "nu" in capsys.readouterr().err
     assert len(derivations) == 2 and not list(own_cache.glob(f"{printed.NAMESPACE}/*.json"))
+
+
+def test_the_json_is_stored_only_once_asked_for(own_cache, derivations, tmp_path, capsys):
+    """Printing the JSON costs up to seconds for a large R: a run without --json does not pay it."""
+    assert main(VDP) == 0 and main(VDP) == 0 and len(derivations) == 1
+    for name, count in (("a.json", 2), ("b.json", 2)):  # the first --json derives again, then it is read back
+        assert main(VDP + ["--json", str(tmp_path / name)]) == 0 and len(derivations) == count
+    a, b = (json.loads((tmp_path / n).read_text()) for n in ("a.json", "b.json"))
+    assert {**a, "timings_s": None} == {**b, "timings_s": None} and "cache" in b["timings_s"]
+    assert len(set(capsys.readouterr().out.split("Model: map")) - {""}) == 1  # four identical reports
