@@ -166,9 +166,10 @@ def cmd_derive(args: argparse.Namespace) -> int:
 
 
 def _derive_options(args: argparse.Namespace) -> dict:
-    """Everything of ``pulsemap derive``'s arguments that its printed output depends on."""
-    names = ("expr", "param", "eps", "n", "profile", "variant", "model", "fold", "A0", "i0", "dps", "sympy_seconds",
-             "latex")
+    """Every argument of ``pulsemap derive`` but --quiet and --json: what its output depends on, and what
+    its validation refuses (a refused command is never stored, so it is refused again)."""
+    names = ("expr", "param", "eps", "n", "profile", "variant", "model", "coefficients", "fold", "A0", "i0", "dps",
+             "sympy_seconds", "max_seconds", "latex")
     return {name: getattr(args, name) for name in names}
 
 

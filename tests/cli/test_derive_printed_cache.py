@@ -111,3 +111,12 @@ def test_the_json_is_stored_only_once_asked_for(own_cache, derivations, tmp_path
     a, b = (json.loads((tmp_path / n).read_text()) for n in ("a.json", "b.json"))
     assert {**a, "timings_s": None} == {**b, "timings_s": None} and "cache" in b["timings_s"]
     assert len(set(capsys.readouterr().out.split("Model: map")) - {""}) == 1  # four identical reports
+
+
+@pytest.mark.parametrize("extra, message", [(["--coefficients", "derived"], "--coefficients applies to the dressed"),
+                                            (["--max-seconds", "-1"], "max")])
+def test_a_refused_option_is_refused_after_a_stored_derivation_too(extra, message, own_cache, capsys):
+    assert main(VDP) == 0
+    capsys.readouterr()
+    assert main(VDP + extra) == 2
+    assert message in capsys.readouterr().err
