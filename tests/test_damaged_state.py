@@ -292,12 +292,15 @@ def test_a_cache_entry_that_is_not_a_file_is_bypassed(kind, own_cache, capsys):
 def test_the_cli_runs_past_a_folder_where_a_cache_entry_goes(own_cache, capsys):
     assert main(["derive", "-mu*v", "--param", "mu=1", "--sympy-seconds", "0", "--quiet"]) == 0
     out = capsys.readouterr().out
-    for path in (own_cache / "integrals").glob("*.json"):
+    paths = list(own_cache.glob("*/*.json"))  # the integrals and the printed derivation
+    assert {p.parent.name for p in paths} >= {"integrals", "derivation"}
+    for path in paths:
         path.unlink()
         path.mkdir()
     assert main(["derive", "-mu*v", "--param", "mu=1", "--sympy-seconds", "0", "--quiet"]) == 0
     captured = capsys.readouterr()
     assert captured.out == out and "is a directory, not a regular file: working without it" in captured.err
+    assert f"{own_cache / 'integrals'}" in captured.err  # derived again past the printed entry, not read
 
 
 # --------------------------------------------------------------------------- a full disk

@@ -35,20 +35,20 @@ def _document_stream() -> TextIO:
     return _DOCUMENT_STREAMS[-1] if _DOCUMENT_STREAMS else sys.stdout
 
 
-def _json_safe(obj):
+def json_safe(obj):
     """``obj`` with every NaN or infinity replaced by None: JSON has no such numbers (strict parsers refuse them)."""
     if isinstance(obj, float):
         return obj if math.isfinite(obj) else None
     if isinstance(obj, dict):
-        return {k: _json_safe(v) for k, v in obj.items()}
+        return {k: json_safe(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_json_safe(v) for v in obj]
+        return [json_safe(v) for v in obj]
     return obj
 
 
 def write_json(path: str, payload: dict) -> None:
     """Write ``payload`` as strict JSON to ``path`` ('-': stdout, which then holds nothing else)."""
-    write_text(path, json.dumps(_json_safe(payload), indent=2, sort_keys=False, allow_nan=False) + "\n")
+    write_text(path, json.dumps(json_safe(payload), indent=2, sort_keys=False, allow_nan=False) + "\n")
 
 
 def write_text(path: str, text: str) -> None:

@@ -20,6 +20,7 @@ from pulsemap.solvers.cli.common import (  # noqa: F401 (re-exported: the sub-co
     UsageError,
     add_set_option,
     call_recovering_numba_cache,
+    json_safe,
     load_scene_with_sets,
     number,
     progress_log,
@@ -93,6 +94,18 @@ def cmd_profile(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------------ derive
 def cmd_derive(args: argparse.Namespace) -> int:
     """``pulsemap derive``: expansion, map (Eq. 23), long-wave law (Eq. 30), Eq. 41; or a balance model."""
+    from pulsemap.symbolic import printed
+
+    t0 = time.perf_counter()
+    options = None if args.model == "dressed" else _derive_options(args)
+    hit = None if options is None else printed.load(options)
+    if hit is not None and (hit[1] is not None or not args.json):  # derived before by this code: no sympy
+        text, doc = hit
+        print(text)
+        if args.json:
+            seconds = round(time.perf_counter() - t0, 6)
+            write_json(args.json, {**doc, "timings_s": {"cache": seconds, "total": seconds}})
+        return 0
     from pulsemap.symbolic.derivation import derive_model, to_json, to_latex, to_text
     from pulsemap.symbolic.perturbation import check_all_used, make_perturbation, parse_cli_param
 
@@ -144,10 +157,20 @@ def cmd_derive(args: argparse.Namespace) -> int:
         max_seconds=args.max_seconds,
         progress=progress_log(args.quiet),
     )
-    print(to_latex(d) if args.latex else to_text(d))
+    text, doc = to_latex(d) if args.latex else to_text(d), json_safe(to_json(d)) if args.json else None
+    print(text)
     if args.json:
-        write_json(args.json, to_json(d))
+        write_json(args.json, doc)
+    printed.store(options, text, doc)  # the JSON only when asked: printing it costs up to seconds
     return 0
+
+
+def _derive_options(args: argparse.Namespace) -> dict:
+    """Every argument of ``pulsemap derive`` but --quiet and --json: what its output depends on, and what
+    its validation refuses (a refused command is never stored, so it is refused again)."""
+    names = ("expr", "param", "eps", "n", "profile", "variant", "model", "coefficients", "fold", "A0", "i0", "dps",
+             "sympy_seconds", "max_seconds", "latex")
+    return {name: getattr(args, name) for name in names}
 
 
 # --------------------------------------------------------------------------------- run

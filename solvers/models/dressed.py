@@ -133,41 +133,12 @@ class WaveBase:
         prof = exact_profile(float(n))
         self.nodes, self.h, self.tau0 = prof.nodes, prof.h, prof.tau0
         self.beads, self.centre = beads, centre
-        self.offsets = NPU * np.arange(1, beads)  # contact j sits NPU * j nodes behind contact 0
         self.coef = _hermite_matrix()
-        self.scale = np.array([1.0, self.h, self.h**2])
 
     def __call__(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        pos = (t + self.centre - self.tau0) / self.h
-        J = math.floor(pos)
-        r = pos - J
-        idx = J - self.offsets
-        m = self.nodes.shape[0]
-        inside = (idx >= 0) & (idx <= m - 2)
-        idx = np.clip(idx, 0, m - 2)
-        rows = np.concatenate([self.nodes[idx] * self.scale, self.nodes[idx + 1] * self.scale], axis=1)
-        powers = r ** np.arange(6)
-        dpowers = np.array([0.0, 1.0, 2 * r, 3 * r**2, 4 * r**3, 5 * r**4]) / self.h
-        d0 = np.where(inside, rows @ (powers @ self.coef), 0.0)
-        dv = np.where(inside, rows @ (dpowers @ self.coef), 0.0)
-        d0 = np.maximum(d0, 0.0)
-        x0 = np.zeros(self.beads)
-        v0 = np.zeros(self.beads)
-        x0[:-1] = np.cumsum(d0[::-1])[::-1]
-        v0[:-1] = np.cumsum(dv[::-1])[::-1]
-        return d0, x0, v0
+        from pulsemap.solvers.models.dressed_kernel import wave  # compiled: numba loads only when it runs
 
-
-def _power(x: np.ndarray, p: int) -> np.ndarray:
-    return np.ones_like(x) if p == 0 else x**p
-
-
-def _derivatives(mono: tuple[int, int], x0: np.ndarray, v0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """d(u^a v^b)/du and d(u^a v^b)/dv on the wave."""
-    a, b = mono
-    du = a * _power(x0, a - 1) * _power(v0, b) if a else np.zeros_like(x0)
-    dv = b * _power(x0, a) * _power(v0, b - 1) if b else np.zeros_like(x0)
-    return du, dv
+        return wave(float(t), self.nodes, self.h, self.tau0, self.centre, NPU, self.coef, self.beads)
 
 
 def expansion_orbits(monomials, pairs, n: float, *, cut: float, settle: int, span: int, rtol: float):
@@ -187,38 +158,14 @@ def expansion_orbits(monomials, pairs, n: float, *, cut: float, settle: int, spa
     floor = cut * S0 if nn < 2 else 0.0  # F'' is bounded for n >= 2: no taper (cut ignored)
     base = WaveBase(nn, beads, centre)
     M, P = len(monomials), len(pairs)
+    from pulsemap.solvers.models.dressed_kernel import expansion_rhs  # compiled: numba loads only when it runs
 
-    def contact_force(k: np.ndarray, strain: np.ndarray) -> np.ndarray:
-        """Bead accelerations from contact forces k_j strain_j (free ends)."""
-        f = k * strain
-        acc = np.zeros(beads)
-        acc[1:] += f
-        acc[:-1] -= f
-        return acc
+    monos = np.array(monomials, dtype=np.int64).reshape(M, 2)
+    pair_index = np.array(pairs, dtype=np.int64).reshape(P, 2)
 
     def rhs(t, Y):
-        Y = Y.reshape(2 * (M + P), beads)
-        d0, x0, v0 = base(t)
-        F1 = nn * d0 ** (nn - 1)
-        if floor:  # F''(d0) tapered below the cut
-            F2 = nn * (nn - 1) * d0**nn / (d0 + floor) ** 2
-        else:
-            F2 = nn * (nn - 1) * d0 ** (nn - 2)
-        out = np.empty_like(Y)
-        out[0::2] = Y[1::2]
-        eta = [Y[2 * j, :-1] - Y[2 * j, 1:] for j in range(M)]
-        for j, (a, b) in enumerate(monomials):
-            out[2 * j + 1] = contact_force(F1, eta[j]) + mask * _power(x0, a) * _power(v0, b)
-        grads = [_derivatives(m, x0, v0) for m in monomials]
-        for q, (j, l) in enumerate(pairs):
-            z = Y[2 * (M + q)]
-            lin = grads[j][0] * Y[2 * l] + grads[j][1] * Y[2 * l + 1]
-            if j != l:
-                lin = lin + grads[l][0] * Y[2 * j] + grads[l][1] * Y[2 * j + 1]
-            weight = 0.5 if j == l else 1.0
-            out[2 * (M + q) + 1] = (contact_force(F1, z[:-1] - z[1:]) + contact_force(weight * F2, eta[j] * eta[l])
-                                    + mask * lin)
-        return out.ravel()
+        return expansion_rhs(t, Y, base.nodes, base.h, base.tau0, centre, NPU, base.coef, beads, nn, floor, mask,
+                             monos, pair_index)
 
     ks = np.arange(first - 1, last + 1)
     times = (ks - centre).astype(float)

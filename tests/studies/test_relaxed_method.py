@@ -51,3 +51,24 @@ def test_coulomb_friction_within_5_percent_of_the_dns(tmp_path):
     err = res["errors"]["relaxed"]
     assert err["live_range"][0] == 16 and err["compared"] >= 10 and err["missing"] == 0
     assert err["rms_pct"] < 5
+
+
+def test_a_table_row_skips_the_stated_accuracy_and_keeps_the_same_errors(tmp_path, monkeypatch):
+    """The leave-one-run-out accuracy costs seconds of spline fits from an empty cache and no table column
+    uses it: a row does not compute it; a run reports it, and the peaks and errors are the same either way."""
+    from pulsemap.solvers.models import relaxed
+    from pulsemap.solvers.studies.table import Column, scene_row
+
+    scene = load_scene(str(write_scene(tmp_path, scene_toml("damped", eps=0.1, contacts=(16, 40),
+                                                            methods=("dns", "relaxed")))))
+    with_accuracy = run_scene(scene)
+    assert with_accuracy["relaxed"]["bulk_accuracy_log_ratio"] > 0
+    calls = []
+    real = relaxed.RelaxedModel.accuracy
+    monkeypatch.setattr(relaxed.RelaxedModel, "accuracy", lambda self: calls.append(1) or real(self))
+    without = run_scene(scene, stated_accuracy=False)
+    assert "bulk_accuracy_log_ratio" not in without["relaxed"] and not calls
+    assert without["peaks"]["relaxed"] == with_accuracy["peaks"]["relaxed"]
+    assert without["errors"]["relaxed"] == with_accuracy["errors"]["relaxed"]
+    row = scene_row("damped", columns=(Column("relaxed", "exact"),), scene=scene)
+    assert not calls and row["errors"]["relaxed/exact"]["rms_pct"] == with_accuracy["errors"]["relaxed"]["rms_pct"]

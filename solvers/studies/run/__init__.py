@@ -174,6 +174,7 @@ def run_scene(
     reuse_dns: dict | None = None,
     seed_peak: float | None = None,
     snapshots: Sequence[int] = (),
+    stated_accuracy: bool = True,
 ) -> dict:
     """Run ``scene`` and return the result as JSON-serialisable data (docs/design.rst, "The result of a run").
 
@@ -184,11 +185,15 @@ def run_scene(
     whose peak time the DNS keeps the strains delta_j, j = k-12..k+4 (result["dns"]["snapshots"]).
     ``dns_window``: "scene" (default: the scene's [dns] mode, the moving window unless it says
     "full"), "auto" (the moving window), an int (its width in beads) or None (the full chain).
+    ``stated_accuracy``: False leaves out the relaxed map's ``bulk_accuracy_log_ratio`` (leave-one-run-out
+    spline fits: seconds from an empty cache), for callers that only compare peaks (``pulsemap table``).
     """
     assert isinstance(progress, bool), progress  # callers validated their input: pulsemap.run, the CLI
     assert dns_window in ("scene", "auto", None) or (isinstance(dns_window, int) and not isinstance(dns_window, bool)), dns_window
     assert reuse_dns is None or (isinstance(reuse_dns, dict) and isinstance(reuse_dns.get("peaks"), dict)), reuse_dns
+    assert isinstance(stated_accuracy, bool), stated_accuracy
     state = start_run(scene, methods, profile, variant, seed_peak, snapshots)
+    state.stated_accuracy = stated_accuracy
     if "dns" in state.methods:
         run_dns(state, progress, dns_window)
     if reuse_dns is not None and "dns" not in state.methods:

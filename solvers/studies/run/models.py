@@ -217,7 +217,9 @@ def run_relaxed(state: "RunState", prm: dict) -> None:
     out["relaxed"] = {"model": MODEL_TITLES["relaxed"], "status": run.status, "message": run.message,
                       "onset_contacts": ONSET, "segment_runs": model.segment_runs(),
                       "tables": [t.spec.R for t in model.tables.values()],
-                      "scaling_exponent": model.e, "bulk_accuracy_log_ratio": model.accuracy()}
+                      "scaling_exponent": model.e}
+    if state.stated_accuracy:
+        out["relaxed"]["bulk_accuracy_log_ratio"] = model.accuracy()
     if model.kernels:
         out["relaxed"]["kernel_runs"] = model.kernel_runs()
     if run.status != "ok":

@@ -24,6 +24,7 @@ class RunState:
     dns_alive: list | None = None
     contacts: list[int] = field(default_factory=list)
     snapshots: tuple[int, ...] = ()  # contacts at whose peak time the DNS keeps the strains around the pulse
+    stated_accuracy: bool = True  # the relaxed map's leave-one-run-out accuracy (False: not computed, not reported)
 
     @property
     def timings(self) -> dict[str, float]:
