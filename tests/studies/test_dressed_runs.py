@@ -84,8 +84,9 @@ def test_dressed_law_beats_the_energy_law_on_damping():
 
 
 def test_dressed_law_follows_a_graded_foundation_and_refuses_the_pade_profile():
-    """k = 1 + (i - 16)/50, eps = 0.01, contacts 16-120: c_j(i) along the chain (bead i + 1/2). Measured RMS
-    against the DNS: dressed 3.6 %, energy law 11.3 %."""
+    """k = 1 + (i - 16)/50, eps = 0.01, contacts 16-120: c_j(i) along the chain (bead i + 1/2). Measured
+    against the DNS over the contacts it gives (16-79; quiet past them, its estimated error passing 5 %):
+    dressed RMS 0.2 %, energy law 11.3 % over 16-120."""
     from pulsemap.solvers.data.scene import parse_scene
     from pulsemap.solvers.studies.run import run_scene
 
@@ -94,8 +95,10 @@ def test_dressed_law_follows_a_graded_foundation_and_refuses_the_pade_profile():
                       "perturbation": {"R": "-k*u", "eps": 0.01, "params": {"k": "1 + (i - 16)/50"}},
                       "output": {"contacts": [16, 120], "methods": ["dressed-law", "energy-law", "dns"]}}, "t")
     res = run_scene(sc)
-    d, e = res["errors"]["dressed-law"]["rms_pct"], res["errors"]["energy-law"]["rms_pct"]
-    assert d < e / 2 and d < 5
+    pairs = [(q, d) for q, d in zip(res["peaks"]["dressed-law"], res["peaks"]["dns"]) if q is not None and d is not None]
+    d = 100 * float(np.sqrt(np.mean([(q / p - 1) ** 2 for q, p in pairs])))
+    e = res["errors"]["energy-law"]["rms_pct"]
+    assert len(pairs) > 40 and d < e / 2 and d < 5
     res = run_scene(sc, methods=["dressed-law"], profile="pade")
     assert "exact profile" in res["dressed-law"]["refused"]
     assert res["peaks"]["dressed-law"] is None
