@@ -423,9 +423,11 @@ def derive_cross(first: tuple[int, int], second: tuple[int, int], n: float = 1.5
     return out
 
 
-def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)), pairs=(((1, 0), (0, 1)), ((1, 0), (2, 1)), ((0, 1), (2, 1))),
+def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)),
+                  pairs=(((1, 0), (0, 1)), ((1, 0), (2, 1)), ((0, 1), (2, 1)), ((1, 0), (3, 0)), ((3, 0), (0, 1))),
                   n: float = 1.5) -> Path:
-    """Recompute (no cache) the derived coefficients of the paper's monomials and pairs and write SHIPPED."""
+    """Recompute (no cache) the derived coefficients of the paper's monomials and pairs (and u + u^3 + v's) and
+    write SHIPPED."""
     table = {cache_key(a, b, n): derive_monomial(a, b, n, use_cache=False).as_dict() for a, b in monomials}
     for p, q in pairs:
         table[cross_key(p, q, n)] = derive_cross(p, q, n, use_cache=False).as_dict()

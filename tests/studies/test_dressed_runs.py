@@ -207,3 +207,51 @@ def test_dressed_law_is_quiet_past_its_validity_bound():
     assert all(p is None for c, p in zip(res["contacts"], law) if c > bound)
     errs = [abs(p - d) / d for p, d in zip(law, dns) if p is not None and d is not None]
     assert len(errs) > 20 and max(errs) < 0.10
+
+
+ACCURACY_SCENES = [
+    ("fig8-eps0.1", {}),  # uniform damping
+    ("fig8-eps0.3", {}),
+    ("fig6-eps0.1", {}),  # uniform linear foundation
+    ("fig8-eps0.1", {"excitation.velocity": 5.0}),
+    ("fig8-eps0.1", {"perturbation.R": "-(u + u^3 + v)", "perturbation.eps": 0.2}),  # mixed
+    ("fig8-eps0.1", {"perturbation.R": "u + u^3 + v", "perturbation.eps": 0.2}),
+    ("vdp-mu3-v2.3", {}),
+    ("vdp-mu3-v2.3", {"excitation.velocity": 5.0}),
+    ("vdp-mu1-v0.3", {}),
+    # Van der Pol settling on its stationary peak at small eps, where the law gives values
+    ("vdp-mu3-v2.3", {"perturbation.eps": 0.025, "excitation.velocity": 0.9, "output.contacts": [16, 300]}),
+    ("vdp-mu3-v2.3", {"perturbation.eps": 0.0125, "excitation.velocity": 0.9, "output.contacts": [16, 300]}),
+    ("vdp-mu3-v2.3", {"perturbation.params.mu": 5.0, "perturbation.eps": 0.025, "excitation.velocity": 0.9,
+                      "output.contacts": [16, 300]}),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name, overrides", ACCURACY_SCENES)
+def test_dressed_law_is_within_its_printed_accuracy_or_says_why_not(name, overrides):
+    """Every value the law gives on the DNS's live range is within its own estimated error of the DNS peak;
+    every contact without a value is explained in one line; the run's text prints the estimate."""
+    import pulsemap
+    from pulsemap.solvers.models.dressed import ACCURACY
+
+    result = pulsemap.run(pulsemap.scene(name, **overrides), methods=["dns", "dressed-law"])
+    res = result.to_dict()
+    info = res["dressed-law"]
+    law = res["peaks"]["dressed-law"] or [None] * len(res["contacts"])
+    accuracy = info.get("accuracy") or [None] * len(res["contacts"])
+    live = res["errors"]["dressed-law"]["live_range"] or [math.inf, -math.inf]
+    given = 0
+    for c, dns, q, a in zip(res["contacts"], res["peaks"]["dns"], law, accuracy):
+        if q is None:
+            continue
+        assert a is not None and 0 <= a <= ACCURACY
+        if dns is not None and live[0] <= c <= live[1]:
+            given += 1
+            assert abs(q / dns - 1) <= a, f"contact {c}: {abs(q / dns - 1):.4g} above its estimate {a:.4g}"
+    why = info.get("refused") or info["message"]
+    if given < len(res["contacts"]):
+        assert why and "\n" not in why
+    if given:
+        assert info["note"].startswith("estimated accuracy +-")
+        assert info["note"] in str(result)
