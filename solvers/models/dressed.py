@@ -441,7 +441,7 @@ def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)),
 
 # ---------------------------------------------------------------------- part 3: the evaluation
 POLE_MARGIN = 0.05
-SAFETY = 2.0  # the neglected terms of one monomial explain 1/2-2/3 of the O(eps^(3/2)) error (docs/models.rst)
+SAFETY = 2.0  # the per-monomial next terms leave out cross terms of the same order (docs/models.rst)
 ACCURACY = 0.05  # the law gives no value where its estimated error passes 5 %
 ONSET_RATIO = 0.8  # the onset transient's error relaxes by this factor per contact (docs/models.rst)
 
