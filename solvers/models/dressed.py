@@ -75,7 +75,10 @@ LSODA (rtol 1e-11). It stops where A falls to 1e-12 A0 (extinction), grows to 1e
 form, have lost their meaning; a restoring foundation near extinction, x = c A^(-1/2)): contacts
 past the end carry None. ``beyond`` is the first contact index where some |x_j| exceeds its validity bound;
 the law gives no values past it either (status "beyond its validity bound"): it stays quiet where its
-two-term form is not trusted.
+two-term form is not trusted. Each value carries an estimate of its relative error (``evaluate_dressed_law``:
+the onset shift relaxing by ONSET_RATIO per contact, plus SAFETY times the calibrated next terms carried along
+the chain by d rate/d ln A); where it passes ACCURACY the law gives no value (status "beyond its accuracy").
+Measured on Van der Pol, the law's stationary-peak error is O(eps^(3/2)) (docs/models.rst).
 """
 
 from __future__ import annotations
@@ -370,9 +373,11 @@ def derive_cross(first: tuple[int, int], second: tuple[int, int], n: float = 1.5
     return out
 
 
-def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)), pairs=(((1, 0), (0, 1)), ((1, 0), (2, 1)), ((0, 1), (2, 1))),
+def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)),
+                  pairs=(((1, 0), (0, 1)), ((1, 0), (2, 1)), ((0, 1), (2, 1)), ((1, 0), (3, 0)), ((3, 0), (0, 1))),
                   n: float = 1.5) -> Path:
-    """Recompute (no cache) the derived coefficients of the paper's monomials and pairs and write SHIPPED."""
+    """Recompute (no cache) the derived coefficients of the paper's monomials and pairs (and u + u^3 + v's) and
+    write SHIPPED."""
     table = {cache_key(a, b, n): derive_monomial(a, b, n, use_cache=False).as_dict() for a, b in monomials}
     for p, q in pairs:
         table[cross_key(p, q, n)] = derive_cross(p, q, n, use_cache=False).as_dict()
@@ -383,6 +388,9 @@ def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)), pairs=(((1, 0), (0
 
 # ---------------------------------------------------------------------- part 3: the evaluation
 POLE_MARGIN = 0.05
+SAFETY = 2.0  # the per-monomial next terms leave out cross terms of the same order (docs/models.rst)
+ACCURACY = 0.05  # the law gives no value where its estimated error passes 5 %
+ONSET_RATIO = 0.8  # the onset transient's error relaxes by this factor per contact (docs/models.rst)
 
 
 class DressedEvalError(ValueError):
@@ -391,7 +399,8 @@ class DressedEvalError(ValueError):
 
 @dataclass(frozen=True)
 class DressedCoefficients:
-    """Plain numbers of one dressed law: per monomial (c, e, k1, rho, lag, x_bound), cross (j, l, k2)."""
+    """Plain numbers of one dressed law: per monomial (c, e, k1, rho, lag, x_bound), cross (j, l, k2), and per
+    monomial the first neglected term of delta/(k1 x), g |x|^p (next_coef g, next_power p: 1.5 or 2)."""
 
     c: tuple[float, ...]
     e: tuple[float, ...]
@@ -400,7 +409,9 @@ class DressedCoefficients:
     lag: tuple[float, ...]
     x_bound: tuple[float, ...]
     cross: tuple[tuple[int, int, float], ...] = ()
-    c_of_i: tuple | None = None  # site-dependent R: c_j as functions of the contact index (else c)
+    c_of_i: tuple | None = None  # site-dependent R: c_j(i) as functions of the contact index (else c)
+    next_coef: tuple[float, ...] = ()  # empty: no neglected term known (the error estimate has only the onset)
+    next_power: tuple[float, ...] = ()
 
     def xs(self, A: float, i: float = 0.0) -> list[float]:
         cs = self.c if self.c_of_i is None else [f(i) for f in self.c_of_i]
@@ -411,22 +422,54 @@ class DressedCoefficients:
         total = -sum(k1 * x / (1.0 - r * x) for k1, r, x in zip(self.k1, self.rho, xs))
         return total - sum(k2 * xs[j] * xs[l] for j, l, k2 in self.cross)
 
+    def slope(self, A: float, i: float = 0.0) -> float:
+        """d(rate)/d ln A: how an error in ln A grows (> 0) or relaxes (< 0) along the chain."""
+        xs = self.xs(A, i)
+        total = -sum(k1 * e * x / (1.0 - r * x) ** 2 for k1, e, r, x in zip(self.k1, self.e, self.rho, xs))
+        return total - sum(k2 * (self.e[j] + self.e[l]) * xs[j] * xs[l] for j, l, k2 in self.cross)
+
+    def neglected(self, A: float, i: float = 0.0) -> float:
+        """SAFETY times the size of the first neglected terms of the rate, sum_j |k1_j x_j g_j |x_j|^p_j|."""
+        xs = self.xs(A, i)
+        return SAFETY * sum(abs(k1 * x * g) * abs(x) ** p for k1, x, g, p in zip(self.k1, xs, self.next_coef,
+                                                                                  self.next_power))
+
     def shift(self, A0: float, i0: float = 0.0) -> float:
         xs = self.xs(A0, i0)
         return sum(d * k1 * x / (1.0 - r * x) for d, k1, r, x in zip(self.lag, self.k1, self.rho, xs))
 
+    def shift_error(self, A0: float, i0: float = 0.0) -> float:
+        """The onset's uncertainty at the seed: the whole onset shift, sum_j |Delta_j k1_j x_j lambda_j| (the lag
+        is derived for a launched exact wave; a kicked chain's pulse at the seed is not one)."""
+        xs = self.xs(A0, i0)
+        return sum(abs(d * k1 * x / (1.0 - r * x)) for d, k1, r, x in zip(self.lag, self.k1, self.rho, xs))
+
+
+@dataclass(frozen=True)
+class DressedRun:
+    """The dressed law along the chain: the amplitudes (``run``), the first index past the validity bound
+    (``beyond``) and per contact the estimated relative error of A (``accuracy``, None where no value)."""
+
+    run: BalanceRun
+    beyond: float | None
+    accuracy: list
+
 
 def evaluate_dressed_law(coef: DressedCoefficients, S0: float, A0: float, i0: float,
-                         contacts: Sequence[float]) -> tuple[BalanceRun, float | None]:
-    """A(i) of the dressed law at ``contacts`` from the seed A(i0) = A0; also the first index where some
-    |x_j| passes its validity bound (None if it never does before the law ends)."""
+                         contacts: Sequence[float]) -> DressedRun:
+    """A(i) of the dressed law at ``contacts`` from the seed A(i0) = A0, with its estimated relative error
+    E(i) = shift_error ONSET_RATIO^(i - i0) (the onset transient) + E_n(i), E_n carrying the neglected terms
+    along the chain: dE_n/di = (d rate/d ln A) E_n + neglected(A), E_n(i0) = 0. No values where E passes
+    ACCURACY or past the validity bound."""
     if not (np.isfinite(A0) and A0 > 0):
         raise DressedEvalError(f"the initial amplitude must be a finite number > 0, got {A0!r}")
     contacts = np.asarray(contacts, dtype=float)
     lnA0 = math.log(A0) + coef.shift(A0, i0)
+    E0 = coef.shift_error(A0, i0)
 
     def rhs(i, y):
-        return [coef.rate(math.exp(y[0]), i)]
+        A = math.exp(y[0])
+        return [coef.rate(A, i), coef.slope(A, i) * y[1] + coef.neglected(A, i)]
 
     def die(i, y):
         return y[0] - (math.log(A0) - 27.6)  # A = 1e-12 A0
@@ -442,17 +485,20 @@ def evaluate_dressed_law(coef: DressedCoefficients, S0: float, A0: float, i0: fl
         A = math.exp(y[0])
         return max([abs(x) / b if b > 0 else 0.0 for x, b in zip(coef.xs(A, i), coef.x_bound)] + [0.0]) - 1.0
 
+    def onset(i):
+        return E0 * ONSET_RATIO ** (i - i0)
+
     die.terminal = blow.terminal = pole.terminal = True
     if pole(i0, [math.log(A0)]) <= 0:
         vals = [None] * len(contacts)
         run = BalanceRun("dressed", "law", contacts.astype(int), vals, vals, "outside its range",
                          f"outside its range at the seed: |(k2/k1) x| >= {1 - POLE_MARGIN:g} (the second-order term "
                          "as large as the first)", float(i0), "dressed (second order)", "exact")
-        return run, float(i0)
+        return DressedRun(run, float(i0), vals)
     end = max(float(contacts.max(initial=i0)), i0 + 1e-9)
     from scipy.integrate import solve_ivp  # scipy loads only when a law is evaluated
 
-    sol = solve_ivp(rhs, (i0, end), [lnA0], method="LSODA", rtol=1e-11, atol=1e-13, dense_output=True,
+    sol = solve_ivp(rhs, (i0, end), [lnA0, 0.0], method="LSODA", rtol=1e-11, atol=1e-13, dense_output=True,
                     events=(die, blow, pole, past_bound))
     if sol.status < 0:
         raise DressedEvalError(f"the dressed law could not be integrated: {sol.message}")
@@ -467,10 +513,23 @@ def evaluate_dressed_law(coef: DressedCoefficients, S0: float, A0: float, i0: fl
     if beyond is not None and (ended_at is None or beyond < ended_at) and beyond < float(sol.t[-1]):
         ended_at, status = beyond, "beyond its validity bound"
     stop = float(sol.t[-1]) if ended_at is None else ended_at
-    vals = [math.exp(float(sol.sol(c)[0])) if c <= stop + 1e-12 else None for c in contacts]
+    given = [c <= stop + 1e-12 for c in contacts]
+    ys = [sol.sol(c) if ok else None for c, ok in zip(contacts, given)]
+    errs = [float(y[1]) + onset(c) if y is not None else None for c, y in zip(contacts, ys)]
+    quiet = [c for c, e in zip(contacts, errs) if e is not None and e > ACCURACY]
+    vals = [math.exp(float(y[0])) if e is not None and e <= ACCURACY else None for y, e in zip(ys, errs)]
+    accuracy = [e if v is not None else None for e, v in zip(errs, vals)]
     msg = f"{status} at contact index {ended_at:.6g}" if ended_at is not None else "ODE solved (LSODA, rtol 1e-11)"
     if status == "beyond its validity bound":
         msg += ": some |x_j| passes the two-term law's validity bound (derive --model dressed prints it); no values past it"
+    if quiet:
+        worst = max(quiet, key=lambda c: errs[list(contacts).index(c)])
+        k = list(contacts).index(worst)
+        where = f"contact {quiet[0]:g}" if len(quiet) == 1 else f"{len(quiet)} contacts from {quiet[0]:g} to {quiet[-1]:g}"
+        msg = (f"beyond its accuracy at {where}: its estimated error passes {100 * ACCURACY:g} % (up to "
+               f"{100 * errs[k]:.3g} % at contact {worst:g}: onset {100 * onset(worst):.2g} %, neglected terms "
+               f"{100 * (errs[k] - onset(worst)):.2g} %); no values there" + ("" if status == "ok" else f"; then {msg}"))
+        status = "beyond its accuracy" if status == "ok" else status
     run = BalanceRun("dressed", "law", contacts.astype(int), vals, [v * S0 if v is not None else None for v in vals],
                      status, msg, ended_at, "dressed (second order)", "exact")
-    return run, beyond
+    return DressedRun(run, beyond, accuracy)

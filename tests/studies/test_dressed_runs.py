@@ -85,8 +85,9 @@ def test_dressed_law_beats_the_energy_law_on_damping():
 
 
 def test_dressed_law_follows_a_graded_foundation_and_refuses_the_pade_profile():
-    """k = 1 + (i - 16)/50, eps = 0.01, contacts 16-120: c_j(i) along the chain (bead i + 1/2). Measured RMS
-    against the DNS: dressed 3.6 %, energy law 11.3 %."""
+    """k = 1 + (i - 16)/50, eps = 0.01, contacts 16-120: c_j(i) along the chain (bead i + 1/2). Measured
+    against the DNS over the contacts it gives (16-79; quiet past them, its estimated error passing 5 %):
+    dressed RMS 0.16 %, max 0.45 %; energy law RMS 11.3 % over 16-120."""
     from pulsemap.solvers.data.scene import parse_scene
     from pulsemap.solvers.studies.run import run_scene
 
@@ -95,8 +96,10 @@ def test_dressed_law_follows_a_graded_foundation_and_refuses_the_pade_profile():
                       "perturbation": {"R": "-k*u", "eps": 0.01, "params": {"k": "1 + (i - 16)/50"}},
                       "output": {"contacts": [16, 120], "methods": ["dressed-law", "energy-law", "dns"]}}, "t")
     res = run_scene(sc)
-    d, e = res["errors"]["dressed-law"]["rms_pct"], res["errors"]["energy-law"]["rms_pct"]
-    assert d < e / 2 and d < 5
+    pairs = [(q, d) for q, d in zip(res["peaks"]["dressed-law"], res["peaks"]["dns"]) if q is not None and d is not None]
+    d = 100 * float(np.sqrt(np.mean([(q / p - 1) ** 2 for q, p in pairs])))
+    e = res["errors"]["energy-law"]["rms_pct"]
+    assert len(pairs) > 40 and d < e / 2 and d < 5
     res = run_scene(sc, methods=["dressed-law"], profile="pade")
     assert "exact profile" in res["dressed-law"]["refused"]
     assert res["peaks"]["dressed-law"] is None
@@ -205,3 +208,51 @@ def test_dressed_law_is_quiet_past_its_validity_bound():
     assert all(p is None for c, p in zip(res["contacts"], law) if c > bound)
     errs = [abs(p - d) / d for p, d in zip(law, dns) if p is not None and d is not None]
     assert len(errs) > 20 and max(errs) < 0.10
+
+
+ACCURACY_SCENES = [
+    ("fig8-eps0.1", {}),  # uniform damping
+    ("fig8-eps0.3", {}),
+    ("fig6-eps0.1", {}),  # uniform linear foundation
+    ("fig8-eps0.1", {"excitation.velocity": 5.0}),
+    ("fig8-eps0.1", {"perturbation.R": "-(u + u^3 + v)", "perturbation.eps": 0.2}),  # mixed
+    ("fig8-eps0.1", {"perturbation.R": "u + u^3 + v", "perturbation.eps": 0.2}),
+    ("vdp-mu3-v2.3", {}),
+    ("vdp-mu3-v2.3", {"excitation.velocity": 5.0}),
+    ("vdp-mu1-v0.3", {}),
+    # Van der Pol settling on its stationary peak at small eps, where the law gives values
+    ("vdp-mu3-v2.3", {"perturbation.eps": 0.025, "excitation.velocity": 0.9, "output.contacts": [16, 300]}),
+    ("vdp-mu3-v2.3", {"perturbation.eps": 0.0125, "excitation.velocity": 0.9, "output.contacts": [16, 300]}),
+    ("vdp-mu3-v2.3", {"perturbation.params.mu": 5.0, "perturbation.eps": 0.025, "excitation.velocity": 0.9,
+                      "output.contacts": [16, 300]}),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name, overrides", ACCURACY_SCENES)
+def test_dressed_law_is_within_its_printed_accuracy_or_says_why_not(name, overrides):
+    """Every value the law gives on the DNS's live range is within its own estimated error of the DNS peak;
+    every contact without a value is explained in one line; the run's text prints the estimate."""
+    import pulsemap
+    from pulsemap.solvers.models.dressed import ACCURACY
+
+    result = pulsemap.run(pulsemap.scene(name, **overrides), methods=["dns", "dressed-law"])
+    res = result.to_dict()
+    info = res["dressed-law"]
+    law = res["peaks"]["dressed-law"] or [None] * len(res["contacts"])
+    accuracy = info.get("accuracy") or [None] * len(res["contacts"])
+    live = res["errors"]["dressed-law"]["live_range"] or [math.inf, -math.inf]
+    given = 0
+    for c, dns, q, a in zip(res["contacts"], res["peaks"]["dns"], law, accuracy):
+        if q is None:
+            continue
+        assert a is not None and 0 <= a <= ACCURACY
+        if dns is not None and live[0] <= c <= live[1]:
+            given += 1
+            assert abs(q / dns - 1) <= a, f"contact {c}: {abs(q / dns - 1):.4g} above its estimate {a:.4g}"
+    why = info.get("refused") or info["message"]
+    if given < len(res["contacts"]):
+        assert why and "\n" not in why
+    if given:
+        assert info["note"].startswith("estimated accuracy +-")
+        assert info["note"] in str(result)

@@ -58,16 +58,21 @@ def run_dressed(state: "RunState", law, seed_A: float) -> None:
     i0 = float(scene.first_perturbed - 1)
     if not scene.perturbation.is_uniform:  # c_j(i) along the chain (bead i + 1/2 at contact index i)
         coef = replace(coef, c_of_i=site_coefficient_functions(scene.perturbation, law, i0, float(scene.contacts[1])))
-    run, beyond = evaluate_dressed_law(coef, S0, seed_A, i0, state.contacts)
+    ev = evaluate_dressed_law(coef, S0, seed_A, i0, state.contacts)
+    run, beyond = ev.run, ev.beyond
     state.timings[METHOD] = time.perf_counter() - t0
     out["peaks"][METHOD] = on_contacts(state.contacts, run.contacts, run.peaks)
+    given = [a for a in ev.accuracy if a is not None]
     out[METHOD] = {"model": MODEL_TITLES[METHOD], "profile": "exact", "status": run.status, "message": run.message,
                    "ended_at": run.ended_at, "law_kind": run.law_kind, "beyond_validity_at": beyond,
+                   "accuracy": on_contacts(state.contacts, run.contacts, ev.accuracy),
+                   "note": (f"estimated accuracy +-{100 * max(given):.2g} % (largest over the values given)" if given
+                            else f"no value: {run.message}"),
                    "coefficients": {t.monomial: {"k1": t.k1, "k2_over_k1": t.rho, "onset_lag": t.lag}
                                     for t in law.terms},
                    "derived": provenance(law, "derived"), "calibrated": provenance(law, "calibrated")}
     if run.status != "ok":
         state.warnings.append(f"{METHOD}: {run.message}")
-    if beyond is not None and beyond <= state.contacts[-1]:
+    if beyond is not None and beyond <= state.contacts[-1] and run.status != "beyond its validity bound":
         state.warnings.append(f"{METHOD}: from contact index {beyond:.4g} some |x_j| exceeds the two-term law's "
                               "validity bound (derive --model dressed prints it): its error grows there")

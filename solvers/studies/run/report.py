@@ -153,7 +153,7 @@ def to_text(result: dict, every: int | None = None) -> str:
     for name in dict.fromkeys([*MODELS, *_columns(result)]):
         if name != "dns" and isinstance(result.get(name), dict):
             info = result[name]
-            status = f" [{info['refused']}]" if "refused" in info else ""
+            status = f" [{info.get('refused') or info.get('note')}]" if "refused" in info or "note" in info else ""
             lines.append(f"  {name}: {info.get('model', '')}{status}")
     for name, err in result["errors"].items():
         lines.append(_error_line(name, err))
