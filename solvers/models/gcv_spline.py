@@ -15,23 +15,30 @@ import numpy as np
 
 
 def gcv_smoothing_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray):
-    """make_smoothing_spline(x, y, w=w) for 1-D y, with the GCV lambda found by ``gcv_lambda``."""
-    from scipy.interpolate import make_smoothing_spline
+    """make_smoothing_spline(x, y, w=w) for 1-D y: the GCV lambda (``gcv_lambda``), then scipy's
+    solve in the natural-spline basis and its change to the B-spline basis."""
+    from scipy.interpolate import BSpline
+    from scipy.linalg import solve_banded
 
     x, y, w = (np.ascontiguousarray(a, dtype=float) for a in (x, y, w))
     if x.ndim != 1 or y.shape != x.shape or w.shape != x.shape or x.size <= 4:
         raise ValueError(f"x, y, w must be 1-D of one length >= 5, got shapes {x.shape}, {y.shape}, {w.shape}")
     if np.any(x[1:] - x[:-1] <= 0) or np.any(w <= 0):
         raise ValueError("x must be ascending and w > 0")
-    return make_smoothing_spline(x, y, w=w, lam=gcv_lambda(x, y, w))
+    X, wE = _bands(x, w)
+    c = solve_banded((2, 2), X + gcv_lambda(x, y, w, X, wE) * wE, y)
+    t = np.r_[[x[0]] * 3, x, [x[-1]] * 3]
+    c_ = np.r_[c[0:1] * (t[5] + t[4] - 2 * t[3]) + c[1:2], c[0:1] * (t[5] - t[3]) + c[1:2], c[1:-1],
+               c[-1:-2:-1] * (t[-4] - t[-6]) + c[-2:-3:-1], c[-1:-2:-1] * (2 * t[-4] - t[-5] - t[-6]) + c[-2:-3:-1]]
+    return BSpline.construct_fast(t, c_, 3)
 
 
-def gcv_lambda(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
-    """The GCV-optimal lambda of scipy's make_smoothing_spline (its _compute_optimal_gcv_parameter)."""
+def gcv_lambda(x: np.ndarray, y: np.ndarray, w: np.ndarray, X: np.ndarray, wE: np.ndarray) -> float:
+    """The GCV-optimal lambda of scipy's make_smoothing_spline (its _compute_optimal_gcv_parameter);
+    X, wE: ``_bands(x, w)``."""
     from scipy.linalg import LinAlgError
     from scipy.optimize import minimize_scalar
 
-    X, wE = _bands(x, w)
     n = x.size
     XtWX, XtE = _xt_w_y(X, w, X), _xt_w_y(X, w, wE)
 
@@ -78,8 +85,17 @@ def _bands(x: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     wE = np.zeros((5, n))
     wE[2:, 0] = _coeff_of_divided_diff(x[:3]) / w[:3]
     wE[1:, 1] = _coeff_of_divided_diff(x[:4]) / w[:4]
-    for j in range(2, n - 2):
-        wE[:, j] = (x[j + 2] - x[j - 2]) * _coeff_of_divided_diff(x[j - 2:j + 3]) / w[j - 2:j + 3]
+    if n > 4:  # columns 2..n-3 at once: window j-2..j+2, the products in scipy's order
+        xs = np.lib.stride_tricks.sliding_window_view(x, 5)
+        ws = np.lib.stride_tricks.sliding_window_view(w, 5)
+        coeff = np.empty_like(xs)
+        for i in range(5):
+            pp = np.ones(xs.shape[0])
+            for k in range(5):
+                if k != i:
+                    pp *= xs[:, i] - xs[:, k]
+            coeff[:, i] = 1.0 / pp
+        wE[:, 2:n - 2] = ((x[4:] - x[:-4])[:, None] * coeff / ws).T
     wE[:-1, -2] = -_coeff_of_divided_diff(x[-4:]) / w[-4:]
     wE[:-2, -1] = _coeff_of_divided_diff(x[-3:]) / w[-3:]
     wE *= 6

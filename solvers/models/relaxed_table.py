@@ -342,16 +342,19 @@ def leave_one_out(table: SegmentTable) -> float:
 
 
 def _leave_one_out(table: SegmentTable) -> float:
-    """leave_one_out computed: one bulk fit per left-out run."""
+    """leave_one_out computed: one bulk fit per left-out run with bulk points inside the others' range
+    (a run without such points states nothing: its fit is skipped)."""
     worst = 0.0
     for j in list(table.runs):
         others = {i: p for i, p in table.runs.items() if i != j}
-        fit = fit_bulk(*table.bulk_points(others), cached=False)
-        xo, _ = table.bulk_points(others)
+        xo, yo = table.bulk_points(others)
         xj, yj = table.bulk_points({j: table.runs[j]})
-        if fit is None or xj.size == 0 or xo.size == 0:
+        if xj.size == 0 or xo.size == 0:
             continue
         inside = (xj >= xo[0]) & (xj <= xo[-1])
-        if np.any(inside):
+        if not np.any(inside):
+            continue
+        fit = fit_bulk(xo, yo, cached=False)
+        if fit is not None:
             worst = max(worst, float(np.max(np.abs(fit(xj[inside]) - yj[inside]))))
     return worst
