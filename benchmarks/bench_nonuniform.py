@@ -5,8 +5,8 @@ Each scene (n = 1.5, v0 = 1, 140 beads, beads 1..15 unperturbed, DNS at rtol 1e-
 methods dns, relaxed and map, in an empty pulsemap cache: printed per scene the live range, the
 RMS and max relative error of the relaxed model and of the paper's map over it (a contact without
 a value counts 100 %, as in `pulsemap run`), the relaxed model's cold build time (segment and
-kernel runs; ``timings_s``), the wall time of a cold run of the relaxed model alone (with its
-stated accuracy, the leave-one-run-out fits) and its segment runs. ``--local``: the relaxed model
+kernel runs and its stated accuracy, the leave-one-run-out fits; ``timings_s``), the wall time of a
+cold run of the relaxed model alone and its segment runs. ``--local``: the relaxed model
 with each step at its own bead's coefficient only (no kernels), for comparison.
 """
 

@@ -77,11 +77,13 @@ class KernelTable:
         change = self.step()[1]
         fit = self.table.bulk()
         for lat, base in sorted(self.table.runs.items()):
+            if fit is None or len(base) <= ONSET + 1:  # a run without bulk steps gives no point: no bumped run
+                continue
             up, down = self._bumped(lat), base
             k = min(len(base), len(up))
             for m in range(ONSET + 1, k):
                 j = BUMP_BEAD + 1 - m
-                if J_MIN <= j <= J_MAX and fit is not None:
+                if J_MIN <= j <= J_MAX:
                     x = float(np.log(base[m - 1]))
                     d_log_r = np.log(up[m] / up[m - 1]) - np.log(down[m] / down[m - 1])
                     d_log_p = np.log(up[m - 1] / down[m - 1])  # the bump's earlier effect, which the map carries

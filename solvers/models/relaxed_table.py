@@ -247,9 +247,10 @@ class SegmentTable:
 BIN = math.log(2.0) / LATTICE / 4  # width in log P of the bins the bulk points are averaged over
 
 
-def fit_bulk(x: np.ndarray, y: np.ndarray):
+def fit_bulk(x: np.ndarray, y: np.ndarray, cached: bool = True):
     """y(x) through the bulk points: means over bins of width BIN in x, then a smoothing spline
-    (GCV; PCHIP if that is ill-posed), linear for 2-4 bins, constant for one. None: no points."""
+    (GCV; PCHIP if that is ill-posed), linear for 2-4 bins, constant for one. None: no points.
+    ``cached``: the spline read from and stored in the on-disk cache (cached_smoothing_spline)."""
     from scipy.interpolate import PchipInterpolator
 
     if x.size == 0:
@@ -264,25 +265,36 @@ def fit_bulk(x: np.ndarray, y: np.ndarray):
         return lambda t: np.full(np.shape(t), value) if np.ndim(t) else value
     if xb.size < 5:
         return lambda t: np.interp(t, xb, yb)
-    return cached_smoothing_spline(xb, yb, counts.astype(float)) or PchipInterpolator(xb, yb)
+    w = counts.astype(float)
+    return (cached_smoothing_spline(xb, yb, w) if cached else _smoothing_spline(xb, yb, w)) or PchipInterpolator(xb, yb)
 
 
 def cached_smoothing_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray):
     """scipy's GCV smoothing spline through (x, y, w), its knots and coefficients cached on disk by a
-    digest of the data and the scipy version (GCV costs ~40 ms of Python loops per fit; the cached
-    spline is the same BSpline, bit for bit). None when the fit is ill-posed."""
-    from scipy.interpolate import BSpline, make_smoothing_spline
+    digest of the data and the scipy version (the cached spline is the same BSpline, bit for bit).
+    None when the fit is ill-posed."""
+    from scipy.interpolate import BSpline
 
     key = bulk_fit_key(x, y, w)
     hit = cache.load(NAMESPACE, key, _spline_problem)
     if hit is not None:
         return BSpline(np.array(hit["t"], float), np.array(hit["c"], float), int(hit["k"]))
-    try:
-        spline = make_smoothing_spline(x, y, w=w)
-    except (np.linalg.LinAlgError, ValueError):
+    spline = _smoothing_spline(x, y, w)
+    if spline is None:
         return None
     cache.store(NAMESPACE, key, {"t": spline.t.tolist(), "c": spline.c.tolist(), "k": int(spline.k)})
     return spline
+
+
+def _smoothing_spline(x: np.ndarray, y: np.ndarray, w: np.ndarray):
+    """scipy's make_smoothing_spline(x, y, w=w), bit for bit, its GCV search made fast (gcv_spline.py);
+    None when the fit is ill-posed."""
+    from pulsemap.solvers.models.gcv_spline import gcv_smoothing_spline
+
+    try:
+        return gcv_smoothing_spline(x, y, w)
+    except (np.linalg.LinAlgError, ValueError):
+        return None
 
 
 def bulk_fit_key(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> str:
@@ -312,16 +324,37 @@ def _spline_problem(value) -> str | None:
 def leave_one_out(table: SegmentTable) -> float:
     """Largest |error| in log r when each run's bulk points are predicted from the other runs'
     fit, over the interior of the range: the bulk map's stated accuracy (interpolation plus the
-    memory the relaxed map ignores plus DNS error)."""
+    memory the relaxed map ignores plus DNS error). Cached on disk as one entry by a digest of the
+    runs (the left-out fits are not stored one by one: each store is synced to disk)."""
+    import hashlib
+
+    import scipy
+
+    data = ";".join(f"{j}:" + ",".join(repr(v) for v in p) for j, p in sorted(table.runs.items()))
+    key = (f"relaxed-leave-one-out|v1|scipy={scipy.__version__}|onset={ONSET}|bin={BIN!r}"
+           f"|runs={hashlib.sha256(data.encode()).hexdigest()}")
+    hit = cache.load(NAMESPACE, key, lambda v: None if cache.finite_number(v) and v >= 0 else "not a number >= 0")
+    if hit is not None:
+        return float(hit)
+    worst = _leave_one_out(table)
+    cache.store(NAMESPACE, key, worst)
+    return worst
+
+
+def _leave_one_out(table: SegmentTable) -> float:
+    """leave_one_out computed: one bulk fit per left-out run with bulk points inside the others' range
+    (a run without such points states nothing: its fit is skipped)."""
     worst = 0.0
     for j in list(table.runs):
         others = {i: p for i, p in table.runs.items() if i != j}
-        fit = fit_bulk(*table.bulk_points(others))
-        xo, _ = table.bulk_points(others)
+        xo, yo = table.bulk_points(others)
         xj, yj = table.bulk_points({j: table.runs[j]})
-        if fit is None or xj.size == 0 or xo.size == 0:
+        if xj.size == 0 or xo.size == 0:
             continue
         inside = (xj >= xo[0]) & (xj <= xo[-1])
-        if np.any(inside):
+        if not np.any(inside):
+            continue
+        fit = fit_bulk(xo, yo, cached=False)
+        if fit is not None:
             worst = max(worst, float(np.max(np.abs(fit(xj[inside]) - yj[inside]))))
     return worst

@@ -163,3 +163,27 @@ def test_non_uniform_foundations_against_the_dns(tmp_path, name):
     err = live_error(tmp_path, name)
     assert err["live_range"][0] == 16 and err["compared"] >= 6 and err["missing"] == 0
     assert err["rms_pct"] <= 100 * SCENES[name][3]
+
+
+def test_a_run_without_bulk_steps_gets_no_bumped_run(monkeypatch):
+    """The bulk kernel's points come from steps after the onset: a lattice run that dies within it gives
+    none, so its bumped run is not made, and the points are those with that bumped run present."""
+    from pulsemap.solvers.models import relaxed_kernel as rk
+
+    rng = np.random.default_rng(2)
+    table = SegmentTable(SegmentSpec("-u", (), 1.0, 1.5))
+    for j in range(-4, 5):
+        p = [2.0 ** (j / 3)]
+        for _ in range(ONSET + 12 if j > -4 else ONSET):  # the lowest run dies within the onset
+            p.append(p[-1] * math.exp(-0.05 * p[-1] ** -0.4))
+        table.runs[j] = [float(v) for v in p]
+    kern = KernelTable(table)
+    kern.runs = {j: [float(v * (1 + 1e-3 * rng.standard_normal())) for v in p] for j, p in table.runs.items()}
+    with_short = kern.points()
+    del kern.runs[-4]
+    kern._fits = None
+    monkeypatch.setattr(rk, "cached_segment", lambda *a: pytest.fail("a bumped run for a run without bulk steps"))
+    without = kern.points()
+    assert sum(x.size for x, _ in without.values()) > 0
+    for j in with_short:
+        assert np.array_equal(with_short[j][0], without[j][0]) and np.array_equal(with_short[j][1], without[j][1])
