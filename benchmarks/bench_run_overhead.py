@@ -36,6 +36,7 @@ import time
 from pathlib import Path
 
 import pulsemap
+from pulsemap.solvers.chain.peaks import velocity_scale
 from pulsemap.solvers.studies.bench.lines import script_span
 from pulsemap.solvers.studies.bench.measure import peak_error
 from pulsemap.solvers.studies.points import dns_span, on_contacts
@@ -67,23 +68,15 @@ def script_text(scene, rtol: float, t_end: float, dt: float) -> str:
     beads, span = dns_span(scene)
     pert = scene.perturbation
     params = "".join(f"        {k} = {float(v)!r}\n" for k, v in pert.params.items())
+    # the module's own definitions, so the standalone script cannot drift from it
+    helpers = "\n\n".join(inspect.getsource(obj) for obj in (velocity_scale, reference_script.ScriptResult))
     body = inspect.getsource(reference_script.script_peaks)
     return f'''import time
 import numpy as np
 from dataclasses import dataclass
 
 
-def velocity_scale(v0, n):
-    return v0 ** (2.0 / (n + 1.0))
-
-
-@dataclass(frozen=True)
-class ScriptResult:
-    contacts: np.ndarray
-    peaks: np.ndarray
-    nfev: int
-    wall_time_s: float
-
+{helpers}
 
 class Force:
     eps_i = np.where(np.arange(1, {beads} + 1) >= {scene.first_perturbed}, {float(pert.eps)!r}, 0.0)

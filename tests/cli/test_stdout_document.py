@@ -93,7 +93,7 @@ def test_a_real_process_keeps_stdout_clean(tiny, tmp_path):
 
 
 def test_non_finite_numbers_are_written_as_null(tmp_path):
-    from pulsemap.solvers.cli.main import write_json
+    from pulsemap.solvers.cli.common import write_json
 
     path = tmp_path / "x.json"
     write_json(str(path), {"a": float("nan"), "b": [1.0, float("inf")], "c": {"d": -float("inf")}})

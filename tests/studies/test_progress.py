@@ -92,7 +92,7 @@ def test_suite_reports_each_case_before_and_after(monkeypatch):
 
 @pytest.mark.parametrize("quiet", [True, False])
 def test_progress_log_is_plain_stderr_unless_quiet(capsys, quiet):
-    from pulsemap.solvers.cli.main import progress_log
+    from pulsemap.solvers.cli.common import progress_log
 
     progress_log(quiet)("[x] 1/2")
     assert capsys.readouterr().err == ("" if quiet else "[x] 1/2\n")
