@@ -62,7 +62,7 @@ def expansion_rhs(t, y, nodes, h, tau0, centre, npu, coef, beads, nn, floor, mas
     M, P = monos.shape[0], pairs.shape[0]
     Y = y.reshape(2 * (M + P), beads)
     d0, x0, v0 = wave(t, nodes, h, tau0, centre, npu, coef, beads)
-    F1 = np.empty(beads - 1)  # loops, not array expressions or slice copies: a third of the compile time
+    F1 = np.empty(beads - 1)  # plain loops: array expressions and slice copies compile slowly
     F2 = np.empty(beads - 1)
     for i in range(beads - 1):
         F1[i] = nn * d0[i] ** (nn - 1)
