@@ -62,18 +62,22 @@ def expansion_rhs(t, y, nodes, h, tau0, centre, npu, coef, beads, nn, floor, mas
     M, P = monos.shape[0], pairs.shape[0]
     Y = y.reshape(2 * (M + P), beads)
     d0, x0, v0 = wave(t, nodes, h, tau0, centre, npu, coef, beads)
-    F1 = nn * d0 ** (nn - 1)
-    if floor != 0.0:  # F''(d0) tapered below the cut
-        F2 = nn * (nn - 1) * d0**nn / (d0 + floor) ** 2
-    else:
-        F2 = nn * (nn - 1) * d0 ** (nn - 2)
+    F1 = np.empty(beads - 1)  # plain loops: array expressions and slice copies compile slowly
+    F2 = np.empty(beads - 1)
+    for i in range(beads - 1):
+        F1[i] = nn * d0[i] ** (nn - 1)
+        if floor != 0.0:  # F''(d0) tapered below the cut
+            F2[i] = nn * (nn - 1) * d0[i] ** nn / (d0[i] + floor) ** 2
+        else:
+            F2[i] = nn * (nn - 1) * d0[i] ** (nn - 2)
     out = np.empty_like(Y)
     eta = np.empty((M, beads - 1))
     du = np.empty((M, beads))
     dv = np.empty((M, beads))
     for j in range(M):
         a, b = monos[j, 0], monos[j, 1]
-        out[2 * j] = Y[2 * j + 1]
+        for i in range(beads):
+            out[2 * j, i] = Y[2 * j + 1, i]
         for i in range(beads - 1):
             eta[j, i] = Y[2 * j, i] - Y[2 * j, i + 1]
         for i in range(beads):
@@ -87,7 +91,8 @@ def expansion_rhs(t, y, nodes, h, tau0, centre, npu, coef, beads, nn, floor, mas
     for q in range(P):
         j, l = pairs[q, 0], pairs[q, 1]
         z = 2 * (M + q)
-        out[z] = Y[z + 1]
+        for i in range(beads):
+            out[z, i] = Y[z + 1, i]
         weight = 0.5 if j == l else 1.0
         for i in range(beads):
             lin = du[j, i] * Y[2 * l, i] + dv[j, i] * Y[2 * l + 1, i]

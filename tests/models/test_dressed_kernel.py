@@ -33,7 +33,7 @@ def _numpy_rhs(t, Y, base, nn, floor, mask, monos, pairs):
     Y = Y.reshape(2 * (M + P), BEADS)
     d0, x0, v0 = base(t)
     F1 = nn * d0 ** (nn - 1)
-    F2 = nn * (nn - 1) * d0**nn / (d0 + floor) ** 2
+    F2 = nn * (nn - 1) * d0**nn / (d0 + floor) ** 2 if floor else nn * (nn - 1) * d0 ** (nn - 2)  # untapered: n >= 2
 
     def force(k, strain):
         acc = np.zeros(BEADS)
@@ -58,17 +58,18 @@ def _numpy_rhs(t, Y, base, nn, floor, mask, monos, pairs):
     return out.ravel()
 
 
+@pytest.mark.parametrize("n, tapered", [(N, True), (2.5, False)])  # F'' tapered below the cut (n < 2) or not
 @pytest.mark.parametrize("monos, pairs", [(((0, 1),), ((0, 0),)), (((1, 0), (2, 1)), ((0, 0), (0, 1), (1, 1)))])
-def test_the_compiled_right_hand_side_is_the_expansion(monos, pairs):
-    base = WaveBase(N, BEADS, CENTRE)
+def test_the_compiled_right_hand_side_is_the_expansion(monos, pairs, n, tapered):
+    base = WaveBase(n, BEADS, CENTRE)
     rng = np.random.default_rng(3)
     mask = (np.arange(BEADS) >= 10).astype(float)
-    floor = 1e-3 * exact_profile(N).S0
+    floor = 1e-3 * exact_profile(n).S0 if tapered else 0.0
     M, P = len(monos), len(pairs)
     for t in (0.3, 2.71, 7.9):
         Y = rng.normal(size=2 * (M + P) * BEADS)
-        got = expansion_rhs(t, Y, base.nodes, base.h, base.tau0, CENTRE, NPU, base.coef, BEADS, N, floor, mask,
+        got = expansion_rhs(t, Y, base.nodes, base.h, base.tau0, CENTRE, NPU, base.coef, BEADS, n, floor, mask,
                             np.array(monos, dtype=np.int64), np.array(pairs, dtype=np.int64))
-        want = _numpy_rhs(t, Y, base, N, floor, mask, monos, pairs)
+        want = _numpy_rhs(t, Y, base, n, floor, mask, monos, pairs)
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
         assert np.any(got[2 * M * BEADS:] != 0)  # the second order is exercised
