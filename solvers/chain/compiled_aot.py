@@ -36,7 +36,8 @@ from pulsemap.symbolic.cache import cache_root
 
 #: The kernel module of each method (its ``run`` is what a module exports).
 KERNELS = {"RK45": "compiled_kernel", "DOP853": "compiled_dop853", "Rodas4": "compiled_stiff"}
-#: The files the kernels are compiled from (tests/chain/test_numba_stamp.py's list).
+#: The files the kernels are compiled from, whose numba functions call or inline each other (each
+#: carries their common cache stamp: tests/chain/test_numba_stamp.py).
 SOURCES = ("compiled_ops.py", "compiled_track.py", "compiled_kernel.py", "compiled_stiff.py", "compiled_force.py",
            "compiled_dop853.py", "compiled_layout.py")
 #: ``run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef)``'s types (compiled.kernel_args),

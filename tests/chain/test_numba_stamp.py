@@ -13,10 +13,9 @@ import hashlib
 import re
 from pathlib import Path
 
+from pulsemap.solvers.chain.compiled_aot import SOURCES as FILES  # the compiled engine's files, listed once
+
 CHAIN = Path(__file__).resolve().parents[2] / "solvers" / "chain"
-#: The files whose numba functions call or inline each other (the compiled engine).
-FILES = ("compiled_ops.py", "compiled_track.py", "compiled_kernel.py", "compiled_stiff.py", "compiled_force.py",
-         "compiled_dop853.py", "compiled_layout.py")
 STAMP = re.compile(r"^# numba cache stamp: ([0-9a-f]+)\n", re.M)
 
 
