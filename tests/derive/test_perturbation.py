@@ -220,7 +220,7 @@ BAD_VALUES = [
 ]
 
 
-@pytest.mark.parametrize(("name", "raw", "fragment"), BAD_VALUES, ids=[repr(b[1])[:30] for b in BAD_VALUES])
+@pytest.mark.parametrize(("name", "raw", "fragment"), BAD_VALUES, ids=[type(b[1]).__name__ if type(b[1]) is object else repr(b[1])[:30] for b in BAD_VALUES])
 def test_bad_param_values(name: str, raw: object, fragment: str) -> None:
     with pytest.raises(PerturbationError) as info:
         parse_param_value(name, raw)
