@@ -170,7 +170,7 @@ def build(method: str, form: str, name: str, path: Path) -> None:
             os.dup2(sink.fileno(), 1)  # the C compiler's own output (a subprocess) goes to the log
             os.dup2(sink.fileno(), 2)
             try:
-                cc.compile()
+                compile_module(cc)
             except Exception as exc:
                 os.dup2(out_fd, 1)
                 os.dup2(err_fd, 2)
@@ -187,6 +187,26 @@ def build(method: str, form: str, name: str, path: Path) -> None:
         shutil.rmtree(work, ignore_errors=True)
 
 
+def compile_module(cc) -> None:
+    """``cc.compile()`` with numba's C runtime (its mixin sources) compiled on another core by the C compiler
+    while numba generates the kernel's object code; ``cc.compile()`` itself where pycc lacks those steps."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    steps = ("_compile_object_files", "_compile_mixins", "_get_extra_ldflags", "_toolchain")
+    if not all(hasattr(cc, step) for step in steps):
+        cc.compile()
+        return
+    tools = cc._toolchain
+    tools.verbose = cc.verbose
+    build_dir = tempfile.mkdtemp(prefix="pycc-build-")  # in the build's private folder (build)
+    with ThreadPoolExecutor(1) as pool:  # the C compiler is a subprocess: the thread waits without the GIL
+        mixins = pool.submit(cc._compile_mixins, build_dir)
+        objects, exports = cc._compile_object_files(build_dir)
+        objects += mixins.result()
+    tools.link_shared(os.path.join(cc.output_dir, cc.output_file), objects, tools.get_python_libraries(),
+                      tools.get_python_library_dirs(), export_symbols=exports, extra_ldflags=cc._get_extra_ldflags())
+
+
 def kernel(method: str, args: tuple):
     """The ahead-of-time ``run`` of kernel ``method`` for the arguments ``args`` and the seconds it
     took to build or load it, or (None, 0.0) when there is none (generated numba force, build failed,
@@ -195,20 +215,30 @@ def kernel(method: str, args: tuple):
     form = form_of(args)
     if form is None or method not in KERNELS:
         return None, 0.0
+    return load(method, form)
+
+
+def _paths(method: str, form: str) -> tuple[str, Path, Path]:
+    """The module name, its file and its ``.failed`` file."""
     name = module_name(method, form)
+    path = folder() / f"{name}{sysconfig.get_config_var('EXT_SUFFIX') or '.so'}"
+    return name, path, path.with_name(f"{name}.failed")
+
+
+def load(method: str, form: str):
+    """kernel's answer for kernel ``method`` and force ``form``: the module loaded, built first if this
+    machine has none (a failed build: one note, the ``.failed`` file, and (None, 0.0))."""
+    name, path, failed = _paths(method, form)
     if name in _loaded:
         return _loaded[name], 0.0
     start = time.perf_counter()
-    where = folder()
-    path = where / f"{name}{sysconfig.get_config_var('EXT_SUFFIX') or '.so'}"
-    failed = path.with_name(f"{name}.failed")
     run = None
     if path.exists():
         try:
             run = _import(name, path)
         except ImportError:  # a damaged file: the JIT kernel serves, a new build replaces it
             run = None
-    if run is None and not failed.exists() and writable(where):
+    if run is None and not failed.exists() and writable(path.parent):
         try:
             build(method, form, name, path)
             run = _import(name, path)
@@ -224,3 +254,32 @@ def kernel(method: str, args: tuple):
                 pass
     _loaded[name] = run
     return run, (time.perf_counter() - start) if run is not None else 0.0
+
+
+def to_build(kernels) -> list[tuple[str, str]]:
+    """Those of ``kernels`` ((method, form) pairs) that this machine has no module of yet and could build."""
+    todo = []
+    for method, form in dict.fromkeys(kernels):
+        if method in KERNELS and form in COEF_TYPES:
+            name, path, failed = _paths(method, form)
+            if name not in _loaded and not path.exists() and not failed.exists() and writable(path.parent):
+                todo.append((method, form))
+    return todo
+
+
+def build_in_background(kernels):
+    """Start building the modules of ``kernels`` ((method, form) pairs) that this machine lacks in a child
+    process, on another core while this one works on; returns the child (``wait()`` before the first run
+    that needs them: a run that finds no module builds its own) or None when there is nothing to build."""
+    import subprocess
+
+    todo = to_build(kernels)
+    if not todo:
+        return None
+    return subprocess.Popen([sys.executable, "-m", __name__, *(f"{m}:{f}" for m, f in todo)],
+                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL)
+
+
+if __name__ == "__main__":  # build_in_background's child: METHOD:FORM ...
+    for item in sys.argv[1:]:
+        load(*item.split(":"))

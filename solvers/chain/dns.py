@@ -27,7 +27,7 @@ from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the 
     ForceNotFinite, OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy, initial_state, make_rhs,
     make_solver, run_scipy)
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
-from pulsemap.solvers.chain.force_table import force_data
+from pulsemap.solvers.chain.force_table import JitForce, MonomialTable, force_data
 from pulsemap.solvers.chain.front import FrontRecorder, Snapshots, check_snapshot_contacts, memo, state_at
 from pulsemap.solvers.chain.launch import Launch
 from pulsemap.solvers.chain.peaks import PeakTracker, StopRules, contact_rate, scan_step, velocity_scale  # noqa: F401
@@ -315,6 +315,26 @@ def simulate(
         exponent=exponent, velocity=velocity, t_end=float(solver.t), window_beads=beads, energy_initial=e0,
         engine="scipy", engine_reason=how.reason,
     )
+
+
+def compiled_kernel_of(chain: Chain, *, integrator: Integrator = Integrator(),
+                       window: "WindowSpec | int | str | WindowRule | None" = None) -> tuple[str, str] | None:
+    """The compiled kernel simulate runs for ``chain`` with these settings, as (method, force form:
+    "dense" or "table", compiled_aot.py), or None where the scipy engine or a generated numba force runs.
+    Nothing is integrated: a command asks it to build the kernels ahead on another core."""
+    force, velocity = chain.force, chain.velocity
+    if chain.launch is None and _scaling.needs_rescaling(velocity):  # simulate's rescaled run at v0 = 1
+        force, velocity = _scaling.Scaling(chain.exponent, velocity).force(force), 1.0
+    elif chain.launch is not None:
+        velocity = chain.launch.velocity_scale(chain.exponent)
+    method, engine = integrator.method, integrator.engine
+    data, force_reason = force_data(force) if wants_force_data(engine, method, False) else (None, "")
+    how = plan(engine=engine, method=method, force=force, velocity=velocity, exponent=chain.exponent,
+               rtol=integrator.rtol, window=window, force_reason=force_reason)
+    if how.engine != "compiled" or isinstance(data, JitForce):
+        return None
+    table = MonomialTable.zero() if data is None else data
+    return how.method, "dense" if table.kernel_args[1].ndim == 3 else "table"
 
 
 def _locate(force: OnSiteForce | None, beads: int, exc: ForceNotFinite) -> ForceNotFinite:

@@ -176,12 +176,66 @@ def check_row(row: dict) -> str | None:
     return None
 
 
+def _derive_while_kernels_build(scenes: list, columns, report: Progress) -> None:
+    """Build the chain kernels the scenes' DNS need in a child process (chain/compiled_aot.py) while this
+    process derives every column's models into the caches, then wait for the child: from empty caches
+    the two take about as long, and the rows then find both ready. Nothing to build: nothing done here."""
+    from pulsemap.solvers.chain.compiled_aot import build_in_background
+    from pulsemap.solvers.studies.run import derive_models, dns_kernel
+
+    def ahead(step, *args):
+        try:
+            return step(*args)
+        except Exception:  # noqa: BLE001 - work done ahead: the row that does it again reports the error
+            return None
+
+    child = build_in_background(k for k in (ahead(dns_kernel, s) for s in scenes) if k is not None)
+    if child is None:
+        return
+    try:
+        report.say(f"deriving the models of {len(scenes)} scenes while the chain kernels build")
+        for scene in scenes:
+            for col in columns:
+                ahead(derive_models, scene, [col.method], col.profile, col.variant)
+        import scipy.integrate, scipy.interpolate, scipy.optimize  # noqa: E401, F401 - the rows' scipy, loaded meanwhile
+    finally:
+        child.wait()
+
+
+def _row(name: str, columns, eps, sets, scene) -> dict:
+    return scene_row(name, columns=columns, eps=eps, sets=sets, scene=scene)
+
+
+def _computed_rows(todo: list[str], scenes: dict, columns, eps, sets, workers: int | None):
+    """The rows of ``todo``, in order: computed in ``workers`` forked processes (None: one per core) when
+    there are two or more and the platform forks (they inherit the loaded kernels and derived models),
+    else here, one after the other."""
+    import multiprocessing
+
+    workers = min(os.cpu_count() or 1, len(todo)) if workers is None else min(workers, len(todo))
+    if workers < 2 or "fork" not in multiprocessing.get_all_start_methods():
+        for name in todo:
+            yield _row(name, columns, eps, sets, scenes[name])
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"))
+    try:
+        jobs = [pool.submit(_row, name, columns, eps, sets, scenes[name]) for name in todo]
+        for job in jobs:
+            yield job.result()
+    finally:
+        pool.shutdown(cancel_futures=True)
+
+
 def table(names=None, progress: bool = False, rows_file: str | os.PathLike | None = None,
-          fresh: bool = False, columns=COLUMNS, eps: float | None = None, sets: tuple = ()) -> list[dict]:
+          fresh: bool = False, columns=COLUMNS, eps: float | None = None, sets: tuple = (),
+          workers: int | None = None) -> list[dict]:
     """Rows for ``names`` (default: every built-in scene), reusing finished rows of ``rows_file``.
 
     ``eps`` runs every scene at that eps instead of its own (e.g. to see which model is right as
-    eps -> 0); such rows have their own keys, so they never replace the paper-eps rows.
+    eps -> 0); such rows have their own keys, so they never replace the paper-eps rows. ``workers``:
+    processes computing rows (None: one per core; 1: this process alone); the rows are the same.
     """
     if eps is not None and not (isinstance(eps, (int, float)) and 0 < eps < float("inf")):
         raise TableError(f"eps must be a finite number > 0, got {eps!r}")
@@ -193,6 +247,10 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
         Path(rows_file).unlink()
     rows = []
     report = Progress("table", len(names), enabled=progress)
+    todo = [n for n in names if (done.get(row_key(scenes[n].as_dict(), columns)) or {}).get("scene") != n]
+    _derive_while_kernels_build([scenes[n] for n in todo], columns, report)
+    report.started = report.clock()  # the ETA counts the rows, not the kernels' build
+    computed = _computed_rows(todo, scenes, columns, eps, sets, workers)
     for name in names:
         old = done.get(row_key(scenes[name].as_dict(), columns))
         if old is not None and old.get("scene") == name:
@@ -200,9 +258,8 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
             rows.append(old)
             continue
         report.start(name)
-        t0 = time.perf_counter()
-        row = scene_row(name, columns=columns, eps=eps, sets=sets, scene=scenes[name])
-        report.finish(name, "done", time.perf_counter() - t0)
+        row = next(computed)
+        report.finish(name, "done", row.get("total_s"))
         if rows_file is not None:  # repairs a line cut short first, flushed to disk
             append_record(rows_file, row)
         rows.append(row)

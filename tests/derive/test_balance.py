@@ -431,11 +431,11 @@ def test_table_appends_rows_and_skips_finished_scenes(tmp_path, monkeypatch):
     monkeypatch.setattr(table_mod, "scene_row", fake_row)
     rows_file = tmp_path / "rows.jsonl"
     names = ["fig8-eps1", "fig6-eps1", "fig7-eps1"]
-    table_mod.table(names[:2], rows_file=rows_file)
+    table_mod.table(names[:2], rows_file=rows_file, workers=1)
     assert calls == names[:2] and len(rows_file.read_text().splitlines()) == 2
     with open(rows_file, "a") as fh:  # an interrupted write of the next scene
         fh.write('{"scene": "fig7-eps1", "key": ')
-    rows = table_mod.table(names, rows_file=rows_file)
+    rows = table_mod.table(names, rows_file=rows_file, workers=1)
     assert calls == names and [r["scene"] for r in rows] == names
     # a row computed for another scene definition (stale key) is recomputed
     lines = rows_file.read_text().splitlines()
@@ -443,17 +443,17 @@ def test_table_appends_rows_and_skips_finished_scenes(tmp_path, monkeypatch):
     stale.pop("sha256")
     stale["key"] = "0" * 20
     rows_file.write_text(encode_record(stale) + "\n")  # a whole row, with its digest, of another definition
-    table_mod.table(names[:1], rows_file=rows_file)
+    table_mod.table(names[:1], rows_file=rows_file, workers=1)
     assert calls == names + names[:1]
-    table_mod.table(names[:1], rows_file=rows_file, fresh=True)
+    table_mod.table(names[:1], rows_file=rows_file, workers=1, fresh=True)
     assert calls == names + names[:1] * 2 and len(rows_file.read_text().splitlines()) == 1
     # rows at another eps have their own keys: computed once, kept next to the paper-eps rows
-    table_mod.table(names[:1], rows_file=rows_file, eps=0.01)
-    table_mod.table(names[:1], rows_file=rows_file, eps=0.01)
-    table_mod.table(names[:1], rows_file=rows_file)
+    table_mod.table(names[:1], rows_file=rows_file, workers=1, eps=0.01)
+    table_mod.table(names[:1], rows_file=rows_file, workers=1, eps=0.01)
+    table_mod.table(names[:1], rows_file=rows_file, workers=1)
     assert calls == names + names[:1] * 3 and len(rows_file.read_text().splitlines()) == 2
     with pytest.raises(ValueError, match="eps"):
-        table_mod.table(names[:1], rows_file=rows_file, eps=-1.0)
+        table_mod.table(names[:1], rows_file=rows_file, workers=1, eps=-1.0)
 
 
 def test_cli_derive_model_and_refusal(tmp_path, capsys):

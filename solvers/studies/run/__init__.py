@@ -24,7 +24,7 @@ from typing import Sequence
 from pulsemap.symbolic.provenance import provenance
 from pulsemap.solvers import __version__
 from pulsemap.solvers.chain.front import Snapshots
-from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+from pulsemap.solvers.chain.dns import Chain, Integrator, compiled_kernel_of, simulate
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import force_failure, make_force
@@ -32,7 +32,7 @@ from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
 from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
 from pulsemap.solvers.studies.run.state import RunState
 
-__all__ = ["run_scene"]
+__all__ = ["derive_models", "dns_kernel", "run_scene"]
 
 
 def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, variant: str | None,
@@ -72,6 +72,33 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
                     snapshots=tuple(sorted(set(snapshots))))
 
 
+def _integrator(scene: Scene) -> Integrator:
+    """The DNS's integrator as the scene's [dns] table sets it."""
+    return Integrator(method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
+                      atol=float(scene.dns.get("atol", 1e-12)), engine=scene.dns.get("engine", "compiled"))
+
+
+def dns_kernel(scene: Scene) -> tuple[str, str] | None:
+    """The compiled kernel (method, force form) the scene's DNS runs on (chain/dns.compiled_kernel_of), or None."""
+    pert = scene.perturbation
+    beads, _ = dns_span(scene)
+    force = None if (pert.is_zero or pert.eps == 0) else make_force(scene, beads)
+    return compiled_kernel_of(Chain(beads, scene.exponent, scene.velocity, force), integrator=_integrator(scene),
+                              window=dns_window_of(scene, "scene"))
+
+
+def derive_models(scene: Scene, methods: Sequence[str], profile: str | None = None,
+                  variant: str | None = None) -> None:
+    """Derive the reduced models ``methods`` of ``scene`` into the caches, running none of them (no DNS
+    either): the work a command does on one core while the chain kernels build on another."""
+    from pulsemap.solvers.studies.run import models  # the models' modules load when a model is derived
+
+    state = start_run(scene, methods, profile, variant, None)
+    models.derive_models(state)
+    if "dressed-law" in state.methods:
+        models.prepare_dressed(state)
+
+
 def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> None:
     """The full equations of motion over the contacts (chain/dns.py) on the moving window unless the
     scene or the caller asks for the full chain; its peak at first_perturbed - 1 becomes the models' seed."""
@@ -84,9 +111,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
-        integrator = Integrator(method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
-                                atol=float(scene.dns.get("atol", 1e-12)), engine=scene.dns.get("engine", "compiled"))
-        res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, integrator=integrator,
+        res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, integrator=_integrator(scene),
                        snapshots=Snapshots([c for c in state.snapshots if span[0] <= c <= span[1]]),
                        progress=progress, window=dns_window_of(scene, dns_window))
     except ArithmeticError as exc:  # R not finite (or not real) where the chain went

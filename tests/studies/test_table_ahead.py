@@ -1,0 +1,84 @@
+"""Work a command does ahead: the kernel a DNS will run (asked without integrating), the kernels built in a
+child process, the models derived into the cache, and table rows computed in forked processes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pulsemap.solvers.chain import compiled_aot
+from pulsemap.solvers.chain.dns import Chain, Integrator, compiled_kernel_of, simulate
+from pulsemap.solvers.data.scene import load_scene, with_overrides
+from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.points import dns_span
+
+SHORT = (15, 24)
+
+CASES = {  # name: (scene overrides, Integrator keywords)
+    "dense table, RK45": ({}, {}),
+    "general table": ({"R": "-mu*v^3"}, {}),
+    "DOP853": ({}, {"method": "DOP853"}),
+    "stiff: Rodas4": ({"params": {"mu": 10000.0}}, {}),
+    "scipy requested": ({}, {"engine": "scipy"}),
+    "LSODA: scipy": ({}, {"method": "LSODA"}),
+    "generated numba force": ({"R": "-mu*sin(u)"}, {}),
+    "bare chain": ({"eps": 0.0}, {}),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_the_kernel_asked_ahead_is_the_one_the_run_takes(case):
+    overrides, integrator = CASES[case]
+    scene = with_overrides(load_scene("fig8-eps0.1"), **overrides)
+    beads, _ = dns_span(scene)
+    force = None if scene.perturbation.eps == 0 else make_force(scene, beads)
+    chain = Chain(beads, scene.exponent, scene.velocity, force)
+    ahead = compiled_kernel_of(chain, integrator=Integrator(**integrator), window="auto")
+    res = simulate(chain, SHORT, integrator=Integrator(**integrator), window="auto")
+    if res.engine != "compiled" or "generated numba function" in res.engine_reason:
+        assert ahead is None
+    else:
+        form = "dense" if "dense form" in res.engine_reason else "table"
+        assert ahead == (res.method, form)
+
+
+def test_kernels_on_disk_are_not_built_again():
+    scene = load_scene("fig8-eps0.1")
+    beads, _ = dns_span(scene)
+    simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), SHORT, window="auto")
+    assert compiled_aot.to_build([("RK45", "dense")]) == []
+    assert compiled_aot.build_in_background([("RK45", "dense"), ("RK45", "dense")]) is None
+    assert compiled_aot.to_build([("Euler", "dense"), ("RK45", "sparse")]) == []  # no such kernel: nothing
+
+
+@pytest.mark.process
+def test_a_kernel_built_in_a_child_process_is_loaded_not_built(tmp_path, monkeypatch):
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(compiled_aot, "_loaded", {})  # a process that has loaded none yet
+    assert compiled_aot.to_build([("RK45", "dense")]) == [("RK45", "dense")]
+    child = compiled_aot.build_in_background([("RK45", "dense")])
+    assert child is not None and child.wait() == 0
+    assert list((tmp_path / "aot").glob("pulsemap_rk45_dense_*")) and compiled_aot.to_build([("RK45", "dense")]) == []
+    run, seconds = compiled_aot.load("RK45", "dense")
+    assert callable(run) and not list(tmp_path.glob("aot/*.failed"))
+
+
+def test_derive_models_fills_the_cache_and_runs_nothing(tmp_path, monkeypatch):
+    from pulsemap.solvers.studies.run import derive_models
+
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path))
+    scene = with_overrides(load_scene("fig8-eps0.1"), R="-mu*v - 0.37*mu*v^3")  # a map no test derived before
+    derive_models(scene, ["map"], "exact", "corrected")
+    assert list((tmp_path / "generated").glob("*.py"))
+    assert not (tmp_path / "numba" / "aot").exists()  # no DNS: no kernel asked for
+
+
+def test_rows_from_forked_workers_equal_rows_computed_here():
+    from pulsemap.solvers.studies.table import table
+
+    names = ["fig6-eps1", "fig7-eps1", "fig8-eps1"]
+    here, forked = table(names, workers=1), table(names, workers=2)
+    timing = {"dns_s", "time_s", "total_s"}
+    for a, b in zip(here, forked, strict=True):
+        assert {k: v for k, v in a.items() if k not in timing} == {k: v for k, v in b.items() if k not in timing}
+    assert np.isfinite([r["winner"]["rms_pct"] for r in forked]).all()
