@@ -297,6 +297,12 @@ def shipped() -> dict:
         return {}
 
 
+def is_derived(a: int, b: int, n: float = 1.5) -> bool:
+    """Whether derive_monomial has u^a v^b at exponent n cached or shipped (nothing to integrate)."""
+    key = cache_key(a, b, float(n))
+    return key in shipped() or cache.load(NAMESPACE, key) is not None
+
+
 def derive_monomial(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> DerivedMonomial:
     """k2/k1 and the onset lag of c u^a v^b at exponent n from the expansion (module docstring); cached."""
     (a, b), n = check_monomial(a, b), float(n)

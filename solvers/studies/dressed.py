@@ -70,7 +70,7 @@ from pulsemap.symbolic.scaling import scaling_exponent
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
 from pulsemap.solvers.models.dressed import (DressedCoefficients, ExpansionError, check_monomial, derive_cross,
-                                             derive_monomial, first_order_rate)
+                                             derive_monomial, first_order_rate, is_derived)
 
 MAX_BEAD_STEP = 0.05  # largest change of a coefficient from one bead to the next, over its largest |value|
 BEAD_SPAN = 100  # beads after the first perturbed one over which a run's law checks that its coefficients are slow
@@ -78,24 +78,46 @@ CROSS_NOTE = "a cross term k2_jl x_j x_l could be neither derived nor calibrated
 SOURCES = ("derived", "calibrated")
 
 
+def _calibration_ahead(a: int, b: int, n: float):
+    """calibrate(a, b, n) running in a forked process while this one derives the monomial, when neither is
+    cached and the machine has a second core that forks (each takes seconds from empty caches); else None."""
+    import multiprocessing
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    key = cache_key(*check_monomial(a, b, CalibrationError), float(n))
+    if ((os.cpu_count() or 1) < 2 or "fork" not in multiprocessing.get_all_start_methods() or is_derived(a, b, n)
+            or key in shipped() or cache.load(NAMESPACE, key) is not None):
+        return None
+    pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"))
+    job = pool.submit(calibrate, a, b, n)
+    pool.shutdown(wait=False)  # the worker ends once the calibration is done
+    return job
+
+
 def monomial_coefficients(a: int, b: int, n: float, source: str = "derived") -> dict:
     """k2/k1, the onset lag and the next term of u^a v^b with their provenance: derived (the expansion) unless
     ``source`` is "calibrated" or the expansion fails; the next term always from the calibration (None when it
     cannot be calibrated but the rest was derived)."""
     out, why = {}, None
-    if source == "derived":
-        try:
-            d = derive_monomial(a, b, n)
-            out = {"rho": d.k2_over_k1, "rho_error": d.k2_over_k1_error, "rho_method": d.label("rho") + f"; {d.method}",
-                   "lag": d.onset_lag, "lag_error": d.onset_lag_error, "lag_method": d.label("lag")}
-        except ExpansionError as exc:
-            why = str(exc)
+    ahead = _calibration_ahead(a, b, n) if source == "derived" else None
     try:
-        fit = calibrate(a, b, n)
+        if source == "derived":
+            try:
+                d = derive_monomial(a, b, n)
+                out = {"rho": d.k2_over_k1, "rho_error": d.k2_over_k1_error,
+                       "rho_method": d.label("rho") + f"; {d.method}",
+                       "lag": d.onset_lag, "lag_error": d.onset_lag_error, "lag_method": d.label("lag")}
+            except ExpansionError as exc:
+                why = str(exc)
+        fit = calibrate(a, b, n) if ahead is None else ahead.result()
     except CalibrationError:
         if not out:
             raise
         return {**out, "next_kind": "x^2", "next": 0.0}
+    finally:
+        if ahead is not None:
+            ahead.cancel()
     if not out:
         out = {"rho": fit.k2_over_k1, "rho_error": fit.k2_over_k1_error,
                "rho_method": fit.method + (f" (not derived: {why})" if why else ""),

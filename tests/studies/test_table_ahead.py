@@ -82,3 +82,23 @@ def test_rows_from_forked_workers_equal_rows_computed_here():
     for a, b in zip(here, forked, strict=True):
         assert {k: v for k, v in a.items() if k not in timing} == {k: v for k, v in b.items() if k not in timing}
     assert np.isfinite([r["winner"]["rms_pct"] for r in forked]).all()
+
+
+def test_no_calibration_ahead_for_a_shipped_monomial():
+    from pulsemap.solvers.studies.dressed import _calibration_ahead
+
+    assert _calibration_ahead(0, 1, 1.5) is None  # -mu*v: derived and calibrated coefficients ship
+
+
+@pytest.mark.slow
+def test_a_calibration_forked_ahead_gives_the_coefficients_computed_in_turn(tmp_path, monkeypatch):
+    from pulsemap.solvers.studies import dressed
+
+    from pulsemap.solvers.models.dressed import is_derived
+
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path / "forked"))
+    assert not is_derived(2, 0, 1.5)  # u^2 ships neither derived nor calibrated: both run, one in a worker
+    forked = dressed.monomial_coefficients(2, 0, 1.5)
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path / "in-turn"))
+    monkeypatch.setattr(dressed, "_calibration_ahead", lambda a, b, n: None)
+    assert dressed.monomial_coefficients(2, 0, 1.5) == forked
