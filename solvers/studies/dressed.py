@@ -69,6 +69,7 @@ from pulsemap.symbolic.profile import check_exponent, exact_profile
 from pulsemap.symbolic.scaling import scaling_exponent
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
+from pulsemap.solvers.studies.workers import cores, fork_pool
 from pulsemap.solvers.models.dressed import (DressedCoefficients, ExpansionError, check_monomial, derive_cross,
                                              derive_monomial, first_order_rate, is_derived)
 
@@ -79,17 +80,15 @@ SOURCES = ("derived", "calibrated")
 
 
 def _calibration_ahead(a: int, b: int, n: float):
-    """calibrate(a, b, n) running in a forked process while this one derives the monomial, when neither is
-    cached and the machine has a second core that forks (each takes seconds from empty caches); else None."""
-    import multiprocessing
-    import os
-    from concurrent.futures import ProcessPoolExecutor
-
+    """calibrate(a, b, n) running in a forked process (studies/workers.py) while this one derives the
+    monomial, when neither is cached (each takes seconds from empty caches) and a second core can take it;
+    else None."""
     key = cache_key(*check_monomial(a, b, CalibrationError), float(n))
-    if ((os.cpu_count() or 1) < 2 or "fork" not in multiprocessing.get_all_start_methods() or is_derived(a, b, n)
-            or key in shipped() or cache.load(NAMESPACE, key) is not None):
+    if cores() < 2 or is_derived(a, b, n) or key in shipped() or cache.load(NAMESPACE, key) is not None:
         return None
-    pool = ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("fork"))
+    pool = fork_pool(1)
+    if pool is None:
+        return None
     job = pool.submit(calibrate, a, b, n)
     pool.shutdown(wait=False)  # the worker ends once the calibration is done
     return job

@@ -25,6 +25,7 @@ from pathlib import Path
 from pulsemap.solvers.data.scene.overrides import with_sets
 from pulsemap.solvers.data.records import append_record, read_keyed
 from pulsemap.solvers.studies.progress import Progress
+from pulsemap.solvers.studies.workers import cores, fork_pool
 from pulsemap.solvers.studies.run import run_scene
 from pulsemap.solvers.data.scene import builtin_scenes, load_scene, with_overrides
 
@@ -207,19 +208,14 @@ def _row(name: str, columns, eps, sets, scene) -> dict:
 
 
 def _computed_rows(todo: list[str], scenes: dict, columns, eps, sets, workers: int | None):
-    """The rows of ``todo``, in order: computed in ``workers`` forked processes (None: one per core) when
-    there are two or more and the platform forks (they inherit the loaded kernels and derived models),
-    else here, one after the other."""
-    import multiprocessing
-
-    workers = min(os.cpu_count() or 1, len(todo)) if workers is None else min(workers, len(todo))
-    if workers < 2 or "fork" not in multiprocessing.get_all_start_methods():
+    """The rows of ``todo``, in order: computed in ``workers`` forked processes (None: one per core,
+    studies/workers.py) when there are two or more, else here, one after the other."""
+    count = min(cores() if workers is None else workers, len(todo))
+    pool = fork_pool(count) if count >= 2 else None
+    if pool is None:
         for name in todo:
             yield _row(name, columns, eps, sets, scenes[name])
         return
-    from concurrent.futures import ProcessPoolExecutor
-
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"))
     try:
         jobs = [pool.submit(_row, name, columns, eps, sets, scenes[name]) for name in todo]
         for job in jobs:
