@@ -190,17 +190,24 @@ def _derive_while_kernels_build(scenes: list, columns, report: Progress) -> None
         except Exception:  # noqa: BLE001 - work done ahead: the row that does it again reports the error
             return None
 
-    child = build_in_background(k for k in (ahead(dns_kernel, s) for s in scenes) if k is not None)
-    if child is None:
-        return
+    children, asked = [], set()
     try:
+        for scene in scenes:  # each kernel's build starts as soon as a scene needs it
+            kernel = ahead(dns_kernel, scene)
+            if kernel is not None and kernel not in asked:
+                asked.add(kernel)
+                child = build_in_background([kernel])
+                children += [child] if child is not None else []
+        if not children:
+            return
         report.say(f"deriving the models of {len(scenes)} scenes while the chain kernels build")
         for scene in scenes:
             for col in columns:
                 ahead(derive_models, scene, [col.method], col.profile, col.variant)
         import scipy.integrate, scipy.interpolate, scipy.optimize  # noqa: E401, F401 - the rows' scipy, loaded meanwhile
     finally:
-        child.wait()
+        for child in children:
+            child.wait()
 
 
 def _row(name: str, columns, eps, sets, scene) -> dict:
@@ -235,6 +242,8 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
     """
     if eps is not None and not (isinstance(eps, (int, float)) and 0 < eps < float("inf")):
         raise TableError(f"eps must be a finite number > 0, got {eps!r}")
+    if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool) or workers < 1):
+        raise TableError(f"workers must be a whole number >= 1 (or None: one per core), got {workers!r}")
     names = list(names or builtin_scenes())
     scenes = {name: _scene(name, eps, sets) for name in names}  # every name and --set checked before any work
     done = read_rows(rows_file) if (rows_file is not None and not fresh) else {}

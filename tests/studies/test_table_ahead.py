@@ -102,3 +102,11 @@ def test_a_calibration_forked_ahead_gives_the_coefficients_computed_in_turn(tmp_
     monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path / "in-turn"))
     monkeypatch.setattr(dressed, "_calibration_ahead", lambda a, b, n: None)
     assert dressed.monomial_coefficients(2, 0, 1.5) == forked
+
+
+@pytest.mark.parametrize("workers", [0, -1, 1.5, "2", True])
+def test_a_bad_worker_count_is_refused_before_any_work(workers):
+    from pulsemap.solvers.studies.table import TableError, table
+
+    with pytest.raises(TableError, match="workers must be a whole number >= 1"):
+        table(["fig6-eps1"], workers=workers)
