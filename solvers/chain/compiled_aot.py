@@ -281,5 +281,8 @@ def build_in_background(kernels):
 
 
 if __name__ == "__main__":  # build_in_background's child: METHOD:FORM ...
-    for item in sys.argv[1:]:
-        load(*item.split(":"))
+    try:
+        for item in sys.argv[1:]:
+            load(*item.split(":"))
+    except KeyboardInterrupt:  # Ctrl-C reaches the command too, which says so: the child ends quietly
+        sys.exit(130)
