@@ -216,10 +216,11 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
 
 def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
                       table: "MonomialTable | JitForce | None", *, engine_reason: str = "", progress: bool = False,
-                      **settings) -> DNSResult:
+                      failure_note=None, **settings) -> DNSResult:
     """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it; ``settings``:
     rule, rtol, atol, stop, method, launch: prepare's).
-    ``progress``: a line on stderr at most every 5 s (dns_progress.DNSProgress), as the scipy engines."""
+    ``progress``: a line on stderr at most every 5 s (dns_progress.DNSProgress), as the scipy engines.
+    ``failure_note(lo, y)``: what a failed step size adds to the stop reason, from the window's state."""
     from pulsemap.solvers.chain.dns_progress import DNSProgress
 
     run = prepare(beads, exponent, velocity, contacts, table, **settings)
@@ -230,4 +231,8 @@ def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tu
         lo, w = int(run.st[K.LO]), int(run.st[K.HI] - run.st[K.LO])
         raise ForceNotFinite(None, math.nan, math.nan, math.nan, t=float(run.fs[K.T]),
                              state=(lo, run.y[: 2 * w].copy(), run.f[: 2 * w].copy(), float(run.fs[K.H])))
-    return replace(result(run, code, _time.perf_counter() - wall0, engine_reason), compile_s=compile_s)
+    res = replace(result(run, code, _time.perf_counter() - wall0, engine_reason), compile_s=compile_s)
+    if code == K.FAILED and failure_note is not None:
+        w = int(run.st[K.HI] - run.st[K.LO])
+        res = replace(res, stop_reason=res.stop_reason + failure_note(int(run.st[K.LO]), run.y[: 2 * w]))
+    return res

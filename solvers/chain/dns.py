@@ -24,8 +24,8 @@ from pulsemap.solvers.chain import window as _window
 from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
     ENERGY_BLOWUP, ENGINES, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
-    ForceNotFinite, OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy, initial_state, make_rhs,
-    make_solver, run_scipy)
+    ForceNotFinite, IntegratorFailed, OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy,
+    initial_state, largest_force, make_rhs, make_solver, run_scipy)
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
 from pulsemap.solvers.chain.force_table import JitForce, MonomialTable, force_data
 from pulsemap.solvers.chain.front import FrontRecorder, Snapshots, check_snapshot_contacts, memo, state_at
@@ -264,7 +264,8 @@ def simulate(
         try:
             res = compiled.simulate_compiled(
                 beads, exponent, velocity, (first, last), data, rule=how.rule, rtol=rtol, atol=atol, stop=rules,
-                method=how.method, engine_reason=how.reason, progress=progress, launch=launch)
+                method=how.method, engine_reason=how.reason, progress=progress, launch=launch,
+                failure_note=lambda lo, y: largest_force(_window.restrict_force(force, beads, lo, lo + y.size // 2), y, lo))
         except ForceNotFinite as exc:
             raise _locate(force, beads, exc) from None
         return _window_energies(force, res)
@@ -305,7 +306,7 @@ def simulate(
         with np.errstate(all="ignore"):  # a non-finite force raises ForceNotFinite (models/onsite.py), unprinted
             run_scipy(solver, on_step)
     except RuntimeError as err:
-        track.reason = str(err)
+        track.reason = str(err) + (largest_force(force, err.y) if isinstance(err, IntegratorFailed) else "")
     track.reason = track.reason or f"t_max reached (t={solver.t:.6g}, next contact {track.next_contact})"
 
     wall = _time.perf_counter() - wall0

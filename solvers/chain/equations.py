@@ -50,6 +50,34 @@ class ForceNotFinite(ArithmeticError):
         return self if self.t is not None else ForceNotFinite(self.bead, self.x, self.v, self.value, self.what, t)
 
 
+class IntegratorFailed(RuntimeError):
+    """The integrator's step size fell below the spacing of floats (the message says when); ``y``: the
+    last state it reached, interleaved (x_1, v_1, x_2, ...), for largest_force to look at."""
+
+    def __init__(self, message: str, y: Array) -> None:
+        super().__init__(message)
+        self.y = y
+
+
+def largest_force(force: "OnSiteForce | None", y: Array, lo: int = 0) -> str:
+    """Where the on-site force F_i = eps_i R_i is largest in magnitude on state ``y`` (interleaved, beads
+    lo+1..), as '; the on-site force is largest at bead i (u = .., v = ..): |eps R| = ..', or '' (no force,
+    none finite). A failed step size with a finite force points there: an R that grows without bound."""
+    if force is None or np.size(y) < 2:
+        return ""
+    x, v = np.asarray(y[0::2], float), np.asarray(y[1::2], float)
+    try:
+        with np.errstate(all="ignore"):
+            size = np.abs(np.broadcast_to(force.force(x, v), x.shape))
+    except ArithmeticError:  # non-finite there: the engines' own ForceNotFinite names it
+        return ""
+    size = np.where(np.isfinite(size), size, -1.0)
+    j = int(np.argmax(size))
+    if size[j] < 0:
+        return ""
+    return f"; the on-site force is largest at bead {lo + j + 1} (u = {x[j]:.6g}, v = {v[j]:.6g}): |eps R| = {size[j]:.3g}"
+
+
 def check_finite(values: Array, x: Array, v: Array, lo: int, what: str = "force") -> None:
     """ForceNotFinite at the first bead where ``values`` (over beads lo+1.. of x, v) is not finite at a
     finite state (a non-finite stage state comes from a huge force before it: the integrator rejects
@@ -385,7 +413,7 @@ def run_scipy(solver: _integrate.OdeSolver, on_step) -> tuple[float, Array, int,
         t_old, y_old = solver.t, solver.y.copy()
         message = solver.step()
         if solver.status == "failed":
-            raise RuntimeError(f"integrator failed at t={solver.t:.6g}: {message}")
+            raise IntegratorFailed(f"integrator failed at t={solver.t:.6g}: {message}", solver.y.copy())
         if on_step(t_old, y_old, solver.t, solver.y.copy(), solver.dense_output) or solver.status != "running":
             return solver.t, solver.y.copy(), int(solver.nfev), float(solver.step_size or 0.0)
 

@@ -7,7 +7,7 @@ import warnings
 
 import numpy as np
 
-from pulsemap.solvers.chain.equations import ForceNotFinite
+from pulsemap.solvers.chain.equations import ForceNotFinite, IntegratorFailed
 from pulsemap.solvers.chain.peaks import QuinticStep
 
 Array = np.ndarray
@@ -101,7 +101,8 @@ def run_fortran(code, rhs, t0, y0, t_max, rtol, atol, first_step, on_step) -> tu
     nfev = int(r._integrator.iwork[16]) + state["extra"]  # IWORK(17) = NFCN (Hairer)
     if not r.successful() and r.get_return_code() != 2 and state["t"] < t_max:
         said = "; ".join(str(w.message) for w in caught)  # scipy's warning says why: part of the stop reason
-        raise RuntimeError(f"integrator failed at t={state['t']:.6g} (code {r.get_return_code()}{': ' + said if said else ''})")
+        raise IntegratorFailed(f"integrator failed at t={state['t']:.6g} (code {r.get_return_code()}"
+                               f"{': ' + said if said else ''})", state["y"])
     for w in caught:  # scipy's own warnings of a run that went on
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return state["t"], state["y"], nfev, state["h"]

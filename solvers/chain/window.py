@@ -32,7 +32,8 @@ from typing import Callable
 
 import numpy as np
 
-from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, energy, make_rhs, make_solver, run_scipy
+from pulsemap.solvers.chain.equations import (ENERGY_BLOWUP, DNSResult, IntegratorFailed, energy, largest_force, make_rhs,
+                                              make_solver, run_scipy)
 from pulsemap.solvers.chain.front import memo, state_at
 from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.hairer import FORTRAN_CODES, run_fortran
@@ -337,7 +338,7 @@ def simulate_windowed(
                 t, y, used, h = run_scipy(solver, on_step)
                 njev += int(getattr(solver, "njev", 0))
         except RuntimeError as err:
-            track.reason = str(err)
+            track.reason = str(err) + (largest_force(force_w, err.y, run.lo) if isinstance(err, IntegratorFailed) else "")
             break
         nfev += used
         if run.action == "stop" or not run.action:
