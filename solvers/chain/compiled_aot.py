@@ -11,7 +11,8 @@ same numbers. Its name holds a hash of the kernels' source files, numba's and nu
 Python ABI and the CPU, so an edit, an upgrade or another machine sharing the cache builds a new one.
 
 The modules live in the ``aot`` subfolder of numba's kernel cache (kernel_cache_dir: ``NUMBA_CACHE_DIR``
-or the ``numba`` subfolder of the pulsemap cache), built in a private temporary folder and renamed into
+or the ``numba`` subfolder of the pulsemap cache; a temporary
+folder when that cannot be written), built in a private temporary folder and renamed into
 place, so concurrent first runs are safe. A build that fails (no C compiler) prints one note, leaves a
 ``.failed`` file with the reason (not retried: delete it after installing a compiler) and the run
 takes numba's JIT kernels (solvers/chain/jit.py), as does a generated numba force (JitForce).
@@ -59,6 +60,17 @@ def numba_cache_dir(configured: str, root: Path) -> Path:
     """Where the compiled kernels are cached: ``configured`` (numba's CACHE_DIR as the user set it) if
     not empty, else ``root``/numba (``root``: the pulsemap cache root)."""
     return Path(configured).expanduser() if configured else Path(root) / SUBFOLDER
+
+
+def kernel_cache_dir(configured: str) -> tuple[Path, Path | None]:
+    """The kernel cache for numba's setting ``configured`` (numba_cache_dir under the pulsemap cache root)
+    and the folder it could not write (None): when the user set no folder and the pulsemap cache cannot be
+    written, one in the system's temporary folder instead, for numba's JIT kernels and these modules alike."""
+    path = numba_cache_dir(configured, cache_root())
+    if configured or writable(path):
+        return path, None
+    uid = os.getuid() if hasattr(os, "getuid") else 0
+    return Path(tempfile.gettempdir()) / f"pulsemap-numba-{uid}", path
 
 
 def writable(path: Path) -> bool:
@@ -127,7 +139,7 @@ def module_name(method: str, form: str) -> str:
 
 def folder() -> Path:
     """The folder of the ahead-of-time modules: ``aot`` in numba's kernel cache (module docstring)."""
-    return numba_cache_dir(os.environ.get("NUMBA_CACHE_DIR", ""), cache_root()) / "aot"
+    return kernel_cache_dir(os.environ.get("NUMBA_CACHE_DIR", ""))[0] / "aot"
 
 
 def _import(name: str, path: Path):

@@ -13,9 +13,7 @@ never the package.
 
 from __future__ import annotations
 
-import os
 import sys
-import tempfile
 import time
 import warnings
 from pathlib import Path
@@ -23,8 +21,7 @@ from pathlib import Path
 import numba
 from numba import cfunc, njit, prange, types  # noqa: F401  (the decorators every kernel module uses)
 
-from pulsemap.solvers.chain.compiled_aot import numba_cache_dir, writable
-from pulsemap.symbolic.cache import cache_root
+from pulsemap.solvers.chain.compiled_aot import kernel_cache_dir
 
 #: Seconds a cold compile of one chain kernel takes on one core, rounded (benchmarks/bench_first_run.py).
 COMPILE_ESTIMATE_S = 20
@@ -33,13 +30,10 @@ _announced = False  # the compile note is printed once per process
 
 def configure() -> Path:
     """Set numba.config.CACHE_DIR (module docstring) and return it; called once, at import."""
-    user_set = bool(numba.config.CACHE_DIR)
-    path = numba_cache_dir(numba.config.CACHE_DIR, cache_root())
-    if not user_set and not writable(path):
-        fallback = Path(tempfile.gettempdir()) / f"pulsemap-numba-{os.getuid() if hasattr(os, 'getuid') else 0}"
-        print(f"pulsemap: note: cannot write {path}: numba's kernels cache to {fallback} "
+    path, blocked = kernel_cache_dir(numba.config.CACHE_DIR)
+    if blocked is not None:
+        print(f"pulsemap: note: cannot write {blocked}: numba's kernels cache to {path} "
               "(set PULSEMAP_CACHE_DIR to a writable folder)", file=sys.stderr, flush=True)
-        path = fallback
     numba.config.CACHE_DIR = str(path)
     return path
 

@@ -9,18 +9,18 @@ import numba
 import numpy as np
 import pytest
 
-from pulsemap.solvers.chain import jit
+from pulsemap.solvers.chain import compiled_aot, jit
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT  # the editable install's package root: derive/, generated/, solvers/
 
 
 def test_an_empty_numba_setting_means_the_numba_subfolder_of_the_pulsemap_cache(tmp_path):
-    assert jit.numba_cache_dir("", tmp_path) == tmp_path / "numba"
+    assert compiled_aot.numba_cache_dir("", tmp_path) == tmp_path / "numba"
 
 
 def test_a_folder_numba_was_given_wins(tmp_path):
-    assert jit.numba_cache_dir(str(tmp_path / "mine"), tmp_path / "pm") == tmp_path / "mine"
+    assert compiled_aot.numba_cache_dir(str(tmp_path / "mine"), tmp_path / "pm") == tmp_path / "mine"
 
 
 @pytest.mark.parametrize("numba_dir", [None, "given"])
@@ -45,6 +45,8 @@ def test_an_unwritable_pulsemap_cache_sends_numba_to_the_temporary_folder(tmp_pa
     assert not str(got).startswith(str(blocker))
     assert not str(got).startswith(str(PACKAGE / "solvers"))
     assert "PULSEMAP_CACHE_DIR" in capsys.readouterr().err
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    assert compiled_aot.folder() == got / "aot"  # the ahead-of-time modules go along
 
 
 def test_the_kernels_cache_outside_the_package():
