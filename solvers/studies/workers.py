@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import sys
 import threading
 from concurrent.futures import ProcessPoolExecutor
 
@@ -19,8 +20,9 @@ def cores() -> int:
 
 
 def fork_pool(workers: int) -> ProcessPoolExecutor | None:
-    """A pool of ``workers`` forked processes, or None where there is no safe fork: a platform without fork,
-    or other threads running here (a fork copies them mid-operation, locks held)."""
-    if workers < 1 or "fork" not in multiprocessing.get_all_start_methods() or threading.active_count() > 1:
+    """A pool of ``workers`` forked processes, or None where there is no safe fork: off Linux (macOS's system
+    libraries may crash a forked child; Windows has no fork), or other threads running here (a fork copies
+    them mid-operation, locks held)."""
+    if workers < 1 or not sys.platform.startswith("linux") or threading.active_count() > 1:
         return None
     return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"))

@@ -110,3 +110,21 @@ def test_a_bad_worker_count_is_refused_before_any_work(workers):
 
     with pytest.raises(TableError, match="workers must be a whole number >= 1"):
         table(["fig6-eps1"], workers=workers)
+
+
+def test_no_fork_while_another_thread_runs():
+    import threading
+
+    from pulsemap.solvers.studies.workers import fork_pool
+
+    pool = fork_pool(1)
+    assert pool is not None and pool.submit(sum, [1, 2]).result() == 3
+    pool.shutdown()
+    stop = threading.Event()
+    other = threading.Thread(target=stop.wait)
+    other.start()
+    try:
+        assert fork_pool(2) is None
+    finally:
+        stop.set()
+        other.join()
