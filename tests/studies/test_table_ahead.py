@@ -3,6 +3,8 @@ child process, the models derived into the cache, and table rows computed in for
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 
@@ -112,6 +114,7 @@ def test_a_bad_worker_count_is_refused_before_any_work(workers):
         table(["fig6-eps1"], workers=workers)
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="workers are forked on Linux only")
 def test_no_fork_while_another_thread_runs():
     import threading
 
