@@ -199,6 +199,18 @@ def build(method: str, form: str, name: str, path: Path) -> None:
         shutil.rmtree(work, ignore_errors=True)
 
 
+def _low_priority(step, *args):
+    """``step(*args)`` with this thread (and the C compiler it starts) at a lower priority where the system
+    has one per thread (Linux): numba's runtime is needed only at link time, the kernel's compile goes first."""
+    import threading
+
+    try:
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 10)
+    except (AttributeError, OSError):
+        pass
+    return step(*args)
+
+
 def compile_module(cc) -> None:
     """``cc.compile()`` with numba's C runtime (its mixin sources) compiled on another core by the C compiler
     while numba generates the kernel's object code; ``cc.compile()`` itself where pycc lacks those steps."""
@@ -212,7 +224,7 @@ def compile_module(cc) -> None:
     tools.verbose = cc.verbose
     build_dir = tempfile.mkdtemp(prefix="pycc-build-")  # in the build's private folder (build)
     with ThreadPoolExecutor(1) as pool:  # the C compiler is a subprocess: the thread waits without the GIL
-        mixins = pool.submit(cc._compile_mixins, build_dir)
+        mixins = pool.submit(_low_priority, cc._compile_mixins, build_dir)
         objects, exports = cc._compile_object_files(build_dir)
         objects += mixins.result()
     tools.link_shared(os.path.join(cc.output_dir, cc.output_file), objects, tools.get_python_libraries(),
