@@ -242,20 +242,21 @@ def kernel(method: str, args: tuple):
     return load(method, form)
 
 
-def _paths(method: str, form: str) -> tuple[str, Path, Path]:
-    """The module name, its file and its ``.failed`` file."""
-    name = module_name(method, form)
+def _paths(name: str) -> tuple[Path, Path]:
+    """Module ``name``'s file and its ``.failed`` file (the folder is looked up: once a process has the
+    module, callers ask ``_loaded`` first)."""
     path = folder() / f"{name}{sysconfig.get_config_var('EXT_SUFFIX') or '.so'}"
-    return name, path, path.with_name(f"{name}.failed")
+    return path, path.with_name(f"{name}.failed")
 
 
 def load(method: str, form: str):
     """kernel's answer for kernel ``method`` and force ``form``: the module loaded, built first if this
     machine has none (a failed build: one note, the ``.failed`` file, and (None, 0.0))."""
-    name, path, failed = _paths(method, form)
+    name = module_name(method, form)
     if name in _loaded:
         return _loaded[name], 0.0
     start = time.perf_counter()
+    path, failed = _paths(name)
     run = None
     if path.exists():
         try:
@@ -284,9 +285,9 @@ def to_build(kernels) -> list[tuple[str, str]]:
     """Those of ``kernels`` ((method, form) pairs) that this machine has no module of yet and could build."""
     todo = []
     for method, form in dict.fromkeys(kernels):
-        if method in KERNELS and form in COEF_TYPES:
-            name, path, failed = _paths(method, form)
-            if name not in _loaded and not path.exists() and not failed.exists() and writable(path.parent):
+        if method in KERNELS and form in COEF_TYPES and module_name(method, form) not in _loaded:
+            path, failed = _paths(module_name(method, form))
+            if not path.exists() and not failed.exists() and writable(path.parent):
                 todo.append((method, form))
     return todo
 

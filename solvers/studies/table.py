@@ -26,7 +26,7 @@ from pulsemap.solvers.data.scene.overrides import with_sets
 from pulsemap.solvers.data.records import append_record, read_keyed
 from pulsemap.solvers.studies.progress import Progress
 from pulsemap.solvers.studies.workers import cores, fork_pool
-from pulsemap.solvers.studies.run import run_scene
+from pulsemap.solvers.studies.run import derive_while_kernels_build, run_scene
 from pulsemap.solvers.data.scene import builtin_scenes, load_scene, with_overrides
 
 #: Bump when what a row holds or how it is computed changes (old rows are then recomputed).
@@ -177,39 +177,6 @@ def check_row(row: dict) -> str | None:
     return None
 
 
-def _derive_while_kernels_build(scenes: list, columns, report: Progress) -> None:
-    """Build the chain kernels the scenes' DNS need in a child process (chain/compiled_aot.py) while this
-    process derives every column's models into the caches, then wait for the child: from empty caches
-    the two take about as long, and the rows then find both ready. Nothing to build: nothing done here."""
-    from pulsemap.solvers.chain.compiled_aot import build_in_background
-    from pulsemap.solvers.studies.run import derive_models, dns_kernel
-
-    def ahead(step, *args):
-        try:
-            return step(*args)
-        except Exception:  # noqa: BLE001 - work done ahead: the row that does it again reports the error
-            return None
-
-    children, asked = [], set()
-    try:
-        for scene in scenes:  # each kernel's build starts as soon as a scene needs it
-            kernel = ahead(dns_kernel, scene)
-            if kernel is not None and kernel not in asked:
-                asked.add(kernel)
-                child = build_in_background([kernel])
-                children += [child] if child is not None else []
-        if not children:
-            return
-        report.say(f"deriving the models of {len(scenes)} scenes while the chain kernels build")
-        for scene in scenes:
-            for col in columns:
-                ahead(derive_models, scene, [col.method], col.profile, col.variant)
-        import scipy.integrate, scipy.interpolate, scipy.optimize  # noqa: E401, F401 - the rows' scipy, loaded meanwhile
-    finally:
-        for child in children:
-            child.wait()
-
-
 def _row(name: str, columns, eps, sets, scene) -> dict:
     return scene_row(name, columns=columns, eps=eps, sets=sets, scene=scene)
 
@@ -253,7 +220,8 @@ def table(names=None, progress: bool = False, rows_file: str | os.PathLike | Non
     rows = []
     report = Progress("table", len(names), enabled=progress)
     todo = [n for n in names if (done.get(row_key(scenes[n].as_dict(), columns)) or {}).get("scene") != n]
-    _derive_while_kernels_build([scenes[n] for n in todo], columns, report)
+    derive_while_kernels_build([(scenes[n], [col.method], col.profile, col.variant) for n in todo for col in columns],
+                               say=report.say)
     report.started = report.clock()  # the ETA counts the rows, not the kernels' build
     computed = _computed_rows(todo, scenes, columns, eps, sets, workers)
     for name in names:

@@ -75,14 +75,24 @@ def test_derive_models_fills_the_cache_and_runs_nothing(tmp_path, monkeypatch):
     assert not (tmp_path / "numba" / "aot").exists()  # no DNS: no kernel asked for
 
 
-def test_rows_from_forked_workers_equal_rows_computed_here():
-    from pulsemap.solvers.studies.table import table
+FRESH_TABLES = """
+import json, threading
+from pulsemap.solvers.studies.table import table
+assert threading.active_count() == 1  # a fresh interpreter: the rows are forked
+names = ["fig6-eps1", "fig7-eps1", "fig8-eps1"]
+timing = {"dns_s", "time_s", "total_s"}
+print(json.dumps([[{k: v for k, v in r.items() if k not in timing} for r in table(names, workers=w)] for w in (1, 2)]))
+"""
 
-    names = ["fig6-eps1", "fig7-eps1", "fig8-eps1"]
-    here, forked = table(names, workers=1), table(names, workers=2)
-    timing = {"dns_s", "time_s", "total_s"}
-    for a, b in zip(here, forked, strict=True):
-        assert {k: v for k, v in a.items() if k not in timing} == {k: v for k, v in b.items() if k not in timing}
+
+@pytest.mark.process
+def test_rows_from_forked_workers_equal_rows_computed_here():
+    import json
+    import subprocess
+
+    out = subprocess.run([sys.executable, "-c", FRESH_TABLES], capture_output=True, text=True, check=True).stdout
+    here, forked = json.loads(out)
+    assert here == forked and len(forked) == 3
     assert np.isfinite([r["winner"]["rms_pct"] for r in forked]).all()
 
 
@@ -92,18 +102,33 @@ def test_no_calibration_ahead_for_a_shipped_monomial():
     assert _calibration_ahead(0, 1, 1.5) is None  # -mu*v: derived and calibrated coefficients ship
 
 
+FRESH_MONOMIAL = """
+import json, sys, threading
+from pulsemap.solvers.models.dressed import is_derived
+from pulsemap.solvers.studies import dressed
+assert threading.active_count() == 1 and not is_derived(2, 0, 1.5)  # u^2 ships neither derived nor calibrated
+ahead, jobs = dressed._calibration_ahead, []
+dressed._calibration_ahead = (lambda a, b, n: None) if sys.argv[1] == "in-turn" else (
+    lambda a, b, n: jobs.append(ahead(a, b, n)) or jobs[-1])
+print(json.dumps({"coefficients": dressed.monomial_coefficients(2, 0, 1.5), "forked": any(jobs)}))
+"""
+
+
 @pytest.mark.slow
-def test_a_calibration_forked_ahead_gives_the_coefficients_computed_in_turn(tmp_path, monkeypatch):
-    from pulsemap.solvers.studies import dressed
+def test_a_calibration_forked_ahead_gives_the_coefficients_computed_in_turn(tmp_path):
+    import json
+    import os
+    import subprocess
 
-    from pulsemap.solvers.models.dressed import is_derived
-
-    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path / "forked"))
-    assert not is_derived(2, 0, 1.5)  # u^2 ships neither derived nor calibrated: both run, one in a worker
-    forked = dressed.monomial_coefficients(2, 0, 1.5)
-    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path / "in-turn"))
-    monkeypatch.setattr(dressed, "_calibration_ahead", lambda a, b, n: None)
-    assert dressed.monomial_coefficients(2, 0, 1.5) == forked
+    got = {}
+    for how in ("forked", "in-turn"):
+        env = {**os.environ, "PULSEMAP_CACHE_DIR": str(tmp_path / how)}
+        out = subprocess.run([sys.executable, "-c", FRESH_MONOMIAL, how], capture_output=True, text=True, check=True,
+                             env=env).stdout
+        got[how] = json.loads(out)
+    assert got["forked"]["forked"] and not got["in-turn"]["forked"]
+    assert got["forked"]["coefficients"] == got["in-turn"]["coefficients"]
+    assert got["forked"]["coefficients"]["next"] is not None
 
 
 @pytest.mark.parametrize("workers", [0, -1, 1.5, "2", True])
@@ -114,15 +139,16 @@ def test_a_bad_worker_count_is_refused_before_any_work(workers):
         table(["fig6-eps1"], workers=workers)
 
 
+@pytest.mark.process
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="workers are forked on Linux only")
-def test_no_fork_while_another_thread_runs():
+def test_a_fresh_interpreter_forks_and_no_fork_while_another_thread_runs():
+    import subprocess
     import threading
 
     from pulsemap.solvers.studies.workers import fork_pool
 
-    pool = fork_pool(1)
-    assert pool is not None and pool.submit(sum, [1, 2]).result() == 3
-    pool.shutdown()
+    code = "from pulsemap.solvers.studies.workers import fork_pool; print(fork_pool(1).submit(sum, [1, 2]).result())"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout == "3\n"
     stop = threading.Event()
     other = threading.Thread(target=stop.wait)
     other.start()
@@ -131,3 +157,31 @@ def test_no_fork_while_another_thread_runs():
     finally:
         stop.set()
         other.join()
+
+
+def test_models_are_derived_while_a_missing_kernel_builds(tmp_path, monkeypatch):
+    from pulsemap.solvers.studies.run import derive_while_kernels_build
+
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path))
+    asked, waited, said = [], [], []
+
+    class Child:
+        def wait(self):
+            waited.append(True)
+            return 0
+
+    monkeypatch.setattr(compiled_aot, "build_in_background", lambda kernels: asked.append(list(kernels)) or Child())
+    scene = with_overrides(load_scene("fig8-eps0.1"), R="-mu*v - 0.41*mu*v^3")  # v^3: the general table
+    assert derive_while_kernels_build([(scene, ["dns", "map"], "exact", "corrected")], say=said.append)
+    assert asked == [[("RK45", "table")]] and waited == [True] and said
+    assert list((tmp_path / "generated").glob("map_*.py"))  # the map's module, derived meanwhile
+
+
+def test_nothing_is_derived_ahead_when_no_kernel_is_missing(tmp_path, monkeypatch):
+    from pulsemap.solvers.studies.run import derive_while_kernels_build
+
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(compiled_aot, "build_in_background", lambda kernels: None)
+    scene = with_overrides(load_scene("fig8-eps0.1"), R="-mu*v - 0.43*mu*v^3")
+    assert not derive_while_kernels_build([(scene, ["dns", "map"], "exact", "corrected")])
+    assert not list((tmp_path / "generated").glob("map_*.py"))

@@ -32,7 +32,7 @@ from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
 from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
 from pulsemap.solvers.studies.run.state import RunState
 
-__all__ = ["derive_models", "dns_kernel", "run_scene"]
+__all__ = ["derive_models", "derive_while_kernels_build", "dns_kernel", "run_scene"]
 
 
 def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, variant: str | None,
@@ -97,6 +97,44 @@ def derive_models(scene: Scene, methods: Sequence[str], profile: str | None = No
     models.derive_models(state)
     if "dressed-law" in state.methods:
         models.prepare_dressed(state)
+
+
+def _ahead(step, *args):
+    """``step(*args)``, or None where it raises: work done ahead, which the run that does it again reports."""
+    try:
+        return step(*args)
+    except Exception:  # noqa: BLE001 - reported by the run that meets it
+        return None
+
+
+def derive_while_kernels_build(jobs: Sequence[tuple], say=None) -> bool:
+    """Build the chain kernels the DNS of the jobs' scenes need, each in a child process started as soon as a
+    scene needs it (chain/compiled_aot.build_in_background), while this process derives the jobs' models
+    ``(scene, methods, profile, variant)`` into the caches; then wait for the builds. From empty caches both
+    take seconds, and the runs then find both ready. False (and nothing done) when no kernel is missing;
+    ``say(text)``: told what happens when something does."""
+    from pulsemap.solvers.chain.compiled_aot import build_in_background
+
+    children, asked = [], set()
+    try:
+        for scene in dict.fromkeys(job[0] for job in jobs):
+            kernel = _ahead(dns_kernel, scene)
+            if kernel is not None and kernel not in asked:
+                asked.add(kernel)
+                child = build_in_background([kernel])
+                children += [child] if child is not None else []
+        if not children:
+            return False
+        if say is not None:
+            say(f"deriving the models of {len({id(job[0]) for job in jobs})} scenes while the chain kernels build")
+        for scene, methods, profile, variant in jobs:
+            if any(m != "dns" for m in methods):
+                _ahead(derive_models, scene, [m for m in methods if m != "dns"], profile, variant)
+        import scipy.integrate, scipy.interpolate, scipy.optimize  # noqa: E401, F401 - the models' scipy, loaded meanwhile
+        return True
+    finally:
+        for child in children:
+            child.wait()
 
 
 def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> None:
@@ -220,6 +258,7 @@ def run_scene(
     state = start_run(scene, methods, profile, variant, seed_peak, snapshots)
     state.stated_accuracy = stated_accuracy
     if "dns" in state.methods:
+        derive_while_kernels_build([(scene, state.methods, profile, variant)])
         run_dns(state, progress, dns_window)
     if reuse_dns is not None and "dns" not in state.methods:
         reuse_dns_run(state, reuse_dns)
