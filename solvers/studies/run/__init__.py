@@ -115,9 +115,9 @@ def derive_while_kernels_build(jobs: Sequence[tuple], say=None) -> bool:
     ``say(text)``: told what happens when something does."""
     from pulsemap.solvers.chain.compiled_aot import build_in_background
 
-    children, asked = [], set()
+    children, asked, scenes = [], set(), list(dict.fromkeys(job[0] for job in jobs))
     try:
-        for scene in dict.fromkeys(job[0] for job in jobs):
+        for scene in scenes:
             kernel = _ahead(dns_kernel, scene)
             if kernel is not None and kernel not in asked:
                 asked.add(kernel)
@@ -126,7 +126,7 @@ def derive_while_kernels_build(jobs: Sequence[tuple], say=None) -> bool:
         if not children:
             return False
         if say is not None:
-            say(f"deriving the models of {len({id(job[0]) for job in jobs})} scenes while the chain kernels build")
+            say(f"deriving the models of {len(scenes)} scene{'s' * (len(scenes) != 1)} while the chain kernels build")
         for scene, methods, profile, variant in jobs:
             if any(m != "dns" for m in methods):
                 _ahead(derive_models, scene, [m for m in methods if m != "dns"], profile, variant)
