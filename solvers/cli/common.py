@@ -30,6 +30,22 @@ def number(text: str) -> float:
 _DOCUMENT_STREAMS: list[TextIO] = []  # the real stdout while a command's text goes to stderr (--json - / --csv -)
 
 
+def int_at_least(low: int, expected: str = "an integer", option: str | None = None) -> Callable[[str], int]:
+    """An argparse type: an integer >= ``low`` (``option`` names the option in the error when too low)."""
+
+    def parse(text: str) -> int:
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
+        if n < low:
+            raise argparse.ArgumentTypeError(
+                f"{option} must be >= {low}, got {n}" if option else f"expected {expected} >= {low}, got {n}")
+        return n
+
+    return parse
+
+
 def _document_stream() -> TextIO:
     """Where a '-' document goes: the process's stdout, even while print() is sent to stderr."""
     return _DOCUMENT_STREAMS[-1] if _DOCUMENT_STREAMS else sys.stdout

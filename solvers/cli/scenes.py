@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from pulsemap.solvers.cli.common import UsageError, add_set_option, load_scene_with_sets, number, write_json, write_text
+from pulsemap.solvers.cli.common import (UsageError, add_set_option, int_at_least, load_scene_with_sets, number, write_json,
+                                         write_text)
 
 
 def register(sub) -> None:
@@ -51,6 +52,8 @@ def register(sub) -> None:
     p.add_argument("--fresh", action="store_true", help="ignore (and replace) the rows file: recompute every scene")
     p.add_argument("--eps", type=number, default=None,
                    help="run every scene at this eps instead of its own (which model is right as eps -> 0)")
+    p.add_argument("--workers", type=int_at_least(1, "a number of workers", "--workers"), default=None,
+                   help="processes computing rows (default: one per core; 1 runs in this process)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     add_set_option(p)
     p.set_defaults(func=cmd_table)
@@ -125,7 +128,7 @@ def cmd_table(args: argparse.Namespace) -> int:
     from pulsemap.solvers.studies.table import markdown, table, wins
 
     rows = table(args.scenes or None, progress=not args.quiet, rows_file=args.rows, fresh=args.fresh, eps=args.eps,
-                 sets=tuple(args.sets))
+                 sets=tuple(args.sets), workers=args.workers)
     print(markdown(rows))
     print("\nScenes won: " + ", ".join(f"{k} {v}" for k, v in wins(rows).items()))
     if args.json:

@@ -10,27 +10,12 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
-from typing import Callable
+
+from pulsemap.solvers.cli.common import int_at_least
 
 
-def _int_at_least(low: int, expected: str = "an integer", option: str | None = None) -> Callable[[str], int]:
-    """An argparse type: an integer >= ``low`` (``option`` names the option in the error when too low)."""
-
-    def parse(text: str) -> int:
-        try:
-            n = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
-        if n < low:
-            raise argparse.ArgumentTypeError(
-                f"{option} must be >= {low}, got {n}" if option else f"expected {expected} >= {low}, got {n}")
-        return n
-
-    return parse
-
-
-_workers = _int_at_least(1, "a number of workers", "--workers")
-_positive_int = _int_at_least(0)
+_workers = int_at_least(1, "a number of workers", "--workers")
+_positive_int = int_at_least(0)
 
 
 def _floats(text: str) -> list[float]:

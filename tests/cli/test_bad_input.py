@@ -137,6 +137,8 @@ CLI = [
     ("suite: misspelt suite scene", ["suite", "damp-1O"], ["'damp-1O'", "did you mean 'damp-10'"]),
     ("bench: unknown scene", ["bench", "nosuch"], ["'nosuch' not found"]),
     ("table: unknown scene", ["table", "nosuch"], ["'nosuch' not found"]),
+    ("table: no workers", ["table", "fig8-eps0.1", "--workers", "0"], ["--workers must be >= 1, got 0"]),
+    ("table: workers not a number", ["table", "fig8-eps0.1", "--workers", "two"], ["expected a number of workers", "'two'"]),
     ("generate: unknown scene", ["generate", "nosuch"], ["'nosuch' not found"]),
     ("ensemble: unknown scene", ["ensemble", "nosuch", "--realisations", "1"], ["'nosuch' not found"]),
     ("bifurcation: unknown scene", ["bifurcation", "nosuch", "--param", "mu", "--range", "0", "1"], ["'nosuch' not found"]),
