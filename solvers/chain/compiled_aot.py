@@ -299,10 +299,13 @@ def build_in_background(kernels):
     import subprocess
 
     todo = to_build(kernels)
-    if not todo:
+    if not todo or not sys.executable:
         return None
-    return subprocess.Popen([sys.executable, "-m", __name__, *(f"{m}:{f}" for m, f in todo)],
-                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL)
+    try:
+        return subprocess.Popen([sys.executable, "-m", __name__, *(f"{m}:{f}" for m, f in todo)],
+                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL)
+    except OSError:  # no process to be had (an embedded interpreter, a process limit): the run builds its own
+        return None
 
 
 if __name__ == "__main__":  # build_in_background's child: METHOD:FORM ...

@@ -185,3 +185,15 @@ def test_nothing_is_derived_ahead_when_no_kernel_is_missing(tmp_path, monkeypatc
     scene = with_overrides(load_scene("fig8-eps0.1"), R="-mu*v - 0.43*mu*v^3")
     assert not derive_while_kernels_build([(scene, ["dns", "map"], "exact", "corrected")])
     assert not list((tmp_path / "generated").glob("map_*.py"))
+
+
+def test_no_child_process_means_the_run_builds_its_own(monkeypatch):
+    import subprocess
+
+    def refuse(*args, **kwargs):
+        raise OSError("no more processes")
+
+    monkeypatch.setattr(compiled_aot, "_loaded", {})
+    monkeypatch.setattr(compiled_aot, "to_build", lambda kernels: list(kernels))
+    monkeypatch.setattr(subprocess, "Popen", refuse)
+    assert compiled_aot.build_in_background([("RK45", "dense")]) is None
