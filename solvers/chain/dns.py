@@ -237,7 +237,7 @@ def simulate(
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
     first, last = check_run(chain, contacts, stop)
     beads, exponent, velocity, force, launch = chain.beads, chain.exponent, chain.velocity, chain.force, chain.launch
-    method, rtol, atol, engine = integrator.method, integrator.rtol, integrator.atol, integrator.engine
+    rtol, atol = integrator.rtol, integrator.atol
     if launch is None and _scaling.needs_rescaling(velocity):  # a rescaled run at v0 = 1 (solvers/chain/scaling.py)
         _scaling.check_force_range(force, exponent, velocity, beads)
         scale = _scaling.Scaling(exponent, velocity)
@@ -251,9 +251,7 @@ def simulate(
         velocity = launch.velocity_scale(exponent)
     front = FrontRecorder(first, last, exponent, check_snapshot_contacts(snapshots.contacts, first, last),
                           snapshots.span)
-    data, force_reason = force_data(force) if wants_force_data(engine, method, bool(snapshots.contacts)) else (None, "")
-    how = plan(engine=engine, method=method, force=force, velocity=velocity, exponent=exponent, rtol=rtol,
-               window=window, snapshots=bool(snapshots.contacts), force_reason=force_reason)
+    data, how = _planned(chain, integrator, window, bool(snapshots.contacts))
     chosen = how.method
     t_limit = default_t_max(last, velocity, exponent) if stop.t_max is None else float(stop.t_max)
     budget = default_max_steps(last) if stop.max_steps is None else int(stop.max_steps)
@@ -323,19 +321,24 @@ def compiled_kernel_of(chain: Chain, *, integrator: Integrator = Integrator(),
     """The compiled kernel simulate runs for ``chain`` with these settings, as (method, force form:
     "dense" or "table", compiled_aot.py), or None where the scipy engine or a generated numba force runs.
     Nothing is integrated: a command asks it to build the kernels ahead on another core."""
-    force, velocity = chain.force, chain.velocity
-    if chain.launch is None and _scaling.needs_rescaling(velocity):  # simulate's rescaled run at v0 = 1
-        force, velocity = _scaling.Scaling(chain.exponent, velocity).force(force), 1.0
-    elif chain.launch is not None:
-        velocity = chain.launch.velocity_scale(chain.exponent)
-    method, engine = integrator.method, integrator.engine
-    data, force_reason = force_data(force) if wants_force_data(engine, method, False) else (None, "")
-    how = plan(engine=engine, method=method, force=force, velocity=velocity, exponent=chain.exponent,
-               rtol=integrator.rtol, window=window, force_reason=force_reason)
+    from pulsemap.solvers.chain.compiled_aot import FORM_OF_NDIM
+
+    if chain.launch is None and _scaling.needs_rescaling(chain.velocity):  # simulate's rescaled run at v0 = 1
+        chain = replace(chain, velocity=1.0, force=_scaling.Scaling(chain.exponent, chain.velocity).force(chain.force))
+    data, how = _planned(chain, integrator, window, False)
     if how.engine != "compiled" or isinstance(data, JitForce):
         return None
-    table = MonomialTable.zero() if data is None else data
-    return how.method, "dense" if table.kernel_args[1].ndim == 3 else "table"
+    return how.method, FORM_OF_NDIM[(MonomialTable.zero() if data is None else data).kernel_args[1].ndim]
+
+
+def _planned(chain: Chain, integrator: Integrator, window, snapshots: bool):
+    """(the force as the compiled kernels take it, or None; plan()'s Plan) of a run of ``chain`` at its own
+    velocity (simulate rescales first where it must): the velocity scale is the launch's where there is one."""
+    velocity = chain.velocity if chain.launch is None else chain.launch.velocity_scale(chain.exponent)
+    method, engine = integrator.method, integrator.engine
+    data, force_reason = force_data(chain.force) if wants_force_data(engine, method, snapshots) else (None, "")
+    return data, plan(engine=engine, method=method, force=chain.force, velocity=velocity, exponent=chain.exponent,
+                      rtol=integrator.rtol, window=window, snapshots=snapshots, force_reason=force_reason)
 
 
 def _locate(force: OnSiteForce | None, beads: int, exc: ForceNotFinite) -> ForceNotFinite:
