@@ -78,13 +78,18 @@ def _integrator(scene: Scene) -> Integrator:
                       atol=float(scene.dns.get("atol", 1e-12)), engine=scene.dns.get("engine", "compiled"))
 
 
+def _dns_force(scene: Scene, beads: int):
+    """The on-site force of the scene's DNS; None for R = 0 (or eps = 0): the bare chain of Eq. 1, which
+    conserves energy, its drift checking the run."""
+    pert = scene.perturbation
+    return None if (pert.is_zero or pert.eps == 0) else make_force(scene, beads)
+
+
 def dns_kernel(scene: Scene) -> tuple[str, str] | None:
     """The compiled kernel (method, force form) the scene's DNS runs on (chain/dns.compiled_kernel_of), or None."""
-    pert = scene.perturbation
     beads, _ = dns_span(scene)
-    force = None if (pert.is_zero or pert.eps == 0) else make_force(scene, beads)
-    return compiled_kernel_of(Chain(beads, scene.exponent, scene.velocity, force), integrator=_integrator(scene),
-                              window=dns_window_of(scene, "scene"))
+    return compiled_kernel_of(Chain(beads, scene.exponent, scene.velocity, _dns_force(scene, beads)),
+                              integrator=_integrator(scene), window=dns_window_of(scene, "scene"))
 
 
 def derive_models(scene: Scene, methods: Sequence[str], profile: str | None = None,
@@ -143,9 +148,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     scene, out, contacts = state.scene, state.out, state.contacts
     beads, span = dns_span(scene)
     t0 = time.perf_counter()
-    pert = scene.perturbation
-    # R = 0 (or eps = 0): the bare chain of Eq. 1, which conserves energy: its drift checks the run
-    force = None if (pert.is_zero or pert.eps == 0) else make_force(scene, beads)
+    force = _dns_force(scene, beads)
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
