@@ -297,10 +297,14 @@ def shipped() -> dict:
         return {}
 
 
+def stored(key: str) -> dict | None:
+    """The entry ``key`` from the cache, else from the shipped coefficients (None: neither has it)."""
+    return cache.load(NAMESPACE, key) or shipped().get(key)
+
+
 def is_derived(a: int, b: int, n: float = 1.5) -> bool:
     """Whether derive_monomial has u^a v^b at exponent n cached or shipped (nothing to integrate)."""
-    key = cache_key(a, b, float(n))
-    return key in shipped() or cache.load(NAMESPACE, key) is not None
+    return stored(cache_key(a, b, float(n))) is not None
 
 
 def derive_monomial(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> DerivedMonomial:
@@ -308,7 +312,7 @@ def derive_monomial(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> D
     (a, b), n = check_monomial(a, b), float(n)
     key = cache_key(a, b, n)
     if use_cache:
-        hit = cache.load(NAMESPACE, key) or shipped().get(key)
+        hit = stored(key)
         if hit is not None:
             hit = dict(hit)
             hit["per_cut"] = tuple(hit["per_cut"])
@@ -361,8 +365,7 @@ def derive_cross(first: tuple[int, int], second: tuple[int, int], n: float = 1.5
     key = cross_key(first, second, n)
     if use_cache:  # k2_jl is symmetric: either order's entry serves
         swapped = cross_key(second, first, n)
-        hit = (cache.load(NAMESPACE, key) or shipped().get(key) or cache.load(NAMESPACE, swapped)
-               or shipped().get(swapped))
+        hit = stored(key) or stored(swapped)
         if hit is not None:
             hit = dict(hit)
             for name in ("first", "second", "per_cut"):

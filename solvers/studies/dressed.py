@@ -84,7 +84,7 @@ def _calibration_ahead(a: int, b: int, n: float):
     monomial, when neither is cached (each takes seconds from empty caches) and a second core can take it;
     else None."""
     key = cache_key(*check_monomial(a, b, CalibrationError), float(n))
-    if cores() < 2 or is_derived(a, b, n) or key in shipped() or cache.load(NAMESPACE, key) is not None:
+    if cores() < 2 or is_derived(a, b, n) or _stored(key) is not None:
         return None
     pool = fork_pool(1)
     if pool is None:
@@ -420,6 +420,11 @@ def shipped() -> dict:
         return {}
 
 
+def _stored(key: str) -> dict | None:
+    """The calibration ``key`` from the cache, else from the shipped ones (None: neither has it)."""
+    return cache.load(NAMESPACE, key) or shipped().get(key)
+
+
 def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)), pairs=(((1, 0), (0, 1)), ((1, 0), (2, 1)), ((0, 1), (2, 1))),
                   n: float = 1.5, use_cache: bool = False) -> Path:
     """Recompute the shipped calibrations (no cache unless ``use_cache``) and write SHIPPED: the monomials and
@@ -476,7 +481,7 @@ def calibrate(a: int, b: int, n: float = 1.5, use_cache: bool = True) -> Monomia
     (a, b), n = check_monomial(a, b, CalibrationError), float(n)
     key = cache_key(a, b, n)
     if use_cache:
-        hit = cache.load(NAMESPACE, key) or shipped().get(key)
+        hit = _stored(key)
         if hit is not None:
             hit = dict(hit)
             hit["x_range"] = tuple(hit["x_range"])
@@ -565,7 +570,7 @@ def calibrate_cross(first: tuple[int, int], second: tuple[int, int], n: float = 
     n = float(n)
     key = cross_key((a1, b1), (a2, b2), n)
     if use_cache:
-        hit = cache.load(NAMESPACE, key) or shipped().get(key)
+        hit = _stored(key)
         if hit is not None:
             hit = dict(hit)
             hit["first"], hit["second"] = tuple(hit["first"]), tuple(hit["second"])
