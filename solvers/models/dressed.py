@@ -525,16 +525,17 @@ def evaluate_dressed_law(coef: DressedCoefficients, S0: float, A0: float, i0: fl
     given = [c <= stop + 1e-12 for c in contacts]
     ys = [sol.sol(c) if ok else None for c, ok in zip(contacts, given)]
     errs = [float(y[1]) + onset(c) if y is not None else None for c, y in zip(contacts, ys)]
-    quiet = [c for c, e in zip(contacts, errs) if e is not None and e > ACCURACY]
+    quiet = [k for k, e in enumerate(errs) if e is not None and e > ACCURACY]  # indices into contacts
     vals = [math.exp(float(y[0])) if e is not None and e <= ACCURACY else None for y, e in zip(ys, errs)]
     accuracy = [e if v is not None else None for e, v in zip(errs, vals)]
     msg = f"{status} at contact index {ended_at:.6g}" if ended_at is not None else "ODE solved (LSODA, rtol 1e-11)"
     if status == "beyond its validity bound":
         msg += ": some |x_j| passes the two-term law's validity bound (derive --model dressed prints it); no values past it"
     if quiet:
-        worst = max(quiet, key=lambda c: errs[list(contacts).index(c)])
-        k = list(contacts).index(worst)
-        where = f"contact {quiet[0]:g}" if len(quiet) == 1 else f"{len(quiet)} contacts from {quiet[0]:g} to {quiet[-1]:g}"
+        k = max(quiet, key=errs.__getitem__)
+        worst, first_quiet, last_quiet = contacts[k], contacts[quiet[0]], contacts[quiet[-1]]
+        where = (f"contact {first_quiet:g}" if len(quiet) == 1
+                 else f"{len(quiet)} contacts from {first_quiet:g} to {last_quiet:g}")
         msg = (f"beyond its accuracy at {where}: its estimated error passes {100 * ACCURACY:g} % (up to "
                f"{100 * errs[k]:.3g} % at contact {worst:g}: onset {100 * onset(worst):.2g} %, neglected terms "
                f"{100 * (errs[k] - onset(worst)):.2g} %); no values there" + ("" if status == "ok" else f"; then {msg}"))
