@@ -88,6 +88,18 @@ class RelaxedModel:
     def _coef(self, bead: int) -> float:
         return float(self.coefficients[min(max(bead, 1), len(self.coefficients)) - 1])
 
+    def _bulk_window(self, contact: int) -> tuple[float, list[float]]:
+        """(own, window): the coefficients of beads contact + j, J_MIN <= j <= J_MAX, a bead before
+        first_perturbed counting as the contact's own coefficient (the segment runs enter bare)."""
+        own = self._coef(contact)
+        return own, [self._coef(contact + j) if contact + j >= self.first_perturbed else own
+                     for j in range(J_MIN, J_MAX + 1)]
+
+    def _departures(self, window, mean: float) -> np.ndarray:
+        """The window's departures from its mean, as the kernels take them: relative (c / cm - 1) for a
+        monomial's coefficient, absolute (c - cm) for a parameter on the grid."""
+        return np.asarray(window) - mean if self.grid is not None else np.asarray(window) / mean - 1.0
+
     def mix(self, contact: int, peak: float) -> list[tuple[float, float | None]]:
         """[(w_j, c_j)]: log r of the step onto ``contact`` at peak P is sum_j w_j log r(P; c_j), the
         uniform map at the coefficient c_j of bead contact + j (J_MIN <= j <= J_MAX) weighted by the
@@ -97,9 +109,7 @@ class RelaxedModel:
         count as the contact's own coefficient (the segment runs enter bare, like the scene)."""
         if self.coefficients is None:
             return [(1.0, None)]
-        own = self._coef(contact)
-        window = [self._coef(contact + j) if contact + j >= self.first_perturbed else own
-                  for j in range(J_MIN, J_MAX + 1)]
+        own, window = self._bulk_window(contact)
         if all(c == own for c in window):
             return [(1.0, own)]
         key, tab, at = self._reference(window, own, peak)
@@ -127,7 +137,7 @@ class RelaxedModel:
         if kern is None or base is None:
             return self._log_onset(own, seed_peak, k)
         h, h2 = kern[0][:, k - 1], kern[1][:, :, k - 1]
-        e = np.asarray(window) - mean if self.grid is not None else np.asarray(window) / mean - 1.0
+        e = self._departures(window, mean)
         return base + float(h @ e) + 0.5 * float(e @ h2 @ e)
 
     def _reference(self, window: list[float], own: float, peak: float) -> tuple[int, SegmentTable, float]:
@@ -250,17 +260,15 @@ class RelaxedModel:
         terms sum_j G_j e_j (e_j = c_j / cm - 1; a parameter: c_j - cm): the step where the uniform map
         of some neighbour's coefficient has no relaxed pulse at P (its segment runs die before they
         relax) but the mean's has. None: no relaxed pulse at the mean either (the pulse dies)."""
-        own = self._coef(contact)
-        window = np.array([self._coef(contact + j) if contact + j >= self.first_perturbed else own
-                           for j in range(J_MIN, J_MAX + 1)])
-        mean = float(window.mean())
+        own, window = self._bulk_window(contact)
+        mean = float(np.mean(window))
         base = self._log_bulk(mean, peak)
         if base is None or (self.grid is None and mean == 0.0):
             return None
-        key, tab, at = self._reference(list(window), own, peak)
+        key, tab, at = self._reference(window, own, peak)
         if not tab.cover(at):
             return None
-        e = window - mean if self.grid is not None else window / mean - 1.0
+        e = self._departures(window, mean)
         return base + float(self.kernel(key).kernel(at) @ e)
 
     def accuracy(self) -> float:
