@@ -3,10 +3,11 @@
 and the entry points (expression.py). User text never reaches eval, exec, sympify or parse_expr."""
 
 from .expression import check_parameter_name, failing_term, is_polynomial_in_state, parse_expression, singular_terms
-from .names import (FUNCTIONS, MAX_DECIMAL_EXPONENT, MAX_DEPTH, MAX_EXPONENT, MAX_LENGTH, MAX_POWER_BITS, NON_SMOOTH,
+from .names import (CONTACT_SYMBOLS, FUNCTIONS, MAX_DECIMAL_EXPONENT, MAX_DEPTH, MAX_EXPONENT, MAX_LENGTH, MAX_POWER_BITS, NON_SMOOTH,
                     RESERVED, SYMBOLS, ExpressionError, UserSymbol, symbol)
 
 __all__ = [
+    "CONTACT_SYMBOLS",
     "ExpressionError",
     "FUNCTIONS",
     "MAX_DECIMAL_EXPONENT",

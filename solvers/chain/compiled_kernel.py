@@ -31,7 +31,7 @@ from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_i
 
 
 @njit(**NO_NRT)
-def _initial_step(t, y, f, w, st, fs, cf, exps, coef, wall, work):
+def _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work):
     """Hairer's HINIT for the first step."""
     w2 = 2 * w
     rtol, atol = cf[RTOL], cf[ATOL]
@@ -50,7 +50,7 @@ def _initial_step(t, y, f, w, st, fs, cf, exps, coef, wall, work):
     h = min(h, cf[T_MAXC] - t)
     for i in range(w2):
         y1[i] = y[i] + h * f[i]
-    rhs(t + h, y1, f1, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef)
+    rhs(t + h, y1, f1, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, cx, cc, mi)
     st[NFEV] += 1
     der2 = 0.0
     for i in range(w2):
@@ -62,29 +62,29 @@ def _initial_step(t, y, f, w, st, fs, cf, exps, coef, wall, work):
 
 
 @njit(**NO_NRT)
-def start(t, y, f, st, fs, cf, ci, exps, coef, work):
+def start(t, y, f, st, fs, cf, ci, exps, coef, cx, cc, mi, work):
     """At a run's first call (st[STARTED] == 0): f at t and the first step size (HINIT)."""
     if st[STARTED] == 0:
         w = st[HI] - st[LO]
         wall = st[HI] < ci[BEADS]
-        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef)
+        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, cx, cc, mi)
         st[NFEV] += 1
-        fs[H] = _initial_step(t, y, f, w, st, fs, cf, exps, coef, wall, work)
+        fs[H] = _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work)
         fs[FACOLD] = 1e-4
         st[STARTED] = 1
 
 
 @njit(cache=True)
-def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
+def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi):
     """Integrate until a stop rule fires; returns its code (state in y, f, fs, st for a resume).
     Allocates the scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
     cap = ci[CAPACITY]
-    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, np.empty((10, 2 * cap)),
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, np.empty((10, 2 * cap)),
                  np.empty((4, 2 * cap)))
 
 
 @njit(**NO_NRT)
-def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work, rc):
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, work, rc):
     """The steps of ``run`` (``work``: 10 rows of scratch, ``rc``: the dense output's 4 rows, each of
     2 x ci[CAPACITY]).
 
@@ -101,7 +101,7 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work
     k2, k3, k4, k5, k6, k7, ys, yn = work[0], work[1], work[2], work[3], work[4], work[5], work[8], work[9]
     expo1 = 0.2 - BETA * 0.75
     t = fs[T]
-    start(t, y, f, st, fs, cf, ci, exps, coef, work)
+    start(t, y, f, st, fs, cf, ci, exps, coef, cx, cc, mi, work)
     h = fs[H]
     while True:
         h, code = next_step(t, h, st, fs, cf, ci)
@@ -111,22 +111,22 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work
         # ---- stages
         for i in range(w2):
             ys[i] = y[i] + h * A21 * f[i]
-        rhs(t + C2 * h, ys, k2, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + C2 * h, ys, k2, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         for i in range(w2):
             ys[i] = y[i] + h * (A31 * f[i] + A32 * k2[i])
-        rhs(t + C3 * h, ys, k3, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + C3 * h, ys, k3, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         for i in range(w2):
             ys[i] = y[i] + h * (A41 * f[i] + A42 * k2[i] + A43 * k3[i])
-        rhs(t + C4 * h, ys, k4, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + C4 * h, ys, k4, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         for i in range(w2):
             ys[i] = y[i] + h * (A51 * f[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i])
-        rhs(t + C5 * h, ys, k5, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + C5 * h, ys, k5, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         for i in range(w2):
             ys[i] = y[i] + h * (A61 * f[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i])
-        rhs(t + h, ys, k6, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + h, ys, k6, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         for i in range(w2):
             yn[i] = y[i] + h * (A71 * f[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i])
-        rhs(t + h, yn, k7, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + h, yn, k7, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         st[NFEV] += 6
         err = 0.0
         for i in range(w2):
@@ -154,8 +154,8 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work
         # y_old stays in y until the bookkeeping is done (dense output needs y, f = k1, k3..k7)
         if peak_in_step(y, yn, st, ci):
             dopri_dense(rc, y, yn, h, f, k3, k4, k5, k6, k7, w2)
-        code = track_step(t_old, t, h, y, yn, rc, work[6], w, st, fs, cf, ci, peaks, times, pulse_e, total_e)
-        code = finish_step(t, h_new, y, f, yn, k7, w, st, fs, cf, ci, exps, coef, code)  # FSAL: f <- k7
+        code = track_step(t_old, t, h, y, yn, rc, work[6], w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi)
+        code = finish_step(t, h_new, y, f, yn, k7, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code)  # FSAL: f <- k7
         h = h_new
         if code != 0:
             return code

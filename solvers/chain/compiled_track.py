@@ -28,7 +28,8 @@ from pulsemap.solvers.chain.compiled_layout import (
     E_GONE, DRIFT, THRESH, LAST_PEAK_T, STALL, E_LAST, LO, HI, NEXT, STEPS, NFEV, HAS_LEFT, DIED_AT, WIDEST, SHIFTS,
     LOST, EXP, T_MAXC, SCALE_X, SCALE_V, AHEAD_THR, PEAK_FRAC, DEATH_FRAC, OVERTAKE, STALL_FAC, E_LIMIT, DELAY_FAC,
     BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY, PAUSE_EVERY)
-from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, pos_pow, pulse_lost, rhs, segment_energy, window_energy
+from pulsemap.solvers.chain.compiled_force import contact_force, inverse_mass
+from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, pulse_lost, rhs, segment_energy, window_energy
 
 
 @njit(**NO_NRT)
@@ -108,7 +109,7 @@ def peak_in_step(y, yn, st, ci):
 
 
 @njit(cache=True, inline="always")
-def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e):
+def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi):
     """After an accepted step t_old -> t (state y -> yn, dense output rc): the blow-up guard (energy
     every ci[ENERGY_EVERY] steps), the leading-edge peaks completed in the step, at each requested
     contact's peak the energies of front.FrontRecorder (``pulse_e``: beads k-8..k+8, ``total_e``:
@@ -121,7 +122,7 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
     has_left = st[HAS_LEFT] == 1
     code = 0
     if st[STEPS] % ci[ENERGY_EVERY] == 0 or not np.isfinite(yn[w2 - 1] + yn[0]):
-        e_now = window_energy(t, yn, w, n, has_left, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T]) + fs[E_GONE]
+        e_now = window_energy(t, yn, w, n, has_left, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], lo, cc, mi) + fs[E_GONE]
         fs[E_LAST] = e_now
         if not np.isfinite(e_now) or not e_now <= cf[E_LIMIT] * fs[E0]:
             return BLOWUP
@@ -145,8 +146,9 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
             for i in range(w2):
                 pk[i] = dense_value(theta, i, y, rc)
             kl = k - 1 - lo
-            pulse_e[k - first] = segment_energy(pk, max(0, kl - PULSE_HALF_WIDTH), min(w, kl + PULSE_HALF_WIDTH + 1), n)
-            total_e[k - first] = segment_energy(pk, w - w, w, n) + fs[E_GONE]  # w - w: not a literal 0 (one compile)
+            pulse_e[k - first] = segment_energy(pk, max(0, kl - PULSE_HALF_WIDTH), min(w, kl + PULSE_HALF_WIDTH + 1), n,
+                                                   lo, cc, mi)
+            total_e[k - first] = segment_energy(pk, w - w, w, n, lo, cc, mi) + fs[E_GONE]  # w - w: not a literal 0 (one compile)
         fs[STALL] = cf[STALL_FAC] * (t_pk - fs[LAST_PEAK_T])
         fs[LAST_PEAK_T] = t_pk
         fs[THRESH] = cf[PEAK_FRAC] * value
@@ -173,7 +175,7 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
 
 
 @njit(cache=True, inline="always")
-def drop_behind(t, y, f, w, st, fs, cf, ci):
+def drop_behind(t, y, f, w, st, fs, cf, ci, cc, mi):
     """Drop the beads more than ``behind`` behind the last peaked contact (the last one coasts, or the
     chain gets a free end); the energy they carry goes to fs[E_GONE]. Returns (w, the caller must
     re-evaluate f: the first bead lost its left contact)."""
@@ -182,7 +184,7 @@ def drop_behind(t, y, f, w, st, fs, cf, ci):
     drop = st[NEXT] - 1 - ci[BEHIND] - lo
     if drop <= 0:
         return w, False
-    e_before = window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T])
+    e_before = window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], lo, cc, mi)
     j = drop - 1  # local index of the last dropped bead
     if ci[COAST] == 1:
         fs[LEFT_X], fs[LEFT_V], fs[LEFT_T] = y[2 * j], y[2 * j + 1], t
@@ -194,13 +196,14 @@ def drop_behind(t, y, f, w, st, fs, cf, ci):
         f[i] = f[i + 2 * drop]  # coast: the new left contact pushes exactly as before
     st[LO] = lo + drop
     w -= drop
-    fs[E_GONE] += e_before - window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T])
+    fs[E_GONE] += e_before - window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T],
+                                          st[LO], cc, mi)
     st[SHIFTS] += 1
     return w, ci[COAST] == 0
 
 
 @njit(cache=True, inline="always")
-def add_ahead(y, f, w, st, cf, ci):
+def add_ahead(y, f, w, st, cf, ci, cx, cc, mi):
     """A bead at rest ahead when the last one has moved by more than the threshold (relative to
     v0^(2/(n+1)) and v0): the wall it replaces pushed exactly as it does (F(0, 0) = 0 is checked by
     the caller). Returns w; records the widest window."""
@@ -209,7 +212,8 @@ def add_ahead(y, f, w, st, cf, ci):
         y[2 * w + 1] = 0.0
         f[2 * w] = 0.0
         d = y[2 * w - 2]
-        f[2 * w + 1] = pos_pow(d, cf[EXP]) if d > 0.0 else 0.0
+        hi = st[HI]
+        f[2 * w + 1] = contact_force(d, y[2 * w - 1], hi - 1, cf[EXP], cx, cc) * inverse_mass(hi, cc, mi) if d > 0.0 else 0.0
         st[HI] += 1
         w += 1
     if w > st[WIDEST]:
@@ -234,22 +238,22 @@ def pause_now(st, ci) -> bool:
 
 
 @njit(cache=True, inline="always")
-def shift_window(t, y, f, w, st, fs, cf, ci, exps, coef):
+def shift_window(t, y, f, w, st, fs, cf, ci, exps, coef, cx, cc, mi):
     """drop_behind (f re-evaluated when the chain got a free end), then add_ahead: the new w."""
-    w, refresh = drop_behind(t, y, f, w, st, fs, cf, ci)
+    w, refresh = drop_behind(t, y, f, w, st, fs, cf, ci, cc, mi)
     if refresh:  # free: the first bead lost its left contact
         # has_left as st[HAS_LEFT] == 1 (False here), not a literal False: rhs is compiled once
-        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, 0.0, 0.0, 0.0, st[HI] < ci[BEADS], exps, coef)
+        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, 0.0, 0.0, 0.0, st[HI] < ci[BEADS], exps, coef, cx, cc, mi)
         st[NFEV] += 1
-    return add_ahead(y, f, w, st, cf, ci)
+    return add_ahead(y, f, w, st, cf, ci, cx, cc, mi)
 
 
 @njit(cache=True, inline="always")
-def finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, code):
+def finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code):
     """After track_step: accept the step (y <- yn, f <- fn), then, unless ``code`` stops the run, shift
     the window and pause for a progress line when it is due. Returns the code (PAUSED, or 0: go on)."""
     accept(t, h_new, y, f, yn, fn, 2 * w, fs)
     if code != 0:
         return code
-    shift_window(t, y, f, w, st, fs, cf, ci, exps, coef)
+    shift_window(t, y, f, w, st, fs, cf, ci, exps, coef, cx, cc, mi)
     return PAUSED if pause_now(st, ci) else 0
