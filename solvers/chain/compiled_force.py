@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: fa9ca95239125c63
+# numba cache stamp: f8d761f1c2c16b7d
 from __future__ import annotations
 
 import numpy as np
@@ -191,14 +191,14 @@ def _table_slopes(d, wd, k0, n, cx, cc):
     return sd, sw
 
 
-@overload(contact_force, inline="always")
+@overload(contact_force)
 def _contact_force(d, wd, k0, n, cx, cc):
     if _bare(cc):
         return lambda d, wd, k0, n, cx, cc: _hertz(d, n)
     return lambda d, wd, k0, n, cx, cc: _table_force(d, wd, k0, n, cx, cc)
 
 
-@overload(contact_slopes, inline="always")
+@overload(contact_slopes)
 def _contact_slopes(d, wd, k0, n, cx, cc):
     if _bare(cc):
         return lambda d, wd, k0, n, cx, cc: (n * _hertz(d, n - 1.0), 0.0)

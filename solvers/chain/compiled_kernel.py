@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: fa9ca95239125c63
+# numba cache stamp: f8d761f1c2c16b7d
 from __future__ import annotations
 
 import numpy as np

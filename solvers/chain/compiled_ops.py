@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: fa9ca95239125c63
+# numba cache stamp: f8d761f1c2c16b7d
 from __future__ import annotations
 
 import numpy as np

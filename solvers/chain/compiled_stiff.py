@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: fa9ca95239125c63
+# numba cache stamp: f8d761f1c2c16b7d
 from __future__ import annotations
 
 import numpy as np

@@ -17,7 +17,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci) and return codes: compiled_layout.py.
 """
 
-# numba cache stamp: fa9ca95239125c63
+# numba cache stamp: f8d761f1c2c16b7d
 from __future__ import annotations
 
 import numpy as np
