@@ -134,10 +134,12 @@ def to_text(result: dict, every: int | None = None) -> str:
     default all up to MAX_ROWS rows, else evenly thinned with a note saying so."""
     sc = result["scene"]
     ch = result["choices"]
-    terms = "".join(
-        [f", contact P = {sc['contact']['P']} (eps {sc['contact']['eps']}, contacts >= {sc['contact']['first_perturbed']})"]
-        * ("contact" in sc)
-        + [f", masses m = {sc['masses']['m']} (beads >= {sc['masses']['first_perturbed']})"] * ("masses" in sc))
+    terms = ""
+    if "contact" in sc:
+        c = sc["contact"]
+        terms += f", contact P = {c['P']} (eps {c['eps']}, contacts >= {c['first_perturbed']})"
+    if "masses" in sc:
+        terms += f", masses m = {sc['masses']['m']} (beads >= {sc['masses']['first_perturbed']})"
     lines = [
         f"scene {sc['name']}: R = {sc['perturbation']['R']}, eps = {sc['perturbation']['eps']}{terms}, "
         f"v0 = {sc['excitation']['velocity']}, contacts {result['contacts'][0]}..{result['contacts'][-1]}",
