@@ -209,7 +209,7 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
         contacts=contacts_out, peaks=peaks_out, peak_times=times_out, alive=alive, stop_reason=reason,
         method=run.method, rtol=run.rtol, atol=run.atol, beads=int(run.beads), nfev=int(st[K.NFEV]),
         njev=int(st[K.NJEV]),
-        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.conservative and run.terms[1].ndim == 1 else None,
+        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.conservative and not run.terms[0].shape[0] else None,
         exponent=float(run.exponent), velocity=float(run.velocity), t_end=float(fs[K.T]),
         mode="full" if run.rule is None else "window/compiled", window_beads=int(st[K.WIDEST]),
         window_shifts=int(st[K.SHIFTS]), window_rule=run.rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),

@@ -283,7 +283,7 @@ def simulate(
             raise _locate(force, beads, exc) from None
         return _window_energies(force, res)
     terms = (contact, masses)
-    if how.rule is not None and terms != (None, None):
+    if how.rule is not None and (contact is not None or masses is not None):
         raise ValueError("the scipy engine's moving window does not take a contact law's term or masses: run the "
                          "compiled engine (engine='compiled', a smooth R) or the full chain (window=None, mode full)")
     if how.rule is not None:
@@ -346,7 +346,7 @@ def compiled_kernel_of(chain: Chain, *, integrator: Integrator = Integrator(),
     if chain.launch is None and _scaling.needs_rescaling(chain.velocity):  # simulate's rescaled run at v0 = 1
         chain = replace(chain, velocity=1.0, force=_scaling.Scaling(chain.exponent, chain.velocity).force(chain.force))
     data, how = _planned(chain, integrator, window, False)
-    if how.engine != "compiled" or isinstance(data, JitForce) or (chain.contact, chain.masses) != (None, None):
+    if how.engine != "compiled" or isinstance(data, JitForce) or chain.contact is not None or chain.masses is not None:
         return None
     return how.method, FORM_OF_NDIM[(MonomialTable.zero() if data is None else data).kernel_args[1].ndim]
 

@@ -266,7 +266,7 @@ def make_rhs(
     ``terms``: (contact, masses) of the whole chain (a contact_force.ContactTable or None, the masses or
     None), taken on the full chain only (make_terms_rhs).
     """
-    if terms is not None and terms != (None, None):
+    if terms is not None and any(term is not None for term in terms):
         return make_terms_rhs(beads, exponent, force, *terms)
     n = float(exponent)
     on_site = None if force is None else force.force
@@ -431,7 +431,7 @@ def make_solver(
         kw["first_step"] = min(first_step, t_max - t0)
     if method in EXPLICIT_METHODS:
         return cls(rhs, t0, y0, t_max, **kw)
-    if terms is not None and terms != (None, None):  # a rate-dependent contact couples v_(i-1), v_(i+1): band 3
+    if terms is not None and any(term is not None for term in terms):  # a rate-dependent contact couples v_(i-1), v_(i+1): band 3
         if method == "LSODA":
             return cls(rhs, t0, y0, t_max, lband=3, uband=3, **kw)
         return cls(rhs, t0, y0, t_max, jac_sparsity=band_pattern(beads, 3), **kw)
