@@ -125,6 +125,8 @@ def contact_monomials(P: sympy.Expr) -> tuple[ContactMonomial, ...]:
     state = [x for x in (d, w) if x is not None]
     table: dict[tuple[sympy.Rational, int], sympy.Expr] = {}
     for term in sympy.Add.make_args(sympy.expand(P)):
+        if term == 0:
+            continue
         coef, rest = term.as_independent(*state, as_Add=False) if state else (term, sympy.Integer(1))
         powers = rest.as_powers_dict() if rest != 1 else {}
         if any(base not in state for base in powers) or any(_rational(e) is None for e in powers.values()):
