@@ -55,8 +55,9 @@ from .sources import CONTACT_METHOD
 
 __all__ = [
     "EPS_C", "EPS_S", "ContactDerivation", "ContactError", "ContactMonomial", "ElasticConstants", "TaperLaw",
-    "amplitude_terms", "bead_velocity_factor", "combined_energy_law", "contact_constants", "contact_energy_law",
-    "contact_integral_name", "contact_monomials", "derive_contact", "elastic_constants", "taper_law",
+    "amplitude_terms", "bead_velocity_factor", "check_contact_model", "combined_energy_law", "contact_constants",
+    "contact_energy_law", "contact_integral_name", "contact_monomials", "derive_contact", "elastic_constants",
+    "first_order_profile", "taper_law",
 ]
 
 #: The printed factors of the two perturbations in a combined law.
@@ -192,6 +193,14 @@ def contact_constants(names: Iterable[str], *, n: float = 1.5, profile: str = "e
         check_name=_parse_integral_name, compute=_compute_integral, error=ContactError, budget=budget)
 
 
+def check_contact_model(model: str, monomials: Iterable[ContactMonomial]) -> str:
+    """Return ``model``, or ContactError when a momentum model meets contact terms (they cannot change momentum)."""
+    if model.startswith("momentum") and tuple(monomials):
+        raise ContactError(f"{model} refuses contact terms: contact forces are internal and leave the total momentum "
+                           "unchanged, so a momentum balance cannot see them; use energy-map or energy-law")
+    return model
+
+
 # ------------------------------------------------------------------------------ energy law
 @dataclass(frozen=True)
 class ContactDerivation:
@@ -239,6 +248,10 @@ def derive_contact(monomials: Iterable[ContactMonomial], n: float = 1.5, eps: fl
     n = check_exponent(n)
     if not math.isfinite(float(eps)):
         raise ContactError(f"eps = {eps!r} must be a finite number")
+    indexed = [m for m in monomials if any(x.name == "k" for x in m.coef.free_symbols)]
+    if indexed:
+        raise ContactError(f"P depends on the contact index k ({indexed[0].coef}): the closed-form law needs a uniform "
+                           "P; evaluate it per contact with pulsemap.solvers.models.contact_law.contact_law_peaks")
     mass = sympy.sympify(mass)
     if mass.is_number and not float(mass) > 0:
         raise ContactError(f"mass = {mass} must be > 0")
@@ -263,9 +276,7 @@ def contact_energy_law(P: sympy.Expr, n: float = 1.5, eps: float = 1.0, params: 
 def combined_energy_law(onsite: BalanceDerivation, contact: ContactDerivation, seconds: float = 2.0) -> BalanceLaw:
     """E_1 dB/di = eps_s sum C_p B^p + eps_c sum C'_p B^p: the on-site energy law of derive/balance.py plus the
     contact work (contact k counted at index k, bead i's on-site work at index i as in the on-site law)."""
-    if onsite.model != "energy":
-        raise ContactError(f"a contact perturbation adds to the energy law, not to the {onsite.model} law: "
-                           "momentum balances refuse contact terms (contact forces are internal)")
+    check_contact_model(onsite.model, contact.monomials)
     if not isinstance(onsite.law, BalanceLaw):
         raise ContactError("the combined law needs a uniform R; this R is site-dependent: evaluate the terms "
                            "per contact (pulsemap.solvers.models.contact_law)")

@@ -8,7 +8,7 @@ import pytest
 import sympy
 
 from pulsemap.symbolic.balance_constants import balance_constants
-from pulsemap.symbolic.contact import (ContactError, ContactMonomial, combined_energy_law, contact_constants,
+from pulsemap.symbolic.contact import (ContactError, ContactMonomial, check_contact_model, combined_energy_law, contact_constants,
                                        contact_energy_law, contact_integral_name, contact_monomials, derive_contact,
                                        elastic_constants, first_order_profile, taper_law)
 from pulsemap.symbolic.longwave import A0, I, I0, LAW_RATE
@@ -119,6 +119,14 @@ def test_mass_factor_and_elastic_terms():
     assert sympy.simplify(exps[sympy.Rational(19, 4)] * m ** sympy.Rational(3, 2)).free_symbols == {
         sympy.Symbol("I_0_3", real=True)}
     assert derive_contact(contact_monomials(d**3), 1.5, 0.01).law.kind == "constant"
+
+
+def test_refusals_of_the_law():
+    with pytest.raises(ContactError, match="contact index k"):
+        derive_contact(contact_monomials(sympy.Symbol("k", real=True) * w), 1.5, 0.01)
+    with pytest.raises(ContactError, match="momentum"):
+        check_contact_model("momentum-law", contact_monomials(w))
+    assert check_contact_model("momentum-law", ()) == "momentum-law"
 
 
 def test_combined_with_onsite_energy_law():
