@@ -5,8 +5,11 @@
 per contact k: c_j(k) the monomial coefficients with contact k's parameter values, m(k) = (m_k + m_(k+1))/2 the
 mass of the beads contact k joins, the optional terms (q_r, rate_r) another law's (an on-site energy law through
 ``pulsemap.symbolic.contact.amplitude_terms``). Contact k's values hold on [k - 1/2, k + 1/2); the law is
-integrated with scipy from the seed A = seed peak / S0 at the seed contact. Peaks are A S0 at each contact and a
-bead's velocity peak V_1 A(i - 1/2)^(1+s) m_i^(-1/2) (bead i between contacts i - 1 and i). Contacts past the
+integrated with scipy from the seed peak at the seed contact. A is the energy amplitude (E = E_1 A^(n+1)); the
+elastic terms c d^a (b = 0) do no work but shape the wave: the peak at contact k is
+A S0 (1 + eps sum J_a c(k) A^(a-n)) (J_a the entry-jump constant, ``elastic_constants``), which also converts the
+seed peak to A. A bead's velocity peak is V_1 A(i - 1/2)^(1+s) m_i^(-1/2) (bead i between contacts i - 1 and i;
+the unperturbed wave's shape). Even powers b >= 2 of w do no work and are not modelled further. Contacts past the
 law's end (extinction or blow-up) carry None, never a NaN.
 """
 
@@ -66,6 +69,23 @@ def _contact_masses(masses, first: int, count: int) -> tuple[np.ndarray, np.ndar
     return 0.5 * (m[:-1] + m[1:]), m
 
 
+def _coefficients(mono, given: Mapping[str, object], ks: np.ndarray) -> np.ndarray:
+    """A monomial's coefficient at contacts ``ks`` (parameters by name, ``k`` the contact index)."""
+    import sympy
+
+    syms = sorted(mono.coef.free_symbols, key=lambda x: x.name)
+    args = []
+    for x in syms:
+        if x.name == "k":
+            args.append(ks.astype(float))
+        elif x.name in given:
+            args.append(_per_contact(x.name, given[x.name], len(ks), int(ks[0])))
+        else:
+            raise ContactLawError(f"the contact law needs a value for {x.name}: give {x.name}=VALUE in params")
+    value = np.asarray(sympy.lambdify(syms, mono.coef, "numpy")(*args), dtype=float)
+    return np.broadcast_to(value, ks.shape).copy()
+
+
 def contact_law_peaks(
     monomials: Sequence,
     n: float,
@@ -82,11 +102,10 @@ def contact_law_peaks(
     """The energy law of the contact monomials (``pulsemap.symbolic.contact.ContactMonomial``) from the strain peak
     ``seed_peak`` at ``seed_contact`` to ``last_contact``; ``params`` by name (a number or per-contact values),
     ``masses`` per bead, ``extra_terms`` ((q, rate), ...) more terms dA/dk = rate A^q (rate a number or per contact)."""
-    import sympy
     from scipy.integrate import solve_ivp
 
     from pulsemap.symbolic.balance_constants import balance_constants
-    from pulsemap.symbolic.contact import bead_velocity_factor, contact_constants
+    from pulsemap.symbolic.contact import bead_velocity_factor, contact_constants, elastic_constants
     from pulsemap.symbolic.profile import exact_profile
 
     if not (isinstance(seed_peak, (int, float)) and math.isfinite(seed_peak) and seed_peak > 0):
@@ -107,23 +126,21 @@ def contact_law_peaks(
     terms: list[tuple[float, np.ndarray]] = []
     given = dict(params or {})
     for mono in dissipative:
-        syms = sorted(mono.coef.free_symbols, key=lambda x: x.name)
-        args = []
-        for x in syms:
-            if x.name == "k":
-                args.append(ks.astype(float))
-            elif x.name in given:
-                args.append(_per_contact(x.name, given[x.name], count, seed_contact))
-            else:
-                raise ContactLawError(f"the contact law needs a value for {x.name}: give {x.name}=VALUE in params")
-        coef = np.broadcast_to(np.asarray(sympy.lambdify(syms, mono.coef, "numpy")(*args), dtype=float), (count,))
+        coef = _coefficients(mono, given, ks)
         rate = -eps * coef * mc ** (-mono.b / 2.0) * ints[mono.integral].value / ((prof.n + 1.0) * E1)
         terms.append((float(mono.q(prof.n)), rate))
     for q, rate in extra_terms:
         r = np.asarray(rate, dtype=float)
         terms.append((float(q), np.full(count, float(r)) if r.ndim == 0 else _per_contact("extra term", r, count, seed_contact)))
+    # elastic terms c d^a: the peak of the wave of energy amplitude A is A S0 (1 + eps sum J c A^(a-n))
+    elastic = [(float(m.a) - prof.n, elastic_constants(prof.n, m.a).jump * eps * _coefficients(m, given, ks))
+               for m in monomials if m.b == 0]
+
+    def peak(A: float, j: int) -> float:
+        return A * prof.S0 * (1.0 + sum(c[j] * A**e for e, c in elastic))
 
     A0 = seed_peak / prof.S0
+    A0 *= 1.0 - sum(c[0] * A0**e for e, c in elastic)  # the seed's energy amplitude, to first order
     floor, ceiling = death_fraction * A0, A0 / death_fraction
     amps: list = [A0]
     half: list = []  # A at k + 1/2
@@ -159,7 +176,7 @@ def contact_law_peaks(
         half.append(float(sol.y[0, -1]))
         a = half[-1]
     A = tuple(amps) + (None,) * (count - len(amps))
-    peaks = tuple(x * prof.S0 if x is not None else None for x in A)
+    peaks = tuple(peak(x, j) if x is not None else None for j, x in enumerate(A))
     V1 = bead_velocity_factor(prof.n)
     vel = tuple(V1 * half[j] ** (1.0 + s) * mb[j + 1] ** -0.5 if j < len(half) else None for j in range(count - 1))
     return ContactLawRun(ks, A, peaks, ks[1:], vel, status, ended, "exact", rtol)
