@@ -224,8 +224,17 @@ class ContactDerivation:
 def _values(params: Mapping | None, expr_symbols) -> dict:
     """{symbol: value} for the symbols of ``expr_symbols`` named in ``params`` (names or symbols as keys)."""
     by_name = {str(k): v for k, v in (params or {}).items()}
-    return {x: sympy.nsimplify(by_name[x.name]) if isinstance(by_name[x.name], (int, str)) else sympy.Float(by_name[x.name], 17)
-            for x in expr_symbols if x.name in by_name}
+
+    def number(value) -> sympy.Expr:
+        try:
+            out = sympy.Integer(value) if isinstance(value, int) else sympy.Float(float(value), 17)
+        except (TypeError, ValueError):
+            out = None
+        if out is None or not out.is_finite:
+            raise ContactError(f"a contact parameter's value must be a finite number, got {value!r}")
+        return out
+
+    return {x: number(by_name[x.name]) for x in expr_symbols if x.name in by_name}
 
 
 def _work_groups(monomials, n, mass) -> dict:
@@ -384,22 +393,26 @@ def elastic_constants(n: float = 1.5, a=None) -> ElasticConstants:
     a = exact_exponent(n) + 1 if a is None else sympy.Rational(a)
     if not a > 0:
         raise ContactError(f"an elastic correction c*d^a needs a > 0 (a force at zero overlap otherwise), got a = {a}")
-    stride = NPU // ELASTIC_NPU
+    coarse, fine = _elastic_on_grid(n, a, NPU // ELASTIC_NPU * 2), _elastic_on_grid(n, a, NPU // ELASTIC_NPU)
+    prof = exact_profile(n)
+    # error bound: the change from half the grid (spectral: the finer grid is far better) plus the profile's own
+    accuracy = max(abs(x - y) for x, y in zip(coarse, fine)) + prof.accuracy * max(1.0, abs(fine[1]))
+    h0, energy = fine
+    s = (n - 1.0) / 2.0
+    return ElasticConstants(n, a, h0, energy, h0 - energy / (n + 1.0), -s * h0, accuracy)
+
+
+def _elastic_on_grid(n: float, a: sympy.Rational, stride: int) -> tuple[float, float]:
+    """(h(0)/S0, e_h/E_1) from the solve on every ``stride``-th node of the profile's grid."""
     tau, S, dS, step, prof = _coarse_wave(n, stride)
     _, h, _ = first_order_profile(n, a, stride)
-    centre = int(np.argmin(np.abs(tau)))
+    per_unit = NPU // stride
     Sp = np.maximum(S, 0.0)
     dh = _spectral_derivative(h, step)
-    e_h = step * float(np.sum(_bead_sum(dS, ELASTIC_NPU) * _bead_sum(dh, ELASTIC_NPU))
+    e_h = step * float(np.sum(_bead_sum(dS, per_unit) * _bead_sum(dh, per_unit))
                        + np.sum(Sp**n * h) + np.sum(Sp ** (float(a) + 1)) / (float(a) + 1))
     consts = balance_constants(["K1", "V1"], n=n)
-    E1 = consts["K1"].value + consts["V1"].value
-    h0 = float(h[centre]) / prof.S0
-    energy = e_h / E1
-    s = (n - 1.0) / 2.0
-    # the solve sits on a grid ELASTIC_NPU per unit: its error is checked against the finer grid in the tests
-    accuracy = 1e-9 + prof.accuracy * 10
-    return ElasticConstants(n, a, h0, energy, h0 - energy / (n + 1.0), -s * h0, accuracy)
+    return float(h[int(np.argmin(np.abs(tau)))]) / prof.S0, e_h / (consts["K1"].value + consts["V1"].value)
 
 
 # ------------------------------------------------------------------------------ masses

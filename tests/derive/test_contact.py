@@ -181,6 +181,17 @@ def test_first_order_wave_against_the_perturbed_travelling_wave(n):
         assert rel / (eps * (P / S0) ** (a - n)) == pytest.approx(consts.speed, rel=3 * eps)
 
 
+@pytest.mark.parametrize("n", NS)
+def test_elastic_constants_of_a_stiffness_change(n):
+    """c d^n is the stiffness 1 + eps c: the wave is rescaled exactly, mu = (1 + eps)^(-1/(n-1)) at fixed speed, so
+    h(0)/S0 = -1/(n-1), and energy conservation gives P'/P0 = (1 + eps)^(-1/(n+1)), speed (1 + eps)^(1/2)."""
+    c = elastic_constants(n, a=sympy.Rational(str(n)))
+    assert c.h0 == pytest.approx(-1 / (n - 1), abs=1e-9)
+    assert c.jump == pytest.approx(-1 / (n + 1), abs=1e-9)
+    assert c.speed == pytest.approx(0.5, abs=1e-9)
+    assert c.accuracy < 1e-8
+
+
 def test_elastic_solve_converged_in_grid():
     n, a = 2.0, sympy.Integer(3)
     tau, h, _ = first_order_profile(n, a, stride=16)
