@@ -5,7 +5,8 @@
 per contact k: c_j(k) the monomial coefficients with contact k's parameter values, m(k) = (m_k + m_(k+1))/2 the
 mass of the beads contact k joins, the optional terms (q_r, rate_r) another law's (an on-site energy law through
 ``pulsemap.symbolic.contact.amplitude_terms``). Contact k's values hold on [k - 1/2, k + 1/2); the law is
-integrated with scipy from the seed peak at the seed contact. A is the energy amplitude (E = E_1 A^(n+1)); the
+integrated with scipy from the seed peak at the seed contact. The map form steps the energy instead,
+A_k^(n+1) = A_(k-1)^(n+1) + (n + 1) sum_j rate_j A_(k-1)^(q_j + n), rate_j the mean of contacts k - 1 and k. A is the energy amplitude (E = E_1 A^(n+1)); the
 elastic terms c d^a (b = 0) do no work but shape the wave: the peak at contact k is
 A S0 (1 + eps sum J_a c(k) A^(a-n)) (J_a the entry-jump constant, ``elastic_constants``), which also converts the
 seed peak to A. A bead's velocity peak is V_1 A(i - 1/2)^(1+s) m_i^(-1/2) (bead i between contacts i - 1 and i;
@@ -38,7 +39,8 @@ class ContactLawRun:
     status: str  # "ok", "extinction" or "blow-up"
     ended_at: float | None  # contact index where the law ended
     profile: str  # the wave profile of the constants ("exact")
-    tolerance: float  # relative tolerance of the integration (the constants are good to ~1e-12)
+    tolerance: float  # relative tolerance of the law's integration (0: the map is exact arithmetic)
+    form: str  # "law" (the ODE) or "map" (energy per contact step)
 
 
 def _per_contact(name: str, value, count: int, first: int) -> np.ndarray:
@@ -98,12 +100,12 @@ def contact_law_peaks(
     extra_terms: Sequence[tuple[float, object]] = (),
     rtol: float = 1e-10,
     death_fraction: float = 1e-6,
+    form: str = "law",
 ) -> ContactLawRun:
     """The energy law of the contact monomials (``pulsemap.symbolic.contact.ContactMonomial``) from the strain peak
     ``seed_peak`` at ``seed_contact`` to ``last_contact``; ``params`` by name (a number or per-contact values),
-    ``masses`` per bead, ``extra_terms`` ((q, rate), ...) more terms dA/dk = rate A^q (rate a number or per contact)."""
-    from scipy.integrate import solve_ivp
-
+    ``masses`` per bead, ``extra_terms`` ((q, rate), ...) more terms dA/dk = rate A^q (rate a number or per contact);
+    ``form`` "law" integrates the ODE, "map" steps the energy contact by contact."""
     from pulsemap.symbolic.balance_constants import balance_constants
     from pulsemap.symbolic.contact import bead_velocity_factor, contact_constants, elastic_constants
     from pulsemap.symbolic.profile import exact_profile
@@ -112,6 +114,8 @@ def contact_law_peaks(
         raise ContactLawError(f"the seed peak must be a finite number > 0, got {seed_peak!r}")
     if not (0 <= seed_contact < last_contact):
         raise ContactLawError(f"need 0 <= seed contact < last contact, got {seed_contact} and {last_contact}")
+    if form not in ("law", "map"):
+        raise ContactLawError(f"unknown form {form!r}: choose law or map")
     if not math.isfinite(eps):
         raise ContactLawError(f"eps = {eps!r} must be finite")
     prof = exact_profile(n)
@@ -141,9 +145,24 @@ def contact_law_peaks(
 
     A0 = seed_peak / prof.S0
     A0 *= 1.0 - sum(c[0] * A0**e for e, c in elastic)  # the seed's energy amplitude, to first order
+    if form == "law":
+        amps, half, status, ended = _integrate_law(terms, ks, A0, rtol, death_fraction)
+    else:
+        amps, half, status, ended = _iterate_map(terms, ks, A0, prof.n, death_fraction)
+    A = tuple(amps) + (None,) * (count - len(amps))
+    peaks = tuple(peak(x, j) if x is not None else None for j, x in enumerate(A))
+    V1 = bead_velocity_factor(prof.n)
+    vel = tuple(V1 * half[j] ** (1.0 + s) * mb[j + 1] ** -0.5 if j < len(half) else None for j in range(count - 1))
+    return ContactLawRun(ks, A, peaks, ks[1:], vel, status, ended, "exact", rtol if form == "law" else 0.0, form)
+
+
+def _integrate_law(terms, ks, A0: float, rtol: float, death_fraction: float):
+    """dA/dk = sum rate(k) A^q with contact k's rates on [k - 1/2, k + 1/2): (A at ks, A at ks + 1/2, status, end)."""
+    from scipy.integrate import solve_ivp
+
     floor, ceiling = death_fraction * A0, A0 / death_fraction
     amps: list = [A0]
-    half: list = []  # A at k + 1/2
+    half: list = []
     status, ended = "ok", None
     a = A0
     for j, k in enumerate(ks):
@@ -175,8 +194,21 @@ def contact_law_peaks(
             amps.append(float(sol.y[0, 0]))
         half.append(float(sol.y[0, -1]))
         a = half[-1]
-    A = tuple(amps) + (None,) * (count - len(amps))
-    peaks = tuple(peak(x, j) if x is not None else None for j, x in enumerate(A))
-    V1 = bead_velocity_factor(prof.n)
-    vel = tuple(V1 * half[j] ** (1.0 + s) * mb[j + 1] ** -0.5 if j < len(half) else None for j in range(count - 1))
-    return ContactLawRun(ks, A, peaks, ks[1:], vel, status, ended, "exact", rtol)
+    return amps, half, status, ended
+
+
+def _iterate_map(terms, ks, A0: float, n: float, death_fraction: float):
+    """E_1 A_k^(n+1) = E_1 A_(k-1)^(n+1) + W(A_(k-1)), W the work of half of contact k - 1 and half of contact k:
+    (A at ks, A at ks + 1/2 from the mean energy, status, end)."""
+    amps: list = [A0]
+    half: list = []
+    for j in range(1, len(ks)):
+        a = amps[-1]
+        energy = a ** (n + 1) + (n + 1) * sum(0.5 * (r[j - 1] + r[j]) * a ** (q + n) for q, r in terms)
+        if not energy > (death_fraction * A0) ** (n + 1):
+            return amps, half, "extinction", float(ks[j])
+        if energy > (A0 / death_fraction) ** (n + 1):
+            return amps, half, "blow-up", float(ks[j])
+        amps.append(energy ** (1 / (n + 1)))
+        half.append((0.5 * (a ** (n + 1) + energy)) ** (1 / (n + 1)))
+    return amps, half, "ok", None

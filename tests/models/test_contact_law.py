@@ -87,6 +87,20 @@ def test_uniform_law_matches_the_closed_form():
     assert np.allclose(run.A, [f(k) for k in run.contacts], rtol=1e-9, atol=0)
 
 
+def test_map_form_steps_the_energy():
+    """The map: E_1 (A_k^(n+1) - A_(k-1)^(n+1)) is the work at A_(k-1); it follows the law to O(rate^2) per step."""
+    mono = contact_monomials(sympy.sqrt(d) * w)
+    law = contact_law_peaks(mono, 2.5, 0.02, 1.2, 0, 40)
+    step = contact_law_peaks(mono, 2.5, 0.02, 1.2, 0, 40, form="map")
+    A, B = np.array(step.A), np.array(law.A)
+    assert step.form == "map" and law.form == "law"
+    q = float(mono[0].q(2.5))
+    energy_step = np.diff(A**3.5) / (3.5 * A[:-1] ** (q + 2.5))
+    assert np.allclose(energy_step, energy_step[0], rtol=1e-12)
+    # Euler steps in the energy: a departure of the order of the step's rate (~1 %) of the total change
+    assert 1e-6 < np.max(np.abs(A - B)) < 0.03 * (B[0] - B[-1])
+
+
 def test_parameter_varying_along_the_chain():
     """A per-contact gamma that is zero on the first half: no change there, decay after."""
     mono = contact_monomials(gamma * w)
