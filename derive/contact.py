@@ -49,6 +49,8 @@ from .balance import BalanceDerivation
 from .balance_constants import balance_constants, window
 from .balance_law import EPS, BalanceLaw, law_from_groups
 from .expansion import exact_exponent
+from .expression import symbol
+from .longwave import law_data, law_lines
 from .integrals import Constant, cached_constants, scalar_funcs
 from .profile import NPU, check_exponent, exact_profile, get_profile
 from .sources import CONTACT_METHOD
@@ -56,7 +58,7 @@ from .sources import CONTACT_METHOD
 __all__ = [
     "EPS_C", "EPS_S", "ContactDerivation", "ContactError", "ContactMonomial", "ElasticConstants", "TaperLaw",
     "amplitude_terms", "bead_velocity_factor", "check_contact_model", "combined_energy_law", "contact_constants",
-    "contact_energy_law", "contact_integral_name", "contact_monomials", "derive_contact", "elastic_constants",
+    "contact_energy_law", "contact_to_json", "contact_to_text", "contact_integral_name", "contact_monomials", "derive_contact", "elastic_constants",
     "first_order_profile", "taper_law",
 ]
 
@@ -215,10 +217,17 @@ class ContactDerivation:
     errors: dict
     law: BalanceLaw
     params: dict  # the parameters' values by name
+    elastic: tuple  # ElasticConstants of each term c d^a (b = 0), in the order of the monomials
 
     @property
     def E1(self) -> float:
         return self.constants["K1"] + self.constants["V1"]
+
+    @property
+    def P(self) -> sympy.Expr:
+        """P(d, w) = sum c d^a w^b."""
+        d, w = symbol("d"), symbol("w")
+        return sum((m.coef * d**m.a * w**m.b for m in self.monomials), sympy.Integer(0))
 
 
 def _values(params: Mapping | None, expr_symbols) -> dict:
@@ -272,8 +281,48 @@ def derive_contact(monomials: Iterable[ContactMonomial], n: float = 1.5, eps: fl
     symbols = set().union(*(g.free_symbols for g in groups.values())) if groups else set()
     law = law_from_groups("energy", exact_exponent(n) + 1, groups, values, _values(params, symbols),
                           values["K1"] + values["V1"], float(eps), seconds)
+    elastic = tuple(elastic_constants(n, m.a) for m in monomials if m.b == 0)
     return ContactDerivation(monomials, n, profile, float(eps), mass, values, {k: c.error for k, c in consts.items()}, law,
-                             {str(k): v for k, v in (params or {}).items()})
+                             {str(k): v for k, v in (params or {}).items()}, elastic)
+
+
+def contact_to_json(d: ContactDerivation, A0: float | None = None, i0: float = 0.0) -> dict:
+    """The contact derivation as JSON-serialisable data: constants, terms, the energy law and elastic constants."""
+    c = d.constants
+    return {
+        "model": "contact-energy-law",
+        "P": str(d.P), "eps": d.eps, "mass": str(d.mass), "params": d.params,
+        "n": d.n, "profile": d.profile, "S0": get_profile(d.profile, d.n).S0,
+        "wave": {"E1": d.E1, "K1": c["K1"], "V1": c["V1"]},
+        "constant_errors": d.errors,
+        "terms": [{"monomial": str(symbol("d") ** m.a * symbol("w") ** m.b), "coefficient": str(m.coef), "a": str(m.a),
+                   "b": m.b, "integral": m.integral if m.dissipative else None,
+                   "integral_value": c[m.integral] if m.dissipative else 0.0,
+                   "power_of_A_in_work": str(m.work_power(d.n)), "q": str(m.q(d.n))} for m in d.monomials],
+        "law": law_data(d.law, d.law.Q, ("K", d.E1), A0, i0),
+        "elastic": [{"a": str(e.a), "jump": e.jump, "speed": e.speed, "h0_over_S0": e.h0, "energy_over_E1": e.energy,
+                     "accuracy": e.accuracy} for e in d.elastic],
+    }
+
+
+def contact_to_text(d: ContactDerivation, A0: float | None = None, i0: float = 0.0) -> str:
+    """A readable report of the contact derivation."""
+    c = d.constants
+    lines = [
+        "Model: contact energy law, E_1 dB/dk = -eps sum c m^(-b/2) I_ab A^(a + (1+s)(b+1) - s), B = A^(n+1)",
+        f"P(d, w) = {d.P}    eps = {d.eps:g}    n = {d.n:g}    mass = {d.mass}    profile = {d.profile}",
+        f"E_1 = K_1 + V_1 = {c['K1']:.12g} + {c['V1']:.12g} = {d.E1:.12g}",
+        "",
+        "Terms (monomial: I_ab = int S^a S'^(b+1) dtau, power q of A in dA/dk):",
+    ]
+    for m in d.monomials:
+        value = f"{c[m.integral]:.12g}" if m.dissipative else "0 (even b: no work)"
+        lines.append(f"    {m.coef}*d^({m.a})*w^{m.b}: {m.integral} = {value}, q = {m.q(d.n)}")
+    lines += [""] + law_lines(d.law, "Law:", "E_1", A0, i0, constant_reason="no work on the wave")
+    for e in d.elastic:
+        lines.append(f"Elastic d^({e.a}): entry jump P'/P0 = 1 + ({e.jump:.10g}) eps c A0^({e.a - exact_exponent(d.n)}), "
+                     f"speed at fixed peak x (1 + ({e.speed:.10g}) eps c A^({e.a - exact_exponent(d.n)}))")
+    return "\n".join(lines)
 
 
 def contact_energy_law(P: sympy.Expr, n: float = 1.5, eps: float = 1.0, params: Mapping | None = None, mass=1,

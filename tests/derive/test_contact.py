@@ -8,7 +8,7 @@ import pytest
 import sympy
 
 from pulsemap.symbolic.balance_constants import balance_constants
-from pulsemap.symbolic.contact import (ContactError, ContactMonomial, check_contact_model, combined_energy_law, contact_constants,
+from pulsemap.symbolic.contact import (ContactError, ContactMonomial, check_contact_model, combined_energy_law, contact_constants, contact_to_json, contact_to_text,
                                        contact_energy_law, contact_integral_name, contact_monomials, derive_contact,
                                        elastic_constants, first_order_profile, taper_law)
 from pulsemap.symbolic.longwave import A0, I, I0, LAW_RATE
@@ -119,6 +119,19 @@ def test_mass_factor_and_elastic_terms():
     assert sympy.simplify(exps[sympy.Rational(19, 4)] * m ** sympy.Rational(3, 2)).free_symbols == {
         sympy.Symbol("I_0_3", real=True)}
     assert derive_contact(contact_monomials(d**3), 1.5, 0.01).law.kind == "constant"
+
+
+def test_report_and_json():
+    import json
+
+    D = derive_contact(contact_monomials(gamma * sympy.sqrt(d) * w + d ** sympy.Rational(5, 2)), 1.5, 0.05,
+                       params={"gamma": 2.0})
+    data = json.loads(json.dumps(contact_to_json(D, A0=1.0, i0=15)))
+    assert data["wave"]["E1"] == pytest.approx(D.E1)
+    assert data["law"]["rate_k"] == pytest.approx(-0.05 * 2.0 * D.constants["I_1/2_1"] / D.E1, rel=1e-12)
+    assert data["elastic"][0]["jump"] == D.elastic[0].jump
+    text = contact_to_text(D)
+    assert "I_1/2_1" in text and "entry jump" in text
 
 
 def test_refusals_of_the_law():
