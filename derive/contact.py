@@ -39,6 +39,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from fractions import Fraction
+from functools import lru_cache
 from typing import Iterable, Mapping
 
 import mpmath
@@ -436,6 +437,7 @@ def _bead_sum(f: np.ndarray, per_unit: int) -> np.ndarray:
     return out
 
 
+@lru_cache(maxsize=32)
 def elastic_constants(n: float = 1.5, a=None) -> ElasticConstants:
     """The entry jump and speed constants of the elastic correction c d^a (default a = n + 1)."""
     n = check_exponent(n)
@@ -465,6 +467,7 @@ def _elastic_on_grid(n: float, a: sympy.Rational, stride: int) -> tuple[float, f
 
 
 # ------------------------------------------------------------------------------ masses
+@lru_cache(maxsize=16)
 def bead_velocity_factor(n: float = 1.5) -> float:
     """V_1 = max_tau X'(tau), X' = sum_(k>=0) S'(tau - k): a bead's velocity peak is V_1 A^(1+s) for unit mass."""
     n = check_exponent(n)
