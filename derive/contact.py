@@ -59,7 +59,7 @@ from .sources import CONTACT_METHOD
 __all__ = [
     "EPS_C", "EPS_S", "ContactDerivation", "ContactError", "ContactMonomial", "ElasticConstants", "TaperLaw",
     "amplitude_terms", "bead_velocity_factor", "check_contact_model", "combined_energy_law", "contact_constants",
-    "contact_energy_law", "contact_to_json", "contact_to_text", "contact_integral_name", "contact_monomials", "derive_contact", "elastic_constants",
+    "contact_energy_law", "contact_map_terms", "contact_to_json", "contact_to_text", "half_line_integral_name", "contact_integral_name", "contact_monomials", "derive_contact", "elastic_constants",
     "first_order_profile", "taper_law",
 ]
 
@@ -155,41 +155,58 @@ def contact_integral_name(a, b: int) -> str:
     return f"I_{sympy.Rational(a)}_{int(b)}"
 
 
-def _parse_integral_name(name: str) -> tuple[sympy.Rational, int]:
+#: The map's half-line integrals J<tag>_a_b = int_(-inf)^0 S(tau + shift)^a S'(tau + shift)^b dtau, by shift.
+HALF_LINE_TAGS = {1: "Jp1", 0: "J0", -1: "Jm1", -2: "Jm2"}
+
+
+def half_line_integral_name(shift: int, a, b: int) -> str:
+    """J<tag>_a_b (tag p1, 0, m1, m2 for shift 1, 0, -1, -2): int_(-inf)^0 S(tau + shift)^a S'(tau + shift)^b."""
+    if shift not in HALF_LINE_TAGS:
+        raise ContactError(f"half-line integrals exist for shifts {sorted(HALF_LINE_TAGS)}, got {shift}")
+    return f"{HALF_LINE_TAGS[shift]}_{sympy.Rational(a)}_{int(b)}"
+
+
+def _parse_integral_name(name: str) -> tuple[int | None, sympy.Rational, int]:
+    """(shift, a, b) of J<tag>_a_b, or (None, a, b) of I_a_b."""
     parts = name.split("_")
-    if len(parts) == 3 and parts[0] == "I":
+    shifts = {tag: shift for shift, tag in HALF_LINE_TAGS.items()}
+    if len(parts) == 3 and (parts[0] == "I" or parts[0] in shifts):
         try:
             a, b = sympy.Rational(parts[1]), int(parts[2])
         except (TypeError, ValueError):
             a, b = None, -1
-        if a is not None and a >= 0 and b >= 0:
-            return a, b
-    raise ContactError(f"unknown contact integral {name!r}: use I_a_b (a >= 0 rational, b >= 0 integer)")
+        if a is not None and a >= 0 and b >= 0 and (parts[0] == "I" or a + b > 0):
+            return shifts.get(parts[0]), a, b
+    raise ContactError(f"unknown contact integral {name!r}: use I_a_b or J<p1|0|m1|m2>_a_b (a >= 0 rational, "
+                       "b >= 0 integer, a + b > 0 for J)")
 
 
 def _compute_integral(prof, name: str, dps: int) -> tuple[float, float]:
-    """I_ab = int S^a S'^(b+1) dtau over |tau| <= L (H(S): the integrand is zero where S <= 0)."""
-    a, b = _parse_integral_name(name)
+    """I_ab = int S^a S'^(b+1) dtau over |tau| <= L, or J_ab = int_(-L)^shift S^a S'^b (the integrand is zero where
+    S <= 0: the contact is open)."""
+    shift, a, b = _parse_integral_name(name)
+    power = b + 1 if shift is None else b
     S, dS, _ = scalar_funcs(prof)
     L = window(prof.n)
+    top = L if shift is None else shift
     with mpmath.workdps(dps):
         ea = mpmath.mpf(a.p) / a.q
 
         def f(t):
             s = S(t)
-            return s**ea * dS(t) ** (b + 1) if s > 0 else mpmath.mpf(0)
+            return s**ea * dS(t) ** power if s > 0 else mpmath.mpf(0)
 
-        value, err = mpmath.quad(f, list(range(-L, L + 1)), error=True)
+        value, err = mpmath.quad(f, list(range(-L, top + 1)), error=True)
         value, err = float(value), float(err)
     if not math.isfinite(value):
         raise ContactError(f"contact integral {name} did not converge (non-finite value)")
-    bound = (b + 2 + float(a)) * prof.accuracy * prof.S0 * max(1.0, abs(value)) if prof.kind == "exact" else 0.0
+    bound = (power + 1 + float(a)) * prof.accuracy * prof.S0 * max(1.0, abs(value)) if prof.kind == "exact" else 0.0
     return value, abs(err) + bound
 
 
 def contact_constants(names: Iterable[str], *, n: float = 1.5, profile: str = "exact", dps: int | None = None,
                       use_cache: bool = True, budget=None) -> dict[str, Constant]:
-    """The integrals I_ab called ``names`` (mpmath, cached on disk like the map's constants)."""
+    """The integrals I_ab and J<tag>_ab called ``names`` (mpmath, cached on disk like the map's constants)."""
     return cached_constants(
         "contact", names, n=n, profile=profile, dps=dps, use_cache=use_cache,
         key=lambda prof, dps: f"contact-v{CONTACT_METHOD}|{prof.kind}|n={prof.n!r}|dps={dps}|L={window(prof.n)}",
@@ -352,6 +369,36 @@ def combined_energy_law(onsite: BalanceDerivation, contact: ContactDerivation, s
     params.update(_values(contact.params, contact_syms))
     return law_from_groups("energy", exact_exponent(onsite.n) + 1, groups, {**onsite.constants, **contact.constants},
                            params, contact.E1, 1.0, seconds, eps_symbol=sympy.Integer(1))
+
+
+def contact_map_terms(monomials: Iterable[ContactMonomial], n: float = 1.5, variant: str = "corrected",
+                      profile: str = "exact", dps: int | None = None) -> tuple[sympy.Expr, sympy.Expr | None, dict]:
+    """The contact terms of the map's two equations (Eq. 23 with eps (P_(k-1) - 2 P_k + P_(k+1)) in each contact's
+    strain equation), integrated over (-inf, T_i] with each contact's own amplitude and time scale:
+
+        F1 += eps sum c [A_(i-1)^e Jp1_ab - 2 A_i^e J0_ab + A_(i+1)^e Jm1_ab]
+        F2 += eps sum c [A_i^e J0_ab - 2 A_(i+1)^e Jm1_ab (+ A_(i+1)^e Jm2_ab, variant corrected)]
+
+    e = a + (1+s) b - s, J<shift>_ab = int_(-inf)^0 S(tau + shift)^a S'(tau + shift)^b dtau; variant 1d puts
+    A_(i+1) -> A_i in F1 and has no F2. Returns (F1 term, F2 term or None, {J name: value}); P is polynomial in w
+    by construction of the monomials."""
+    from .amplitude_map import A_I, A_NEXT, A_PREV, EPS as MAP_EPS, check_variant
+
+    variant = check_variant(variant)
+    monomials = tuple(monomials)
+    n = check_exponent(n)
+    s = (exact_exponent(n) - 1) / 2
+    J = lambda shift, m: sympy.Symbol(half_line_integral_name(shift, m.a, m.b), real=True)  # noqa: E731
+    nxt = A_I if variant == "1d" else A_NEXT
+    f1, f2 = sympy.Integer(0), sympy.Integer(0)
+    for m in monomials:
+        e = m.a + (1 + s) * m.b - s
+        f1 += m.coef * (A_PREV**e * J(1, m) - 2 * A_I**e * J(0, m) + nxt**e * J(-1, m))
+        f2 += m.coef * (A_I**e * J(0, m) - 2 * A_NEXT**e * J(-1, m)
+                        + (A_NEXT**e * J(-2, m) if variant == "corrected" else 0))
+    names = sorted({x.name for x in (f1 + f2).free_symbols if x.name[:2] in ("Jp", "J0", "Jm")})
+    values = {k: c.value for k, c in contact_constants(names, n=n, profile=profile, dps=dps).items()}
+    return MAP_EPS * f1, (MAP_EPS * f2 if variant != "1d" else None), values
 
 
 def amplitude_terms(law: BalanceLaw) -> tuple[tuple[float, float], ...]:

@@ -8,9 +8,9 @@ import pytest
 import sympy
 
 from pulsemap.symbolic.balance_constants import balance_constants
-from pulsemap.symbolic.contact import (ContactError, ContactMonomial, check_contact_model, combined_energy_law, contact_constants, contact_to_json, contact_to_text,
+from pulsemap.symbolic.contact import (ContactError, ContactMonomial, check_contact_model, combined_energy_law, contact_constants, contact_map_terms, contact_to_json, contact_to_text,
                                        contact_energy_law, contact_integral_name, contact_monomials, derive_contact,
-                                       elastic_constants, first_order_profile, taper_law)
+                                       elastic_constants, first_order_profile, half_line_integral_name, taper_law)
 from pulsemap.symbolic.longwave import A0, I, I0, LAW_RATE
 from pulsemap.symbolic.profile import exact_profile
 
@@ -155,6 +155,41 @@ def test_combined_with_onsite_energy_law():
                                                 + contact.law.eps * contact.law.coefficients[0], rel=1e-14)
     with pytest.raises(ContactError, match="momentum"):
         combined_energy_law(derive_balance(make_perturbation("-v", eps=0.01), "momentum", n=1.5), contact)
+
+
+# ----------------------------------------------------------------------------- the map's contact term
+@pytest.mark.parametrize("n", [1.5, 2.5])
+def test_half_line_integrals_of_a_derivative(n):
+    """b = 1: S^a S' = (S^(a+1)/(a+1))', so J<shift>_a1 = S(shift)^(a+1)/(a+1) exactly."""
+    prof = exact_profile(n)
+    for a in (0, half, 2):
+        names = {shift: half_line_integral_name(shift, a, 1) for shift in (1, 0, -1, -2)}
+        got = contact_constants(names.values(), n=n)
+        for shift, name in names.items():
+            exact = float(prof.S(float(shift))) ** (float(a) + 1) / (float(a) + 1)
+            assert got[name].value == pytest.approx(exact, rel=1e-10, abs=1e-14), name
+    with pytest.raises(ContactError, match="shifts"):
+        half_line_integral_name(2, 0, 1)
+
+
+def test_map_terms_by_variant():
+    from pulsemap.symbolic.amplitude_map import A_I, A_NEXT, A_PREV
+
+    mono = contact_monomials(gamma * w + d**3)
+    f1, f2, values = contact_map_terms(mono, 1.5, "corrected")
+    assert {x.name for x in f2.free_symbols} >= {"Jm2_0_1", "Jm2_3_0"}
+    f1d, f2d, _ = contact_map_terms(mono, 1.5, "1d")
+    assert f2d is None and A_NEXT not in f1d.free_symbols
+    _, f2p, _ = contact_map_terms(mono, 1.5, "paper")
+    assert not any(x.name.startswith("Jm2") for x in f2p.free_symbols)
+    # equal amplitudes: the dashpot's F1 term is eps gamma A (Jp1 - 2 J0 + Jm1) = 2 eps gamma A (S(1) - S(0))
+    prof = exact_profile(1.5)
+    ints = {sympy.Symbol(k, real=True): v for k, v in values.items()}
+    uniform = f1.xreplace(ints).subs({A_PREV: 1.3, A_I: 1.3, A_NEXT: 1.3, gamma: 1, sympy.Symbol("epsilon", positive=True): 1})
+    # ... and an even integrand's half-line second difference, int_0^1 S^3 - int_(-1)^0 S^3, vanishes
+    assert abs(values["Jp1_3_0"] - 2 * values["J0_3_0"] + values["Jm1_3_0"]) < 1e-12
+    assert values["J0_3_0"] > 0.1
+    assert float(uniform) == pytest.approx(2 * 1.3 * (float(prof.S(1.0)) - prof.S0), rel=1e-10)
 
 
 # ----------------------------------------------------------------------------- elastic correction
