@@ -32,6 +32,9 @@ int S^(a+1)/(a+1), X_h' = sum_(k>=0) h'(tau - k). Hence:
 
 Masses (first order, slowly varying m): E does not depend on m, so A and the strain peak A S0 stay constant and
 a bead's velocity peak is V_1 A^(1+s) m^(-1/2), V_1 = max_tau X'(tau) (:func:`taper_law`).
+
+The map (Eqs. 16-23) gains eps (P_(k-1) - 2 P_k + P_(k+1)) in each contact's strain equation: its half-line
+integrals are :func:`contact_map_terms`.
 """
 
 from __future__ import annotations
@@ -51,16 +54,17 @@ from .balance_constants import balance_constants, window
 from .balance_law import EPS, BalanceLaw, law_from_groups
 from .expansion import exact_exponent
 from .expression import symbol
-from .longwave import law_data, law_lines
 from .integrals import Constant, cached_constants, scalar_funcs
+from .longwave import law_data, law_lines
 from .profile import NPU, check_exponent, exact_profile, get_profile
 from .sources import CONTACT_METHOD
 
 __all__ = [
-    "EPS_C", "EPS_S", "ContactDerivation", "ContactError", "ContactMonomial", "ElasticConstants", "TaperLaw",
-    "amplitude_terms", "bead_velocity_factor", "check_contact_model", "combined_energy_law", "contact_constants",
-    "contact_energy_law", "contact_map_terms", "contact_to_json", "contact_to_text", "half_line_integral_name", "contact_integral_name", "contact_monomials", "derive_contact", "elastic_constants",
-    "first_order_profile", "taper_law",
+    "EPS_C", "EPS_S", "HALF_LINE_TAGS", "ContactDerivation", "ContactError", "ContactMonomial", "ElasticConstants",
+    "TaperLaw", "amplitude_terms", "bead_velocity_factor", "check_contact_model", "combined_energy_law",
+    "contact_constants", "contact_energy_law", "contact_integral_name", "contact_map_terms", "contact_monomials",
+    "contact_to_json", "contact_to_text", "derive_contact", "elastic_constants", "first_order_profile",
+    "half_line_integral_name", "taper_law",
 ]
 
 #: The printed factors of the two perturbations in a combined law.
@@ -145,6 +149,9 @@ def contact_monomials(P: sympy.Expr) -> tuple[ContactMonomial, ...]:
         if a == 0 and b == 0:
             raise ContactError(f"P(0+, 0) = {coef} != 0 (term {term}): a force at zero overlap; every term needs "
                                "a positive power of d or a power of w")
+        if coef.has(sympy.zoo, sympy.oo, -sympy.oo, sympy.nan) or coef.has(sympy.I):
+            raise ContactError(f"P's coefficient {coef} (term {term}) is not a finite real number or parameter "
+                               "expression: check for division by zero")
         table[(a, int(b))] = table.get((a, int(b)), sympy.Integer(0)) + coef
     return tuple(ContactMonomial(sympy.factor_terms(c), a, b) for (a, b), c in sorted(table.items()) if c != 0)
 

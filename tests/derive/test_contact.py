@@ -36,6 +36,9 @@ def test_split_into_monomials():
     ((1 + d) ** half * w, "not a finite sum"),
     (d ** gamma, "not a finite sum"),
     (sympy.Symbol("u") * w, "uses u"),
+    (sympy.zoo * w, "not a finite real"),
+    (sympy.I * w, "not a finite real"),
+    (sympy.sqrt(d * w), "not a finite sum"),
     (sympy.Symbol("i") * d, "uses i"),
     (sympy.Symbol("v") * d, "uses v"),
 ])
