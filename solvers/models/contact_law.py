@@ -84,8 +84,12 @@ def _coefficients(mono, given: Mapping[str, object], ks: np.ndarray) -> np.ndarr
             args.append(_per_contact(x.name, given[x.name], len(ks), int(ks[0])))
         else:
             raise ContactLawError(f"the contact law needs a value for {x.name}: give {x.name}=VALUE in params")
-    value = np.asarray(sympy.lambdify(syms, mono.coef, "numpy")(*args), dtype=float)
-    return np.broadcast_to(value, ks.shape).copy()
+    with np.errstate(all="ignore"):
+        value = np.broadcast_to(np.asarray(sympy.lambdify(syms, mono.coef, "numpy")(*args), dtype=float), ks.shape)
+    if not np.all(np.isfinite(value)):
+        bad = int(ks[np.argmin(np.isfinite(value))])
+        raise ContactLawError(f"the coefficient {mono.coef} is not finite at contact {bad}: check its parameters")
+    return value.copy()
 
 
 def contact_law_peaks(
@@ -110,7 +114,11 @@ def contact_law_peaks(
     from pulsemap.symbolic.contact import bead_velocity_factor, contact_constants, elastic_constants
     from pulsemap.symbolic.profile import exact_profile
 
-    if not (isinstance(seed_peak, (int, float)) and math.isfinite(seed_peak) and seed_peak > 0):
+    try:
+        seed_peak = float(seed_peak)
+    except (TypeError, ValueError):
+        seed_peak = math.nan
+    if not (math.isfinite(seed_peak) and seed_peak > 0):
         raise ContactLawError(f"the seed peak must be a finite number > 0, got {seed_peak!r}")
     if not (0 <= seed_contact < last_contact):
         raise ContactLawError(f"need 0 <= seed contact < last contact, got {seed_contact} and {last_contact}")

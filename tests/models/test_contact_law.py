@@ -169,5 +169,9 @@ def test_bad_input():
         contact_law_peaks(mono, 1.5, 0.01, 1.0, 0, 10, params={"gamma": [1.0] * 5})
     with pytest.raises(ContactLawError, match="masses must be finite and > 0"):
         contact_law_peaks(mono, 1.5, 0.01, 1.0, 0, 10, params={"gamma": 1.0}, masses=[1.0] * 5 + [0.0] * 7)
+    with pytest.raises(ContactLawError, match="not finite at contact 3"):
+        contact_law_peaks(contact_monomials(w / gamma), 1.5, 0.01, 1.0, 0, 10, params={"gamma": [1, 1, 1, 0] + [1] * 7})
+    with pytest.raises(ContactLawError, match="choose law or map"):
+        contact_law_peaks(mono, 1.5, 0.01, 1.0, 0, 10, params={"gamma": 1.0}, form="steps")
     with pytest.raises(ContactLawError, match="seed peak"):
         contact_law_peaks(mono, 1.5, 0.01, float("nan"), 0, 10, params={"gamma": 1.0})
