@@ -18,6 +18,7 @@ from typing import Any, Mapping
 import numpy as np
 import sympy
 
+from pulsemap.symbolic.contact import ContactError, ContactMonomial, contact_monomials
 from pulsemap.symbolic.expression import CONTACT_SYMBOLS, ExpressionError, parse_expression, symbol
 from pulsemap.symbolic.param_forms import param_data
 from pulsemap.symbolic.param_values import (IndexExpression, ParamMap, PerturbationError, RandomDraw, check_name,
@@ -27,15 +28,6 @@ from pulsemap.symbolic.param_values import (IndexExpression, ParamMap, Perturbat
 
 class ContactLawError(PerturbationError):
     """A contact-law term P or the masses were rejected; the message says why and what to write."""
-
-
-@dataclass(frozen=True)
-class ContactMonomial:
-    """coef * d^a * w^b, one term of P (coef: a sympy expression of k and parameters)."""
-
-    coef: sympy.Expr
-    a: sympy.Rational
-    b: int
 
 
 @dataclass(frozen=True)
@@ -58,10 +50,6 @@ class ContactLaw:
     def dissipative(self) -> bool:
         """True when some term has an odd power of w (it does work on the wave); even powers are elastic."""
         return any(m.b % 2 == 1 for m in self.monomials)
-
-    @property
-    def polynomial_in_w(self) -> bool:
-        return True  # every accepted term is c d^a w^b with integer b >= 0
 
     def contact_values(self, name: str, contacts: int) -> np.ndarray:
         """Parameter ``name`` on contacts 1..contacts (per-contact lists: contact k is element k-1)."""
@@ -148,31 +136,6 @@ def _first(first_perturbed: object, what: str) -> int:
     return int(first_perturbed)
 
 
-def split_monomials(P: sympy.Expr, text: str) -> tuple[ContactMonomial, ...]:
-    """P as terms c d^a w^b, refusing (one line, the fix) what the contact law cannot take: a term that is
-    not such a monomial, a negative power of d, a non-integer or negative power of w, a force at d = 0+."""
-    d, w = symbol("d"), symbol("w")
-    terms: dict[tuple[sympy.Rational, int], sympy.Expr] = {}
-    for term in sympy.Add.make_args(sympy.expand(P)):
-        coef, a = term.as_coeff_exponent(d)
-        coef, b = coef.as_coeff_exponent(w)
-        if coef.has(d, w) or not a.is_Rational or not b.is_Rational:
-            raise ContactLawError(f"P = {text}: the term {term} is not of the form c*d^a*w^b; the contact law takes "
-                                  "sums of such terms (a >= 0, b a whole number >= 0), e.g. \"gamma*d^(1/2)*w\"")
-        if a < 0:
-            raise ContactLawError(f"P = {text}: the term {term} has a negative power of d: it is infinite at first "
-                                  "touch (d -> 0+); use a power a >= 0")
-        if not b.is_Integer or b < 0:
-            raise ContactLawError(f"P = {text}: the term {term} has the power {b} of w: the contact law takes whole "
-                                  "powers w^0, w^1, w^2, ... (a dashpot is gamma*w)")
-        if a == 0 and b == 0:
-            raise ContactLawError(f"P = {text}: the term {term} is a force at zero overlap (P(0+, 0) != 0): the chain "
-                                  "starts at rest with its contacts just touching; multiply it by a power of d or w")
-        key = (sympy.Rational(a), int(b))
-        terms[key] = terms.get(key, sympy.Integer(0)) + coef
-    return tuple(ContactMonomial(c, a, b) for (a, b), c in sorted(terms.items()) if c != 0)
-
-
 def make_contact_law(P: str | sympy.Expr, eps: object, params: Mapping[str, object] | None = None,
                      first_perturbed: object = 16) -> ContactLaw:
     """Validate P (text in d, w, k and parameters, or sympy), eps and the parameter values."""
@@ -195,8 +158,11 @@ def make_contact_law(P: str | sympy.Expr, eps: object, params: Mapping[str, obje
         raise ContactLawError(f"[contact] parameter '{unused[0]}' is given but not used in P = {P.strip()}: "
                               "remove it or use it in P")
     text = P.strip()
-    return ContactLaw(expr, text, eps_value, values, _first(first_perturbed, "[contact]"),
-                      split_monomials(expr, text))
+    try:
+        monomials = contact_monomials(expr)
+    except ContactError as exc:
+        raise ContactLawError(f"[contact] P = {text}: {exc}") from None
+    return ContactLaw(expr, text, eps_value, values, _first(first_perturbed, "[contact]"), monomials)
 
 
 def make_masses(m: object, params: Mapping[str, object] | None = None, first_perturbed: object = 16) -> Masses:

@@ -29,6 +29,7 @@ from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import force_failure, make_force
 from pulsemap.solvers.studies.methods import EPS_WARN, MODEL_TITLES, MODELS, Choice, RunError
+from pulsemap.solvers.studies.run import chain_terms
 from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
 from pulsemap.solvers.studies.run.state import RunState
 
@@ -68,25 +69,13 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
                                "(1 + f7/(2 f1))^(-1/P) per contact, docs/errata.rst item 5); --variant corrected "
                                "or 1d keeps A constant")
     assert all(isinstance(c, int) and c0 <= c <= c1 for c in snapshots) and (not snapshots or "dns" in methods), snapshots
-    refused = chain_term_refusals(scene, methods)
+    refused = chain_terms.refusals(scene, methods)
     for m, why in refused.items():
         out[m] = {"model": MODEL_TITLES[m], "refused": why}
         out["warnings"].append(f"{m} refused: {why}")
     methods = tuple(m for m in methods if m not in refused)
     return RunState(scene, methods, choice, out, given_seed=seed_peak, contacts=contacts,
                     snapshots=tuple(sorted(set(snapshots))))
-
-
-def chain_term_refusals(scene: Scene, methods: Sequence[str]) -> dict[str, str]:
-    """The reduced models asked for that are not derived for the scene's contact-law term or masses, with
-    why (the DNS runs every scene)."""
-    kinds = [what for what, given in (("a contact-law term P", scene.contact is not None),
-                                      ("bead masses", scene.masses is not None)) if given]
-    if not kinds:
-        return {}
-    why = (f"the reduced models are derived for an on-site R on a chain of unit masses; this scene has "
-           f"{' and '.join(kinds)}: its DNS runs it")
-    return {m: why for m in methods if m in MODELS}
 
 
 def _integrator(scene: Scene) -> Integrator:
@@ -294,6 +283,9 @@ def run_scene(
         run_dns(state, progress, dns_window)
     if reuse_dns is not None and "dns" not in state.methods:
         reuse_dns_run(state, reuse_dns)
+    if chain_terms.has_chain_terms(scene):  # a contact law's term or masses: the energy law of its own module
+        chain_terms.run_chain_term_models(state, state.seed_peak)
+        state.methods = tuple(m for m in state.methods if m not in chain_terms.CHAIN_TERM_MODELS)
     if any(m != "dns" for m in state.methods):
         from pulsemap.solvers.studies.run.models import run_models  # the models' modules load when a model runs
 
