@@ -25,6 +25,7 @@ def peaks(chain: Chain, **kw) -> np.ndarray:
     return res.peaks
 
 
+@pytest.mark.slow  # compiles the DOP853 kernel for contact terms
 @pytest.mark.parametrize("a", [0.0, 0.5])
 def test_every_engine_gives_the_same_damped_peaks(a):
     """Dashpot (a = 0) and Kuwabara-Kono (a = 1/2) contacts: compiled RK45 and DOP853 on the moving window,
@@ -37,6 +38,7 @@ def test_every_engine_gives_the_same_damped_peaks(a):
         np.testing.assert_allclose(got, ref, rtol=1e-7)
 
 
+@pytest.mark.slow  # compiles the Rodas4 kernel for contact terms
 def test_the_stiff_kernel_takes_damped_contacts_and_masses():
     """Rodas4 (compiled) with a dashpot on a taper agrees with the scipy engine's Radau."""
     masses = np.ones(N)
