@@ -72,6 +72,10 @@ def run_choices(scene, methods: "Sequence[str] | None", profile: str | None, var
             raise RunError(f"snapshot contact {c!r} must be an integer in the scene's contacts {c0}..{c1}")
     if snapshots and "dns" not in names:
         raise RunError("snapshots are taken by the DNS: add dns to the methods")
+    momentum = [m for m in names if m.startswith("momentum")]
+    if momentum and getattr(scene, "contact", None) is not None:
+        raise RunError(f"{momentum[0]} cannot take a contact-law term: contact forces are internal, so the chain's "
+                       "momentum changes only through R; use energy-law or energy-map for P")
     return names, profile, variant, tuple(sorted(set(snapshots)))
 
 

@@ -435,6 +435,10 @@ def _check_chain_terms(scene: Scene) -> None:
     law = scene.contact
     if law is None:
         return
+    momentum = [m for m in scene.methods if m.startswith("momentum")]
+    if momentum:
+        raise _Problem(f"[output] methods has {momentum[0]}, which cannot take a contact-law term: contact forces are "
+                       "internal, so the chain's momentum changes only through R; use energy-law or energy-map for P")
     for pname, value in law.params.items():
         if isinstance(value, tuple) and (scene.beads is None or len(value) != scene.beads - 1):
             need = "set [chain] beads to one more than the list's length" if scene.beads is None else \

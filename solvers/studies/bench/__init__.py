@@ -62,6 +62,9 @@ from pulsemap.solvers.studies.bench.report import plot, to_csv, to_text
 
 def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = lambda s: None) -> dict:
     """Work-precision report of one scene (JSON-able; see the module docstring)."""
+    from pulsemap.solvers.studies.run.chain_terms import require_onsite_only
+
+    require_onsite_only(scene, "bench")
     from pulsemap.solvers.studies.points import dns_span
 
     wall0 = time.perf_counter()

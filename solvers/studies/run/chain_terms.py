@@ -28,6 +28,15 @@ def has_chain_terms(scene) -> bool:
     return scene.contact is not None or scene.masses is not None
 
 
+def require_onsite_only(scene, what: str) -> None:
+    """A one-line RunError where a study builds its chains from R alone and would drop P or the masses."""
+    if has_chain_terms(scene):
+        from pulsemap.solvers.studies.methods import RunError
+
+        raise RunError(f"scene {scene.name} has a contact-law term or masses: {what} builds its chains from the on-site "
+                       "R alone and does not take them yet; `pulsemap run` and `pulsemap table` do")
+
+
 def refusals(scene, methods) -> dict[str, str]:
     """The reduced models asked for that are not derived for the scene's contact-law term or masses, with why
     and what does it."""
@@ -116,4 +125,4 @@ def run_chain_term_models(state, seed_A_peak: float | None) -> None:
             state.warnings.append(f"{m}: the law ended ({run.status}) at contact index {run.ended_at:.6g}")
 
 
-__all__ = ["CHAIN_TERM_MODELS", "has_chain_terms", "refusals", "run_chain_term_models"]
+__all__ = ["CHAIN_TERM_MODELS", "has_chain_terms", "refusals", "require_onsite_only", "run_chain_term_models"]
