@@ -20,8 +20,9 @@ __all__ = ["scene", "scenes"]
 
 #: Every key of a scene file, dotted (the scene file's schema), except the parameters of R.
 KEYS = ("name",) + tuple(f"{table}.{key}" for table in TABLES for key in SCHEMA[table])
-#: Short names: the last part of each dotted key.
-SHORT = {key.rsplit(".", 1)[-1]: key for key in KEYS}
+#: Short names: the last part of each dotted key, the first table's where two share it (eps: perturbation.eps;
+#: contact.eps is given dotted).
+SHORT = dict(reversed([(key.rsplit(".", 1)[-1], key) for key in KEYS]))
 
 
 def scenes() -> list[str]:

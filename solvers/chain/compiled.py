@@ -35,7 +35,8 @@ from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, ForceNotF
 from pulsemap.solvers.chain.force_table import JitForce, MonomialTable
 from pulsemap.solvers.chain.peaks import (PeakTracker, StopRules, contact_rate, first_threshold, primary_pulse_lost,
                                           velocity_scale)
-from pulsemap.solvers.chain.plan import HIGH_ORDER_METHOD, METHOD, explicit_reason
+from pulsemap.solvers.chain import methods
+from pulsemap.solvers.chain.plan import METHOD, explicit_reason
 
 Array = np.ndarray
 ENERGY_EVERY = 4  # blow-up guard and energy drift every this many steps (as solvers/window.py)
@@ -140,14 +141,11 @@ def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, i
 
 
 def jit_kernel(method: str):
-    """The numba dispatcher of a kernel (its module imported, so compiled or loaded, only when a run needs it)."""
-    if method == METHOD:
-        from pulsemap.solvers.chain.compiled_kernel import run as kernel
-    elif method == HIGH_ORDER_METHOD:
-        from pulsemap.solvers.chain.compiled_dop853 import run as kernel
-    else:
-        from pulsemap.solvers.chain.compiled_stiff import run as kernel
-    return kernel
+    """The numba dispatcher of a kernel (its module, chain/methods.py's row, imported, so compiled or loaded, only
+    when a run needs it)."""
+    import importlib
+
+    return importlib.import_module(f"pulsemap.solvers.chain.{methods.by_name(method).kernel}").run
 
 
 def kernel_for(run: _Run, aot: bool = True) -> tuple:

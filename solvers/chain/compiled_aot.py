@@ -34,9 +34,8 @@ from pathlib import Path
 import numpy as np
 
 from pulsemap.symbolic.cache import cache_root
+from pulsemap.solvers.chain import methods
 
-#: The kernel module of each method (its ``run`` is what a module exports).
-KERNELS = {"RK45": "compiled_kernel", "DOP853": "compiled_dop853", "Rodas4": "compiled_stiff"}
 #: The files the kernels are compiled from, whose numba functions call or inline each other (each
 #: carries their common cache stamp: tests/chain/test_numba_stamp.py).
 SOURCES = ("compiled_ops.py", "compiled_track.py", "compiled_kernel.py", "compiled_stiff.py", "compiled_force.py",
@@ -165,7 +164,7 @@ def build(method: str, form: str, name: str, path: Path) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # numba.pycc is deprecated (still in numba 0.68)
         from numba.pycc import CC
-    kernel = importlib.import_module(f"pulsemap.solvers.chain.{KERNELS[method]}").run
+    kernel = importlib.import_module(f"pulsemap.solvers.chain.{methods.kernels()[method]}").run
     work = tempfile.mkdtemp(prefix=f".{name}-", dir=path.parent)
     saved_tmp, log = tempfile.tempdir, io.StringIO()
     out_fd, err_fd = os.dup(1), os.dup(2)
@@ -241,7 +240,7 @@ def kernel(method: str, args: tuple):
     cache not writable): the caller then takes numba's JIT kernel. Builds the module at its first use
     on this machine (build)."""
     form = form_of(args)
-    if form is None or method not in KERNELS:
+    if form is None or method not in methods.kernels():
         return None, 0.0
     return load(method, form)
 
@@ -289,7 +288,7 @@ def to_build(kernels) -> list[tuple[str, str]]:
     """Those of ``kernels`` ((method, form) pairs) that this machine has no module of yet and could build."""
     todo = []
     for method, form in dict.fromkeys(kernels):
-        if method in KERNELS and form in COEF_TYPES and module_name(method, form) not in _loaded:
+        if method in methods.kernels() and form in COEF_TYPES and module_name(method, form) not in _loaded:
             path, failed = _paths(module_name(method, form))
             if not path.exists() and not failed.exists() and writable(path.parent):
                 todo.append((method, form))

@@ -18,16 +18,15 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: f8d761f1c2c16b7d
+# numba cache stamp: bd2c6ddd469c7315
 from __future__ import annotations
 
 import numpy as np
 from pulsemap.solvers.chain.jit import njit
 
-from pulsemap.solvers.chain.compiled_kernel import start
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, rhs
 from pulsemap.solvers.chain.compiled_layout import ATOL, CAPACITY, EXP, H, NFEV, NONFINITE, REJECTED, RTOL, T
-from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_in_step, track_step, window_now
+from pulsemap.solvers.chain.compiled_track import start, finish_step, next_step, peak_in_step, track_step, window_now
 
 METHOD = "DOP853"
 SAFE, FAC1, FAC2 = 0.9, 0.333, 6.0  # dop853.f's defaults (BETA = 0: no PI term)

@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: f8d761f1c2c16b7d
+# numba cache stamp: bd2c6ddd469c7315
 from __future__ import annotations
 
 import numpy as np
@@ -24,54 +24,8 @@ from pulsemap.solvers.chain.jit import njit
 from pulsemap.solvers.chain.compiled_ops import (
     A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65, A71, A73, A74, A75, A76, BETA, C2, C3,
     C4, C5, E1, E3, E4, E5, E6, E7, FAC_MAX, FAC_MIN, NO_NRT, SAFE, dopri_dense, rhs)
-from pulsemap.solvers.chain.compiled_layout import (
-    ATOL, BEADS, CAPACITY, EXP, FACOLD, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, NONFINITE, REJECTED, RTOL,
-    STARTED, T, T_MAXC)
-from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_in_step, track_step, window_now
-
-
-@njit(**NO_NRT)
-def _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work):
-    """Hairer's HINIT for the first step."""
-    w2 = 2 * w
-    rtol, atol = cf[RTOL], cf[ATOL]
-    sk = work[7]
-    y1 = work[8]
-    f1 = work[6]
-    dnf = 0.0
-    dny = 0.0
-    for i in range(w2):
-        s = atol + rtol * abs(y[i])
-        sk[i] = s
-        dnf += (f[i] / s) ** 2
-        dny += (y[i] / s) ** 2
-    dnf, dny = np.sqrt(dnf / w2), np.sqrt(dny / w2)
-    h = 1e-6 if (dnf <= 1e-10 or dny <= 1e-10) else 0.01 * dny / dnf
-    h = min(h, cf[T_MAXC] - t)
-    for i in range(w2):
-        y1[i] = y[i] + h * f[i]
-    rhs(t + h, y1, f1, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, cx, cc, mi)
-    st[NFEV] += 1
-    der2 = 0.0
-    for i in range(w2):
-        der2 += ((f1[i] - f[i]) / sk[i]) ** 2
-    der2 = np.sqrt(der2 / w2) / h
-    der12 = max(abs(der2), np.sqrt(dnf))
-    h1 = max(1e-6, h * 1e-3) if der12 <= 1e-15 else (0.01 / der12) ** 0.2
-    return min(100.0 * h, h1, cf[T_MAXC] - t)
-
-
-@njit(**NO_NRT)
-def start(t, y, f, st, fs, cf, ci, exps, coef, cx, cc, mi, work):
-    """At a run's first call (st[STARTED] == 0): f at t and the first step size (HINIT)."""
-    if st[STARTED] == 0:
-        w = st[HI] - st[LO]
-        wall = st[HI] < ci[BEADS]
-        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, cx, cc, mi)
-        st[NFEV] += 1
-        fs[H] = _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work)
-        fs[FACOLD] = 1e-4
-        st[STARTED] = 1
+from pulsemap.solvers.chain.compiled_layout import ATOL, CAPACITY, EXP, FACOLD, H, NFEV, NONFINITE, REJECTED, RTOL, T
+from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_in_step, start, track_step, window_now
 
 
 @njit(cache=True)

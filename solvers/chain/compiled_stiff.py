@@ -18,17 +18,16 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: f8d761f1c2c16b7d
+# numba cache stamp: bd2c6ddd469c7315
 from __future__ import annotations
 
 import numpy as np
 from pulsemap.solvers.chain.jit import njit
 
 from pulsemap.solvers.chain.compiled_force import contact_slopes, has_terms, inverse_mass, onsite_slopes
-from pulsemap.solvers.chain.compiled_kernel import start
-from pulsemap.solvers.chain.compiled_ops import NO_NRT, hermite_dense, pos_pow, rhs
+from pulsemap.solvers.chain.compiled_ops import NO_NRT, hermite_dense, rhs
 from pulsemap.solvers.chain.compiled_layout import ATOL, CAPACITY, EXP, H, NFEV, NJEV, NONFINITE, REJECTED, RTOL, T
-from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_in_step, track_step, window_now
+from pulsemap.solvers.chain.compiled_track import start, finish_step, next_step, peak_in_step, track_step, window_now
 
 METHOD = "Rodas4"  # plan.STIFF_METHOD
 ORDER = 4  # of the step (the embedded one: 3); the dense output is a cubic Hermite (order 3)

@@ -8,6 +8,8 @@ the blow-up guard, the leading-edge peaks (root of delta' = v_k - v_{k+1} on the
 PeakTracker.record semantics), the stop rules (PeakTracker.check_progress order) and the moving
 window's shifts.
 
+A run's first call starts every kernel alike (``start``: f at t = 0 and Hairer's HINIT first step).
+
 Dense output (Hairer's CONTD5 / CONTD8 form), per component i at t_old + theta h:
     y(theta) = y0 + theta (rc0 + (1 - theta) (rc1 + theta (rc2 + (1 - theta) (rc3 + theta (rc4 + ...)))))
 DOPRI5 fills rc0..rc3 from its stages (order 4); rc3 = 0 is the cubic Hermite interpolant of
@@ -17,7 +19,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci) and return codes: compiled_layout.py.
 """
 
-# numba cache stamp: f8d761f1c2c16b7d
+# numba cache stamp: bd2c6ddd469c7315
 from __future__ import annotations
 
 import numpy as np
@@ -27,7 +29,7 @@ from pulsemap.solvers.chain.compiled_layout import (
     LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM, PAUSED, T, H, LEFT_X, LEFT_V, LEFT_T, E0,
     E_GONE, DRIFT, THRESH, LAST_PEAK_T, STALL, E_LAST, LO, HI, NEXT, STEPS, NFEV, HAS_LEFT, DIED_AT, WIDEST, SHIFTS,
     LOST, EXP, T_MAXC, SCALE_X, SCALE_V, AHEAD_THR, PEAK_FRAC, DEATH_FRAC, OVERTAKE, STALL_FAC, E_LIMIT, DELAY_FAC,
-    BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY, PAUSE_EVERY)
+    BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY, PAUSE_EVERY, RTOL, ATOL, STARTED, FACOLD)
 from pulsemap.solvers.chain.compiled_force import contact_force, inverse_mass
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, pulse_lost, rhs, segment_energy, window_energy
 
@@ -257,3 +259,47 @@ def finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, cx, cc, m
         return code
     shift_window(t, y, f, w, st, fs, cf, ci, exps, coef, cx, cc, mi)
     return PAUSED if pause_now(st, ci) else 0
+
+
+@njit(**NO_NRT)
+def _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work):
+    """Hairer's HINIT for the first step."""
+    w2 = 2 * w
+    rtol, atol = cf[RTOL], cf[ATOL]
+    sk = work[7]
+    y1 = work[8]
+    f1 = work[6]
+    dnf = 0.0
+    dny = 0.0
+    for i in range(w2):
+        s = atol + rtol * abs(y[i])
+        sk[i] = s
+        dnf += (f[i] / s) ** 2
+        dny += (y[i] / s) ** 2
+    dnf, dny = np.sqrt(dnf / w2), np.sqrt(dny / w2)
+    h = 1e-6 if (dnf <= 1e-10 or dny <= 1e-10) else 0.01 * dny / dnf
+    h = min(h, cf[T_MAXC] - t)
+    for i in range(w2):
+        y1[i] = y[i] + h * f[i]
+    rhs(t + h, y1, f1, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, cx, cc, mi)
+    st[NFEV] += 1
+    der2 = 0.0
+    for i in range(w2):
+        der2 += ((f1[i] - f[i]) / sk[i]) ** 2
+    der2 = np.sqrt(der2 / w2) / h
+    der12 = max(abs(der2), np.sqrt(dnf))
+    h1 = max(1e-6, h * 1e-3) if der12 <= 1e-15 else (0.01 / der12) ** 0.2
+    return min(100.0 * h, h1, cf[T_MAXC] - t)
+
+
+@njit(**NO_NRT)
+def start(t, y, f, st, fs, cf, ci, exps, coef, cx, cc, mi, work):
+    """At a run's first call (st[STARTED] == 0): f at t and the first step size (HINIT)."""
+    if st[STARTED] == 0:
+        w = st[HI] - st[LO]
+        wall = st[HI] < ci[BEADS]
+        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, cx, cc, mi)
+        st[NFEV] += 1
+        fs[H] = _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work)
+        fs[FACOLD] = 1e-4
+        st[STARTED] = 1

@@ -22,6 +22,7 @@ import numpy as np
 from pulsemap.solvers.chain import scaling as _scaling
 from pulsemap.solvers.chain import window as _window
 from pulsemap.solvers.chain.contact_force import ContactTable, check_masses
+from pulsemap.solvers.chain.methods import selectable
 from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
     ENERGY_BLOWUP, ENGINES, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
@@ -111,10 +112,11 @@ class Integrator:
         method, rtol, atol = self.method, self.rtol, self.atol
         _real(rtol, "rtol")
         _real(atol, "atol")
+        known = selectable()
         if not isinstance(method, str):
-            raise TypeError(f"method must be a string ({', '.join(METHODS)}), got {type(method).__name__}")
-        if method not in METHODS:
-            raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+            raise TypeError(f"method must be a string ({', '.join(known)}), got {type(method).__name__}")
+        if method not in known:
+            raise ValueError(f"unknown method {method!r}; choose one of {', '.join(known)}")
         if not (math.isfinite(rtol) and rtol > 0.0):
             raise ValueError(f"rtol must be a finite number > 0, got {rtol!r}")
         if rtol < MIN_RTOL:

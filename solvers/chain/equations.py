@@ -19,13 +19,14 @@ if TYPE_CHECKING:  # scipy loads only when a scipy engine runs (~0.3 s per proce
     from scipy import sparse
 
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
+from pulsemap.solvers.chain import methods
 from pulsemap.solvers.chain.front import pulse_speed
 from pulsemap.solvers.chain.peaks import PeakTracker, contact_rate, scan_step, velocity_scale  # noqa: F401
 
 Array = np.ndarray
-EXPLICIT_METHODS = ("DOP853", "RK45", "RK23")
-IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
-METHODS = ("auto",) + EXPLICIT_METHODS + IMPLICIT_METHODS
+EXPLICIT_METHODS = methods.names(scipy=True, implicit=False)  # scipy's explicit OdeSolvers (chain/methods.py)
+IMPLICIT_METHODS = methods.names(scipy=True, implicit=True)
+METHODS = methods.selectable()
 ENGINES = ("compiled", "scipy")
 STIFFNESS_RATIO = 30.0  # 'auto' goes implicit when stiffness_hint > this x contact rate
 ENERGY_BLOWUP = 1e6  # blow-up guard: energy (kinetic + contact) beyond this x initial
@@ -429,7 +430,7 @@ def make_solver(
     kw = dict(rtol=rtol, atol=atol)
     if first_step is not None:
         kw["first_step"] = min(first_step, t_max - t0)
-    if method in EXPLICIT_METHODS:
+    if not methods.by_name(method).implicit:
         return cls(rhs, t0, y0, t_max, **kw)
     if terms is not None and any(term is not None for term in terms):  # a rate-dependent contact couples v_(i-1), v_(i+1): band 3
         if method == "LSODA":

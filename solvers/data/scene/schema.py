@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
+from pulsemap.solvers.chain.methods import selectable
+
 
 METHODS = ("map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "relaxed", "dressed-law",
            "dns")
@@ -17,7 +19,7 @@ DEFAULT_METHODS = ("map", "longwave", "dns")
 """What a scene without [output] methods computes."""
 PROFILES = ("exact", "pade")
 VARIANTS = ("paper", "corrected", "1d")
-DNS_METHODS = ("auto", "DOP853", "RK45", "Radau", "BDF", "LSODA")
+DNS_METHODS = selectable()  # chain/methods.py's table
 DNS_ENGINES = ("compiled", "scipy")  # [dns] engine, optional (absent: "compiled" where it applies)
 DNS_MODES = ("window", "full")  # [dns] mode, optional (absent: "window", the moving window of chain/window.py)
 DNS_DEFAULTS: Mapping[str, Any] = {"rtol": 1e-10, "atol": 1e-12, "method": "auto"}
