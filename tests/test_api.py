@@ -48,13 +48,17 @@ def test_derive_is_a_plain_function_and_the_symbolic_layer_has_its_own_name():
 
 def _law_residual(d, Q=None) -> sympy.Expr:
     """The law A(i) put back into its ODE (B = A^Q; Q = (n+1)/2 for Eq. 30), written in the positive base
-    w of the power law (i solved for w), so that sympy may combine the powers."""
-    (B,) = d.ode.atoms(sympy.core.function.AppliedUndef)
+    w of the power law (i solved for w), so that sympy may combine the powers. The public symbols carry no
+    assumptions: the user's way to add them (real symbols, epsilon and A_0 positive) is a substitution."""
+    real = {s: sympy.Symbol(name, positive=True) if name in ("A_0", "epsilon") else sympy.Symbol(name, real=True)
+            for name, s in d.symbols.items()}
+    ode, law = d.ode.xreplace(real), d.law.xreplace(real)
+    (B,) = ode.atoms(sympy.core.function.AppliedUndef)
     i = B.args[0]
     Q = (sympy.Rational(1.5) + 1) / 2 if Q is None else Q
-    residual = (d.ode.lhs - d.ode.rhs).subs(B, d.law.rhs**Q).doit()
+    residual = (ode.lhs - ode.rhs).subs(B, law.rhs**Q).doit()
     w = sympy.Symbol("w", positive=True)
-    (i_of_w,) = sympy.solve(sympy.Eq(d.law.rhs.base, w), i)
+    (i_of_w,) = sympy.solve(sympy.Eq(law.rhs.base, w), i)
     return sympy.simplify(residual.subs(i, i_of_w))
 
 
@@ -81,10 +85,9 @@ def test_balance_laws_are_sympy_and_solve_their_ode(model, R, Q):
     par = next(s for s in free.law.free_symbols if s.name == name)
     assert _law_residual(free, Q) == 0
     fixed = pulsemap.derive(R, **{name: 0.7}).balance(model)
-    (i,) = (s for s in free.law.free_symbols if s.name == "i")
-    at = {sympy.Symbol("A_0", positive=True): 0.8, sympy.Symbol("i_0", real=True): 15.0, i: 30.0}
-    a = float(free.law.rhs.subs(free.values).subs({par: 0.7, **at}))
-    b = float(fixed.details.law.numeric_law().subs(at))
+    a = float(free.law.rhs.subs(free.values).subs({par: 0.7, "A_0": 0.8, "i_0": 15.0, "i": 30.0}))
+    internal = {s.name: s for s in fixed.details.law.numeric_law().free_symbols}
+    b = float(fixed.details.law.numeric_law().subs({internal["A_0"]: 0.8, internal["i_0"]: 15.0, internal["i"]: 30.0}))
     assert a == pytest.approx(b, rel=1e-13) and abs(a - 0.8) > 1e-3
     latex = free._repr_latex_()
     assert latex.startswith("$$\\begin{align}") and "A(i) = " in latex and f"model: {model}" not in latex
@@ -103,12 +106,11 @@ def test_symbolic_parameter_substituted_is_the_numeric_derivation():
     free, fixed = pulsemap.derive("-mu*v"), pulsemap.derive("-mu*v", mu=2)
     mu = next(s for s in free.law.free_symbols if s.name == "mu")
     assert free.free == ("mu",) and fixed.free == () and fixed.params == {"mu": 2.0}
-    at = {sympy.Symbol("A_0", positive=True): 0.8, sympy.Symbol("i_0", real=True): 15.0}
-    (i,) = (s for s in free.law.free_symbols if s.name == "i")
     numeric = fixed.details.longwave.numeric_law()  # A(i) with the rate lambda_L as a number
+    internal = {s.name: s for s in numeric.free_symbols}
     for index in (15.0, 20.0, 40.0):
-        a = float(free.law.rhs.subs(free.values).subs({mu: 2, i: index, **at}))
-        b = float(numeric.subs({i: index, **at}))
+        a = float(free.law.rhs.subs(free.values).subs({mu: 2, "i": index, "A_0": 0.8, "i_0": 15.0}))
+        b = float(numeric.subs({internal["i"]: index, internal["A_0"]: 0.8, internal["i_0"]: 15.0}))
         assert a == pytest.approx(b, rel=1e-13)
     assert [e.subs(mu, 2) for e in free.map] == [e.subs(mu, 2) for e in fixed.map]
     assert free.stationary == fixed.stationary and free.ode == fixed.ode
