@@ -387,6 +387,10 @@ def quadrature_energy_law(pert: Any, n: float = 1.5) -> dict:
     if not pert.is_uniform:
         raise ValueError(f"R = {pert.text} varies along the chain: the tabulated energy law needs a uniform R; "
                          "pulsemap run --methods energy-law evaluates it bead by bead")
+    if pert.free_parameters:  # W(A) is a table of numbers
+        names = pert.free_parameters
+        raise ValueError(f"the energy law of R = {pert.text} by quadrature needs a value for {', '.join(names)}: give "
+                         + " ".join(f"--param {name}=VALUE" for name in names))
     n = float(check_exponent(n))
     values = {name: float(value) for name, value in pert.params.items()}
     module = force_module(pert.text, pert.used_parameters)

@@ -83,7 +83,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
         if name in params:
             raise UsageError(f"--param {name} given twice")
         params[name] = value
-    pert = check_all_used(make_perturbation(args.expr, args.eps, params))
+    pert = check_all_used(make_perturbation(args.expr, args.eps, params, free=True))  # as pulsemap.derive
     if args.coefficients is not None and args.model != "dressed":
         raise UsageError("--coefficients applies to the dressed law only: add --model dressed or drop it")
     if args.model == "dressed":  # coefficients derived by the expansion about the wave (solvers/studies/dressed.py)

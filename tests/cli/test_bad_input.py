@@ -60,8 +60,8 @@ def check_cli(argv: list[str], needles: list[str], capsys) -> str:
 
 CLI = [
     # expressions: unknown symbols and Python code
-    ("unknown symbol", ["derive", "-mu*w", "--param", "mu=1"], ["unknown symbol 'w'", "--param w=VALUE"]),
-    ("unknown symbol, did you mean", ["derive", "-gama*u", "--param", "gamma=1"], ["'gama'", "did you mean 'gamma'"]),
+    ("unknown symbol, at rest", ["derive", "-mu*w", "--param", "mu=1"], ["R(0,0) = -w", "w: a parameter given no value"]),
+    ("unknown symbol, did you mean", ["derive", "-gama*u", "--param", "gamma=1"], ["'gamma'", "typo of 'gama'"]),
     ("__import__", ["derive", "__import__('os').system('true')"], ["'__import__'", "not Python code"]),
     ("attribute access", ["derive", "u.real"], ["attribute access", "not Python code"]),
     ("lambda", ["derive", "lambda x: x"], ["'lambda'", "not allowed"]),
@@ -70,10 +70,16 @@ CLI = [
     ("very long expression", ["derive", "+".join(["u"] * 1500)], ["too long", "at most 2000"]),
     ("deep nesting", ["derive", "(" * 80 + "u" + ")" * 80], ["nesting too deep"]),
     ("unknown function", ["derive", "-sinn(u)"], ["unknown function 'sinn'", "did you mean 'sin'"]),
-    ("not a polynomial", ["derive", "-sin(u)"], ["not a polynomial", "Taylor-expand"]),
+    ("not a polynomial", ["derive", "-sin(u)"], ["not a polynomial", "Taylor-expand", "--model energy", "energy-law"]),
     ("R(0,0) != 0", ["derive", "1 - v"], ["R(0,0) = 1", "not zero"]),
     # parameters
-    ("parameter used but not given", ["derive", "-mu*v"], ["unknown symbol 'mu'", "--param mu=VALUE"]),
+    ("parameter given no value, dressed law", ["derive", "-mu*u^2", "--model", "dressed"],
+     ["dressed law needs a value for mu", "--param mu=VALUE", "--model energy"]),
+    ("parameter given no value, energy law by quadrature", ["derive", "-mu*v*abs(v)", "--model", "energy"],
+     ["by quadrature needs a value for mu", "--param mu=VALUE"]),
+    ("parameter given no value, singular index", ["derive", "-mu*v", "--A0", "1"], ["without a value for mu", "mu=VALUE"]),
+    ("parameter given no value, fold in another", ["derive", "-(u - k*(1 - u^2)*v) - mu*v", "--fold", "mu"],
+     ["--fold mu", "without a value for k"]),
     ("parameter given but not used", ["derive", "-mu*v", "--param", "mu=1", "--param", "nu=2"],
      ["'nu'", "not used", "remove it"]),
     ("parameter typo of a used one", ["derive", "-mu*v", "--param", "mu=1", "--param", "muu=2"],
@@ -114,7 +120,8 @@ CLI = [
      ["derive stopped after", "max_seconds = 0.001", "resumes"]),
     # non-smooth R: the DNS runs it, derive's map and balances refuse it with the reason
     ("Coulomb friction, map", ["derive", "-mu*sign(v)", "--param", "mu=1"],
-     ["not a polynomial in u, v", "sign(v) has a kink or a jump at 0", "DNS runs it"]),
+     ["not a polynomial in u, v", "sign(v) has a kink or a jump at 0", "DNS runs it", "--model energy",
+      "run SCENE --methods energy-law"]),
     ("Heaviside, momentum balance", ["derive", "mu*Heaviside(u)*u", "--param", "mu=1", "--model", "momentum"],
      ["not a polynomial", "Heaviside(u)", "DNS runs it"]),
     ("dps not an integer", ["profile", "--dps", "many"], ["--dps", "invalid int value"]),
