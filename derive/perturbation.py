@@ -24,7 +24,8 @@ from typing import Any, Mapping
 import numpy as np
 import sympy
 
-from pulsemap.symbolic.expression import SYMBOLS, ExpressionError, check_parameter_name, parse_expression, symbol
+from pulsemap.symbolic.expression import (SYMBOLS, ExpressionError, check_parameter_name, formula, parse_expression,
+                                          symbol)
 from pulsemap.symbolic.expression.tokens import tokenize
 from pulsemap.symbolic.param_values import (DRAW_KEYS, IndexExpression, ParamMap, ParamValue, PerturbationError,
                                           RandomDraw, check_beads, check_name, evaluate_per_bead, exact, finite_float,
@@ -187,7 +188,7 @@ def make_perturbation(
         text = R.strip()
     elif isinstance(R, sympy.Basic):
         expr = _from_sympy(R, values.keys(), free)
-        text = str(expr)
+        text = formula(expr)
     elif isinstance(R, numbers.Real) and not isinstance(R, bool):
         expr = exact(finite_float("R", R))
         text = str(expr)

@@ -243,6 +243,31 @@ def test_scene_overrides_dotted_and_short():
     assert pulsemap.scene(a.as_dict()) == a
 
 
+def _without_R(scene) -> dict:
+    data = scene.as_dict()
+    del data["perturbation"]["R"]
+    return data
+
+
+def test_scene_takes_a_sympy_R_as_derive_does():
+    """scene(R=<sympy expr>) is scene(R=<the same formula as text>), as an override and in a dict; the
+    scene's perturbation is derive's for the same expression (abs and exp(1) written in the parser's words)."""
+    u, v, mu = sympy.symbols("u v mu")
+    for expr, text in ((-mu * v * sympy.Abs(v), "-mu*v*abs(v)"), (-(u - mu * (1 - u**2) * v), "-(u - mu*(1-u^2)*v)"),
+                       (-sympy.E * mu * v**3, "-exp(1)*mu*v^3")):
+        a, b = pulsemap.scene("default", R=expr), pulsemap.scene("default", R=text)
+        assert a.perturbation.R == b.perturbation.R and a.perturbation.params == b.perturbation.params
+        assert _without_R(a) == _without_R(b)
+        data = b.as_dict()
+        data["perturbation"]["R"] = expr
+        assert pulsemap.scene(data) == a
+    d = pulsemap.derive(-(u - mu * (1 - u**2) * v), mu=3)
+    sc = pulsemap.scene("default", R=-(u - mu * (1 - u**2) * v), mu=3)
+    assert sc.perturbation.R == d.details.perturbation.R
+    with pytest.raises(ValueError, match="unknown symbol 'pi'"):
+        pulsemap.scene("default", R=-sympy.pi * mu * v)
+
+
 @pytest.mark.parametrize("overrides, error, words", [
     ({"epss": 1}, ValueError, "'epss' (did you mean 'eps'?)"),
     ({"perturbation.eeps": 1}, ValueError, "did you mean 'perturbation.eps'"),
