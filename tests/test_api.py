@@ -336,6 +336,24 @@ def test_run_renders(result, tmp_path):
     assert "map" in repr(result) and "scene fig8-eps0.3" in str(result)
 
 
+def test_every_result_object_has_a_short_one_line_repr(result):
+    """repr names the object, its R and what it holds, on one line (the long report is str())."""
+    free = pulsemap.derive("-mu*v")
+    vdp = pulsemap.derive("-(u - mu*(1 - u^2)*v)", mu=3)
+    shown = {
+        repr(free): ("Derivation(", "'-mu*v'", "free=['mu']", "map (Eq. 23)", "law (power law)", "Eq. 41"),
+        repr(vdp): ("Derivation(", "mu*(1 - u^2)", "law (quadrature)", "Eq. 41"),
+        repr(pulsemap.derive("-k*u", k=[0.5] * 40)): ("Derivation(", "'-k*u'", "map (Eq. 23)"),
+        repr(free.balance("momentum")): ("Balance(", "'momentum'", "'-mu*v'", "law (power law)"),
+        repr(result): ("Result(", "'fig8-eps0.3'", "'-mu*v'", "'dns', 'map', 'longwave'"),
+        repr(pulsemap.dressed("-mu*v", mu=1)): ("DressedDerivation(", "'-mu*v'", "1 monomial,", "0 cross terms"),
+    }
+    for text, words in shown.items():
+        assert "\n" not in text and len(text) <= 160, text
+        assert all(w in text for w in words), (text, words)
+    assert "Eq. 41" not in repr(pulsemap.derive("-k*u", k=[0.5] * 40))  # a site-dependent R has none
+
+
 def test_run_dataframe(result):
     pd = pytest.importorskip("pandas")
     frame = result.to_dataframe()

@@ -132,6 +132,11 @@ class Derivation:
 
         return to_text(self.details)
 
+    def __repr__(self) -> str:
+        models = ["map (Eq. 23)", f"law ({self.law_kind or 'none'})"] + (["Eq. 41"] if self.stationary is not None else [])
+        free = f", free={list(self.free)}" if self.free else ""
+        return f"Derivation(R={self.expression!r}, eps={self.eps:g}, n={self.n:g}{free}: {', '.join(models)})"
+
     def balance(self, model: str = "energy") -> "Balance":
         """The energy- or momentum-balance model of the same R (beyond the paper; ``pulsemap derive
         --model energy``): its map and law as sympy equations. ValueError when the model is undefined
@@ -210,6 +215,11 @@ class Balance:
         from pulsemap.symbolic.balance import to_text
 
         return to_text(self.details)
+
+    def __repr__(self) -> str:
+        pert = self.details.perturbation
+        return (f"Balance(model={self.model!r}, R={pert.text!r}, eps={pert.eps:g}: map, "
+                f"law ({self.law_kind or 'none'}))")
 
 
 def _public_symbol(s: Any, given: Mapping[str, Any], pert: Any) -> Any:

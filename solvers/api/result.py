@@ -160,7 +160,8 @@ class Result:
 
     def __repr__(self) -> str:
         errs = ", ".join(f"{k} {_fmt(v.get('rms_pct'))}" for k, v in self.errors.items())
-        return (f"Result(scene={self.scene!r}, methods={list(self.methods)}, contacts="
+        R = self.provenance.get("scene", {}).get("perturbation", {}).get("R")
+        return (f"Result(scene={self.scene!r}, R={R!r}, methods={list(self.methods)}, contacts="
                 f"{int(self.contacts[0])}..{int(self.contacts[-1])}" + (f", RMS error % vs DNS: {errs}" if errs else "")
                 + ")")
 

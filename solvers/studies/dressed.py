@@ -70,6 +70,7 @@ from pulsemap.symbolic.scaling import scaling_exponent
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
 from pulsemap.solvers.studies.workers import cores, fork_pool
+from pulsemap.solvers.studies.errors import counted
 from pulsemap.solvers.models.dressed import (DressedCoefficients, ExpansionError, check_monomial, derive_cross,
                                              derive_monomial, first_order_rate, is_derived)
 
@@ -167,6 +168,10 @@ class DressedDerivation:
 
     def __str__(self) -> str:
         return to_text(self)
+
+    def __repr__(self) -> str:
+        return (f"DressedDerivation(R={self.perturbation.text!r}, eps={self.perturbation.eps:g}, n={self.n:g}: "
+                f"dressed law of {counted(len(self.law.terms), 'monomial')}, {counted(len(self.law.cross), 'cross term')})")
 
 
 def coefficients(law: DressedLaw) -> DressedCoefficients:
