@@ -25,9 +25,18 @@ def test_import_is_cheap_and_the_surface_is_small():
             "print(heavy); print(sorted(pulsemap.__all__))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
     assert out[0] == "[]"
-    assert out[1] == str(sorted(["Derivation", "Result", "__version__", "derive", "dressed", "run", "scene", "scenes"]))
+    assert out[1] == str(sorted(["Balance", "Derivation", "Result", "Scene", "__version__", "derive", "dressed", "run",
+                                 "scene", "scenes"]))
     for name in pulsemap.__all__:
         assert getattr(pulsemap, name) is not None
+
+
+def test_the_namespace_holds_the_public_names_and_the_three_installed_folders_only():
+    """dir(pulsemap) shows what a user may use (no ``annotations`` of a __future__ import)."""
+    shown = {name for name in dir(pulsemap) if not name.startswith("_")}
+    assert "annotations" not in shown and shown <= set(pulsemap.__all__) | {"solvers", "symbolic", "generated"}
+    assert pulsemap.Balance is type(pulsemap.derive("-mu*v").balance())
+    assert isinstance(pulsemap.scene("default"), pulsemap.Scene)
 
 
 def test_derive_is_a_plain_function_and_the_symbolic_layer_has_its_own_name():

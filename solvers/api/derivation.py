@@ -294,8 +294,8 @@ def derive(
 ) -> Derivation:
     """Derive the map (Eq. 23), the long-wave law (Eq. 30) and Eq. 41 for eps R(u, v), as sympy equations.
 
-    ``R`` is a formula in the strain u, its rate v, the bead index i and parameters, as text
-    (``"-mu*v"`` for damping, ``"-(u - mu*(1 - u^2)*v)"`` for Van der Pol) or as a sympy expression in
+    ``R`` is a formula in bead i's displacement u = x_i, its velocity v = x_i', the bead index i and
+    parameters, as text (``"-mu*v"`` for damping, ``"-(u - mu*(1 - u^2)*v)"`` for Van der Pol) or as a sympy expression in
     symbols of those names. Give a parameter's value as a keyword (``mu=1``) or in ``params`` (for a
     name that clashes with an argument, e.g. ``n``): a number, a list of per-bead values or an
     expression of i (text). A parameter given no value stays a sympy symbol; what needs a number
