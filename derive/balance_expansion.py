@@ -102,7 +102,7 @@ def balance_expand(R: sympy.Expr, n: float | sympy.Rational = 1.5, model: str = 
         raise BalanceError(
             f"the momentum balance is undefined for R = {R}: its term(s) without v ({shown}) keep acting "
             "on the bead the wave leaves displaced (x -> A*D), so the impulse int R dt diverges; "
-            "use the energy balance or the map"
+            "the energy balance (--model energy, run --methods energy-law) or the map (--model map) takes it"
         )
     if len(terms) > MAX_BALANCE_TERMS:
         raise BalanceError(
