@@ -283,7 +283,7 @@ def _law_equation(law: Any, scale: Any) -> Any:
 
 
 def derive(
-    R: Any,
+    R: str | sympy.Expr,
     *,
     eps: float = 0.1,
     n: float = 1.5,
