@@ -20,7 +20,8 @@ def register(sub) -> None:
     p = sub.add_parser("derive", help="derive the map, long-wave law and stationary equation for R(u, v)")
     p.add_argument("expr", metavar="EXPR", help='on-site perturbation R in u, v, i and parameters, e.g. "-mu*v"')
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="parameter value: a number, a comma list (per bead) or an expression of i")
+                   help="parameter value: a number, a comma list (per bead) or an expression of i; a parameter "
+                        "given none stays a symbol")
     p.add_argument("--eps", type=number, default=0.1, help="small parameter eps (default 0.1)")
     p.add_argument("--n", type=number, default=1.5, help="contact exponent n > 1 (default 1.5)")
     p.add_argument("--profile", default="exact", help="exact (default) or pade")
