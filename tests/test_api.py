@@ -162,6 +162,8 @@ def test_free_parameter_next_to_per_bead_values():
     d = pulsemap.derive("-k*u - mu*v", k=[0.5] * 40)
     assert d.free == ("mu",) and "mu" in {s.name for s in d.ode.free_symbols} and d.roots == ()
     assert d.ode.has(sympy.Function("k")) and "stationary" in d.notes
+    assert "numerical integration cannot be computed without a value for mu" in str(d)
+    assert "without a value" not in str(pulsemap.derive("-k*u - mu*v", k=[0.5] * 40, mu=1))
 
 
 def test_van_der_pol_roots_solve_eq41():
