@@ -120,7 +120,8 @@ NOT_POLYNOMIAL_INSTEAD = ("pulsemap derive R --model energy tabulates its energy
 """What does take a non-polynomial R (solvers/models/energy_quadrature.py), named by every refusal of one."""
 
 
-def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str, error: type[ValueError] = ExpansionError) -> None:
+def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str,
+                             error: type[ValueError] = ExpansionError) -> None:
     """R must be a polynomial in u, v (Eq. 10) that vanishes at rest; else ``error`` saying what
     ``needs`` the polynomial, what takes a non-polynomial R instead and which ``integrals`` a
     constant force makes diverge."""

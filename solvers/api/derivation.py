@@ -133,7 +133,8 @@ class Derivation:
         return to_text(self.details)
 
     def __repr__(self) -> str:
-        models = ["map (Eq. 23)", f"law ({self.law_kind or 'none'})"] + (["Eq. 41"] if self.stationary is not None else [])
+        models = ["map (Eq. 23)", f"law ({self.law_kind or 'none'})"]
+        models += ["Eq. 41"] if self.stationary is not None else []
         free = f", free={list(self.free)}" if self.free else ""
         return f"Derivation(R={self.expression!r}, eps={self.eps:g}, n={self.n:g}{free}: {', '.join(models)})"
 
@@ -295,8 +296,8 @@ def derive(
     """Derive the map (Eq. 23), the long-wave law (Eq. 30) and Eq. 41 for eps R(u, v), as sympy equations.
 
     ``R`` is a formula in bead i's displacement u = x_i, its velocity v = x_i', the bead index i and
-    parameters, as text (``"-mu*v"`` for damping, ``"-(u - mu*(1 - u^2)*v)"`` for Van der Pol) or as a sympy expression in
-    symbols of those names. Give a parameter's value as a keyword (``mu=1``) or in ``params`` (for a
+    parameters, as text (``"-mu*v"`` for damping, ``"-(u - mu*(1 - u^2)*v)"`` for Van der Pol) or as a
+    sympy expression in symbols of those names. Give a parameter's value as a keyword (``mu=1``) or in ``params`` (for a
     name that clashes with an argument, e.g. ``n``): a number, a list of per-bead values or an
     expression of i (text). A parameter given no value stays a sympy symbol; what needs a number
     (the roots of Eq. 41, the rate lambda_L) then raises ValueError naming it.

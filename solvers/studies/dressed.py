@@ -170,8 +170,9 @@ class DressedDerivation:
         return to_text(self)
 
     def __repr__(self) -> str:
+        holds = f"{counted(len(self.law.terms), 'monomial')}, {counted(len(self.law.cross), 'cross term')}"
         return (f"DressedDerivation(R={self.perturbation.text!r}, eps={self.perturbation.eps:g}, n={self.n:g}: "
-                f"dressed law of {counted(len(self.law.terms), 'monomial')}, {counted(len(self.law.cross), 'cross term')})")
+                f"dressed law of {holds})")
 
 
 def coefficients(law: DressedLaw) -> DressedCoefficients:

@@ -4,7 +4,8 @@ Three surfaces, one rule: a one-line message that names the problem (asserted on
 and no traceback.
 
 * ``CLI``: ``pulsemap.solvers.cli.main.main([...])`` in-process; exit status 2, exactly one line
-  ``pulsemap: error: ...`` on stderr (after progress lines a slow machine may print first). A few rows also go through a real subprocess (``SUBPROCESS``).
+  ``pulsemap: error: ...`` on stderr (after progress lines a slow machine may print first). A few rows
+  also go through a real subprocess (``SUBPROCESS``).
 * ``SCENE``: a scene file written to tmp_path; ``load_scene`` raises :class:`SceneError` and
   ``pulsemap run FILE`` exits 2 with one line (both are checked for every row).
 * ``API``: a Python call raises a specific ValueError subclass with a one-line message.
