@@ -28,7 +28,23 @@ from .names import CONTACT_SYMBOLS, FUNCTIONS, MAX_EXPONENT, MAX_LENGTH, NON_FIN
 from .parser import Parser
 from .tokens import PARAM_RE, WHITESPACE, context, printable, show, tokenize
 
-__all__ = ["check_parameter_name", "is_polynomial_in_state", "parse_expression", "singular_terms", "total_degree"]
+__all__ = ["check_parameter_name", "formula", "is_polynomial_in_state", "parse_expression", "singular_terms",
+           "total_degree"]
+
+
+class _FormulaPrinter(sympy.printing.str.StrPrinter):
+    """sympy's text with the parser's function names (abs, exp(1)), so that the text parses back."""
+
+    def _print_Abs(self, expr: sympy.Abs) -> str:
+        return f"abs({self._print(expr.args[0])})"
+
+    def _print_Exp1(self, expr: sympy.Expr) -> str:
+        return "exp(1)"
+
+
+def formula(expr: sympy.Expr) -> str:
+    """A sympy R as the text :func:`parse_expression` reads (a scene file's R, the generated force's source)."""
+    return _FormulaPrinter().doprint(expr)
 
 
 def check_parameter_name(name: object) -> str:

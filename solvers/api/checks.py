@@ -7,7 +7,10 @@ import difflib
 import math
 import numbers
 import re
-from typing import Any, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Mapping, Sequence
+
+if TYPE_CHECKING:  # pragma: no cover
+    from pulsemap.solvers.data.scene import Scene
 
 
 def closest(word: str, known: Iterable[str]) -> str:
@@ -48,8 +51,9 @@ def merged_params(params: Any, keywords: Mapping[str, Any]) -> dict:
     return values
 
 
-def run_choices(scene, methods: "Sequence[str] | None", profile: str | None, variant: str | None,
-                seed_peak: float | None = None, snapshots: Sequence[int] = ()):
+def run_choices(scene: Scene, methods: "Sequence[str] | None", profile: str | None, variant: str | None,
+                seed_peak: float | None = None,
+                snapshots: Sequence[int] = ()) -> tuple[tuple[str, ...], str, str, tuple[int, ...]]:
     """A run's methods, profile and variant (names the scene file accepts, the closest one named
     otherwise; None: the scene's), its seed peak (finite, > 0) and snapshot contacts (integers within
     the scene's contacts, with the DNS among the methods), checked where the input enters

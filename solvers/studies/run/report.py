@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pulsemap.solvers.studies.errors import DEFINITION, LIVE_FRACTION
+from pulsemap.solvers.studies.errors import DEFINITION, LIVE_FRACTION, counted
 from pulsemap.solvers.studies.methods import MODELS, RunError
 
 __all__ = ["LEGEND", "nothing_ran", "plot", "to_csv", "to_text"]
@@ -69,7 +69,7 @@ def _error_line(name: str, err: dict) -> str:
                 f"{100 * LIVE_FRACTION:g} % of the seed's)")
     a, b = err["live_range"]
     return (f"  {name:8s} vs DNS: RMS {_pct(err['rms_pct'])}, max {_pct(err['max_pct'])} over the live range {a}..{b}"
-            + (f" ({err['missing']} contacts without a value count as 100 %)" if err["missing"] else ""))
+            + (f" ({counted(err['missing'], 'contact')} without a value count as 100 %)" if err["missing"] else ""))
 
 
 def _ranking_lines(result: dict) -> list[str]:
