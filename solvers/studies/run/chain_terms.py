@@ -119,7 +119,8 @@ def run_chain_term_models(state, seed_A_peak: float | None) -> None:
         out["peaks"][m] = on_contacts(state.contacts, contacts, run.peaks)
         out[m] = {"model": TITLES[m], "profile": run.profile, "status": run.status, "tolerance": run.tolerance,
                   "ended_at": run.ended_at,
-                  "velocity_peaks": {"beads": [int(b) for b in run.beads], "peaks": list(run.velocity_peaks)}
+                  "velocity_peaks": {"beads": [int(b) for b in run.beads],
+                                     "peaks": [None if v is None else float(v) for v in run.velocity_peaks]}
                   if scene.masses is not None else None}
         if run.status != "ok":
             state.warnings.append(f"{m}: the law ended ({run.status}) at contact index {run.ended_at:.6g}")

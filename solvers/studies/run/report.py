@@ -33,13 +33,20 @@ def to_csv(result: dict) -> str:
     """One row per contact: contact, the peak of each method asked for (and of the best of the ranking;
     empty where it has none), and from the DNS whether its pulse is alive, whether the contact is in
     the live range the errors are taken over (studies/errors.py), the arrival time of the peak, the
-    pulse speed (contacts per unit time) and the energies of the pulse and of the chain."""
+    pulse speed (contacts per unit time) and the energies of the pulse and of the chain; with masses, the
+    velocity peak of bead i (the row's contact i) from the DNS and from each model that gives one."""
     cols = _columns(result)
     dns = result.get("dns") or {}
     extra = [k for k in ("arrival_times", "speed", "pulse_energy", "total_energy") if dns.get(k) is not None]
     names = {"arrival_times": "dns_arrival_time", "speed": "dns_speed", "pulse_energy": "dns_pulse_energy",
              "total_energy": "dns_total_energy"}
-    head = ["contact"] + cols + (["dns_alive", "live_range"] if dns else []) + [names[k] for k in extra]
+    velocity = {}  # column -> {bead: peak}
+    for name in ["dns"] + cols:
+        given = (result.get(name) or {}).get("velocity_peaks") if isinstance(result.get(name), dict) else None
+        if given:
+            velocity[f"{name}_velocity_peak"] = dict(zip(given["beads"], given["peaks"]))
+    head = (["contact"] + cols + (["dns_alive", "live_range"] if dns else []) + [names[k] for k in extra]
+            + list(velocity))
     lines = [",".join(head)]
     alive = dns.get("alive") or [None] * len(result["contacts"])
     span = _live_range(result)
@@ -53,6 +60,9 @@ def to_csv(result: dict) -> str:
             row.append(str(span is not None and span[0] <= c <= span[1] and bool(alive[k])).lower())
         for key in extra:
             v = dns[key][k]
+            row.append("" if v is None else repr(v))
+        for peaks in velocity.values():
+            v = peaks.get(c)
             row.append("" if v is None else repr(v))
         lines.append(",".join(row))
     return "\n".join(lines) + "\n"
