@@ -9,7 +9,9 @@ The public API (everything else in the package is internal and may change):
 * :func:`pulsemap.scene` ``(name_or_path, **overrides)`` -> a validated Scene;
 * :func:`pulsemap.run` ``(scene, methods=...)`` -> a :class:`Result` (peaks as numpy arrays,
   errors against the DNS, timings, provenance);
-* :func:`pulsemap.scenes` ``()`` -> the names of the built-in scenes.
+* :func:`pulsemap.scenes` ``()`` -> the names of the built-in scenes;
+* :class:`pulsemap.PulsemapError`: the base of every error pulsemap raises for what it was asked (a
+  ``ValueError``); any other exception is a bug.
 
 ``import pulsemap`` is cheap: sympy, scipy and numpy load when a function first needs them.
 The symbolic layer (the ``derive/`` folder) installs as :mod:`pulsemap.symbolic`, so that
@@ -19,6 +21,7 @@ The symbolic layer (the ``derive/`` folder) installs as :mod:`pulsemap.symbolic`
 from __future__ import annotations
 
 from pulsemap.solvers.api import Derivation, Result, derive, dressed, run, scene, scenes
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.provenance import __version__
 
-__all__ = ["Derivation", "Result", "__version__", "derive", "dressed", "run", "scene", "scenes"]
+__all__ = ["Derivation", "PulsemapError", "Result", "__version__", "derive", "dressed", "run", "scene", "scenes"]

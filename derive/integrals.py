@@ -22,6 +22,7 @@ from typing import Callable, Iterable
 import mpmath
 import numpy as np
 
+from .errors import PulsemapError
 from . import cache
 from .budget import Budget
 from .profile import Profile, get_profile
@@ -31,7 +32,7 @@ from .sources import INTEGRALS_METHOD as METHOD_VERSION
 F_NAMES = ("f1", "f2", "f3", "f4", "f5", "f6", "f7")
 
 
-class IntegralError(ValueError):
+class IntegralError(PulsemapError):
     """Bad request for an integral (negative exponents, a divergent integral)."""
 
 

@@ -23,6 +23,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .errors import PulsemapError
 from .sources import PROFILE_KINDS
 
 #: Grid points per unit of tau; shifts by one are exact shifts of NPU nodes.
@@ -36,7 +37,7 @@ TAIL = 1e-15
 FLUSH = 1e-250
 
 
-class ProfileError(ValueError):
+class ProfileError(PulsemapError):
     """Bad input to the profile layer (exponent, profile name)."""
 
 

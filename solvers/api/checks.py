@@ -3,17 +3,18 @@ each naming the argument and, for a choice, the closest allowed value."""
 
 from __future__ import annotations
 
-import difflib
 import math
 import numbers
 import re
 from typing import Any, Iterable, Mapping, Sequence
 
+from pulsemap.symbolic.errors import closest as closest_name
+
 
 def closest(word: str, known: Iterable[str]) -> str:
     """' (did you mean 'x'?)' for the closest of ``known``, or ''."""
-    match = difflib.get_close_matches(str(word), list(known), n=1)
-    return f" (did you mean '{match[0]}'?)" if match else ""
+    match = closest_name(str(word), known)
+    return f" (did you mean '{match}'?)" if match else ""
 
 
 def number(value: Any, name: str) -> float:

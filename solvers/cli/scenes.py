@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.cli.common import (UsageError, add_set_option, int_at_least, load_scene_with_sets, number, write_json,
                                          write_text)
 
@@ -163,7 +164,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
             written.add(key)
             try:  # write() builds the text before it touches the disk: a refused model writes no file
                 path = codegen.write(src, args.into)  # default: the user cache, never the installed package
-            except ValueError as exc:
+            except PulsemapError as exc:
                 if not isinstance(src, codegen.BalanceSource):
                     raise
                 print(f"no {src.model}-balance module for {name}: {exc}")  # the model is undefined for this R

@@ -16,11 +16,12 @@ from typing import Mapping
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.models.longwave_eval import integrate_law, law_values
 from pulsemap.solvers.models.map_iteration import check_seed, contact_params
 
 
-class BalanceEvalError(ValueError):
+class BalanceEvalError(PulsemapError):
     """A balance model that cannot be evaluated as asked."""
 
 

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.cache import cache_dir
 from pulsemap.symbolic.sources import (BALANCE_MODELS, PROFILE_KINDS, VARIANTS, BalanceSource, ForceSource, GeneratedCodeError,
                             JitForceSource, MapSource, module_name, source_from_dict, verify_generated)
@@ -19,7 +20,7 @@ from pulsemap.symbolic.sources import (BALANCE_MODELS, PROFILE_KINDS, VARIANTS, 
 PACKAGE_DIR = Path(__file__).resolve().parents[2] / "generated"
 
 
-class GeneratedModuleError(ValueError):
+class GeneratedModuleError(PulsemapError):
     """A generated module that fails its checks where it cannot be regenerated (the package's generated/)."""
 
 

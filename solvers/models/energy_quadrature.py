@@ -24,6 +24,7 @@ from typing import Callable
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.models.amplitude_ode import integrate_amplitude_law
 from pulsemap.solvers.models.balance_eval import BalanceRun
@@ -31,7 +32,7 @@ from pulsemap.solvers.models.balance_eval import BalanceRun
 NODES = 24  # Gauss-Legendre points per unit interval of tau
 
 
-class EnergyQuadratureError(ValueError):
+class EnergyQuadratureError(PulsemapError):
     """The quadrature energy balance cannot be evaluated as asked."""
 
 

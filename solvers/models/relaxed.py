@@ -42,6 +42,7 @@ from typing import Mapping
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.models.onsite import onsite_force
 from pulsemap.solvers.models.relaxed_kernel import J_MAX, J_MIN, ONSET_BEADS, KernelTable
 from pulsemap.solvers.models.relaxed_table import ONSET, SegmentSpec, SegmentTable, leave_one_out
@@ -50,7 +51,7 @@ X_SMALL = 1e-3  # |x| below which a monomial's log-ratios are continued linearly
 TITLE = "relaxed transfer map (canonical segment runs) with the tabulated onset"
 
 
-class RelaxedError(ValueError):
+class RelaxedError(PulsemapError):
     """A perturbation or argument the relaxed map cannot take (and why)."""
 
 

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pulsemap.symbolic import cache
+from pulsemap.symbolic.errors import PulsemapError
 
 NAMESPACE = "relaxed"
 VERSION = 2
@@ -87,7 +88,7 @@ def lattice_amplitude(j: int) -> float:
     return 2.0 ** (j / LATTICE)
 
 
-class SegmentRunError(RuntimeError):
+class SegmentRunError(PulsemapError, RuntimeError):
     """A segment run that ended for a reason other than its pulse (an integrator failure, a spent step
     budget or t_max): the table cannot read it as a pulse that died. A blow-up (the chain's energy
     growing without bound: an unstable R) ends the pulse's record like a death, as before."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.scene import METHODS
 
 __all__ = ["BALANCE_METHODS", "MODELS", "MODEL_TITLES", "Choice", "RunError"]
@@ -35,7 +36,7 @@ MODEL_TITLES = {
 }
 
 
-class RunError(ValueError):
+class RunError(PulsemapError):
     """A scene that cannot be run as asked."""
 
 

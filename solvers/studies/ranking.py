@@ -9,6 +9,7 @@ range, a model that has ended there counting 100 %). The best model joins the ru
 
 from __future__ import annotations
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.scene import VARIANTS, Scene
 from pulsemap.solvers.studies.methods import MODEL_TITLES, MODELS
 
@@ -30,7 +31,6 @@ def rank_models(scene: Scene, result: dict) -> list[dict]:
     """[{model, title, the error (studies/errors.py), peaks, info}] for every model defined for this R,
     least RMS first; [] without a DNS. Models refused for this R (e.g. momentum with a foundation
     term) are left out."""
-    from pulsemap.solvers.studies.methods import RunError
     from pulsemap.solvers.studies.run import run_scene
 
     if (result.get("peaks") or {}).get("dns") is None or not result.get("dns"):
@@ -45,7 +45,7 @@ def rank_models(scene: Scene, result: dict) -> list[dict]:
         try:
             res = run_scene(scene, methods=methods, profile=profile, variant=variant or result["choices"]["variant"],
                             reuse_dns=result)
-        except (RunError, ValueError):  # a model this R cannot have: it is not ranked
+        except PulsemapError:  # a model this R cannot have: it is not ranked
             continue
         for method, err in res["errors"].items():
             if err["rms_pct"] is None:

@@ -10,7 +10,6 @@ value in a file. An unknown key is refused with the closest known key.
 
 from __future__ import annotations
 
-import difflib
 import re
 import sys
 from typing import Any, Iterable, Mapping, Sequence
@@ -20,6 +19,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
+from pulsemap.symbolic.errors import closest
 from pulsemap.solvers.data.scene.parse import override_changes, parse_scene
 from pulsemap.solvers.data.scene.schema import SceneError
 from pulsemap.solvers.data.scene.spec import Scene
@@ -72,8 +72,8 @@ def check_key(key: str, scene: Scene) -> None:
     name = key[len(PARAMS_PREFIX):] if key.startswith(PARAMS_PREFIX) else ""
     if name and "." not in name and name.isidentifier():
         return  # a new parameter (for a new R); parse_scene says if R does not use it
-    close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
-    hint = f" (did you mean '{close[0]}'?)" if close else ""
+    close = closest(key, known)
+    hint = f" (did you mean '{close}'?)" if close else ""
     tables = sorted({k.split(".")[0] for k in known if "." in k})
     raise SceneError(f"unknown scene key {key!r}{hint}; keys are dotted paths of the scene file "
                      f"({', '.join(tables)}), e.g. perturbation.eps, excitation.velocity, perturbation.params.mu")

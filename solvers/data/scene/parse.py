@@ -9,7 +9,6 @@ fields. Every problem is a one-line :class:`SceneError` naming the scene, the pr
 
 from __future__ import annotations
 
-import difflib
 import math
 import numbers
 import os
@@ -18,6 +17,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping
 
+from pulsemap.symbolic.errors import closest
 from pulsemap.symbolic.frozenmap import FrozenMap
 from pulsemap.symbolic.param_forms import param_data
 from pulsemap.solvers.data.scene.schema import (
@@ -90,10 +90,8 @@ def _unknown(key: str, known: tuple[str, ...] | list[str], where: str) -> str:
 
 
 def suggest(word: object, known: tuple[str, ...] | list[str], left: str = "'", right: str = "'") -> str:
-    word = str(word)
-    lower = {k.lower(): k for k in known}
-    close = [lower[word.lower()]] if word.lower() in lower else difflib.get_close_matches(word, list(known), n=1)
-    return f" (did you mean {left}{close[0]}{right}?)" if close else ""
+    close = closest(str(word), known)
+    return f" (did you mean {left}{close}{right}?)" if close else ""
 
 
 def _type_name(value: object) -> str:

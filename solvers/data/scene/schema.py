@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
+from pulsemap.symbolic.errors import PulsemapError
+
 
 METHODS = ("map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "relaxed", "dressed-law",
            "dns")
@@ -56,5 +58,5 @@ FIELD_KEYS = {"beads": "chain.beads", "exponent": "chain.exponent", "first_pertu
               "eps": "perturbation.eps", "params": "perturbation.params", "name": "name"}
 
 
-class SceneError(ValueError):
+class SceneError(PulsemapError):
     """A scene file or scene value was rejected; the one-line message says why and what to do."""

@@ -12,6 +12,7 @@ from types import ModuleType
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.models.balance_eval import BalanceRun, evaluate_balance_law, iterate_balance_map
 from pulsemap.solvers.models.codeload import balance_module, force_module, map_module
@@ -85,7 +86,7 @@ def derive_models(state: "RunState") -> tuple[ModuleType | None, dict[str, Modul
         try:
             balance[quantity] = balance_module(pert.text, pert.used_parameters, scene.exponent, choice.profile,
                                                quantity, site)
-        except ValueError as exc:  # the model is undefined for this R (pulsemap.symbolic.balance.BalanceError)
+        except PulsemapError as exc:  # the model is undefined for this R (pulsemap.symbolic.balance.BalanceError)
             for m in methods:
                 if BALANCE_METHODS.get(m, ("",))[0] == quantity:
                     state.warnings.append(f"{m} refused: {exc}")
@@ -228,7 +229,7 @@ def run_relaxed(state: "RunState", prm: dict) -> None:
         state.warnings.append(f"relaxed: {run.message}")
 
 
-class ModelNumberError(ValueError):
+class ModelNumberError(PulsemapError):
     """A reduced model whose numbers left float64 (overflow, division by zero); names the model and the seed."""
 
 
