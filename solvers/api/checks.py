@@ -1,4 +1,4 @@
-"""Argument checks of the public API: TypeError for a wrong type, ValueError for a wrong value,
+"""Argument checks of the public API: TypeError for a wrong type, PulsemapError (a ValueError) for a wrong value,
 each naming the argument and, for a choice, the closest allowed value."""
 
 from __future__ import annotations
@@ -8,6 +8,7 @@ import numbers
 import re
 from typing import Any, Iterable, Mapping, Sequence
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.errors import closest as closest_name
 
 
@@ -23,7 +24,7 @@ def number(value: Any, name: str) -> float:
         raise TypeError(f"{name} must be a number, got {type(value).__name__} {value!r}")
     out = float(value)
     if not math.isfinite(out):
-        raise ValueError(f"{name} = {out} is not finite: give a finite number")
+        raise PulsemapError(f"{name} = {out} is not finite: give a finite number")
     return out
 
 
@@ -33,7 +34,7 @@ def choice(value: Any, name: str, choices: Iterable[str]) -> str:
     if not isinstance(value, str):
         raise TypeError(f"{name} must be a string, one of {', '.join(choices)}; got {type(value).__name__} {value!r}")
     if value not in choices:
-        raise ValueError(f"unknown {name} {value!r}{closest(value, choices)}: choose one of {', '.join(choices)}")
+        raise PulsemapError(f"unknown {name} {value!r}{closest(value, choices)}: choose one of {', '.join(choices)}")
     return value
 
 
@@ -44,7 +45,7 @@ def merged_params(params: Any, keywords: Mapping[str, Any]) -> dict:
     values = dict(params or {})
     for name, value in keywords.items():
         if name in values:
-            raise ValueError(f"parameter {name!r} given twice (as a keyword and in params)")
+            raise PulsemapError(f"parameter {name!r} given twice (as a keyword and in params)")
         values[name] = value
     return values
 

@@ -166,6 +166,15 @@ class SegmentTable:
     def span(self) -> tuple[int, int]:
         return min(self.runs), max(self.runs)
 
+    def ending(self, log_p: float) -> str:
+        """How the runs entering nearest exp(log_p) end: "blow up" when their peaks grow to the end of
+        their record (the chain's energy runs away, a blow-up stops the run), else "die"."""
+        records = [p for p in self.runs.values() if p]
+        if not records:
+            return "die"
+        peaks = min(records, key=lambda p: abs(math.log(p[0]) - log_p))
+        return "blow up" if len(peaks) > 1 and peaks[-1] > peaks[0] else "die"
+
     def ensure_entry(self, log_p0: float, margin: int = 3) -> None:
         """Runs whose entry peaks bracket exp(log_p0) with ``margin`` lattice points each side."""
         from pulsemap.symbolic.profile import exact_profile

@@ -16,6 +16,7 @@ from types import ModuleType
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.models.map_iteration import contact_params, step
 
 
@@ -117,7 +118,7 @@ class Continuation:
 def continue_roots(module: ModuleType, params: dict, name: str, start: float, stop: float, points: int = 121) -> Continuation:
     """Roots of Eq. 41 as ``name`` runs from start to stop; folds refined by Newton."""
     if name not in module.PARAMS:
-        raise ValueError(f"'{name}' is not a parameter of this map (parameters: {', '.join(module.PARAMS)})")
+        raise PulsemapError(f"'{name}' is not a parameter of this map (parameters: {', '.join(module.PARAMS)})")
     values = np.linspace(start, stop, points)
     branches = []
     for p in values:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.scene import VARIANTS, Scene
-from pulsemap.solvers.studies.methods import MODEL_TITLES, MODELS
+from pulsemap.solvers.studies.methods import MODELS
 
 #: The map in every variant, then the laws and balances (the table's exact-profile columns).
 OTHER_MODELS = tuple(m for m in MODELS if m != "map")
@@ -23,8 +23,10 @@ def label(method: str, variant: str | None = None) -> str:
 
 def title(model: str) -> str:
     """What a ranked model is, in one line ('map/1d': the map's title with its variant)."""
+    from pulsemap.solvers.studies.run.models import RUNNERS  # the model table (loads the models' modules)
+
     method, _, variant = model.partition("/")
-    return MODEL_TITLES[method] + (f", variant {variant}" if variant else "")
+    return RUNNERS[method].title + (f", variant {variant}" if variant else "")
 
 
 def rank_models(scene: Scene, result: dict) -> list[dict]:
