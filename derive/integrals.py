@@ -315,8 +315,3 @@ def g2(p: int, r: int, **kw) -> Constant:
     _check_exponents((p, r), "g^(2)")
     name = g2_name(p, r)
     return constants([name], **kw)[name]
-
-
-def f_constants(**kw) -> dict[str, Constant]:
-    """f1..f7 of Eqs. 17 and 22 (f5 = f2, f6 = f3 by definition; f7 is the dropped term)."""
-    return constants(F_NAMES, **kw)

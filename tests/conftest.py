@@ -42,6 +42,16 @@ def scene_toml(name: str = "scene", *, beads: int | None = None, eps: float = 0.
     return "\n".join(lines) + "\n"
 
 
+def regenerated(path: Path, directory: Path) -> str:
+    """The text the project's generator (codegen.write, as ``pulsemap generate``) writes into ``directory``
+    for the source the generated file ``path`` names."""
+    from pulsemap.symbolic import codegen
+    from pulsemap.symbolic.sources import source_from_dict, verify_generated
+
+    source = source_from_dict(verify_generated(Path(path).read_text(encoding="utf-8")))
+    return codegen.write(source, directory).read_text(encoding="utf-8")
+
+
 def write_scene(directory: Path, text: str, name: str = "scene.toml") -> Path:
     """Write a scene file's ``text`` as ``directory/name``; its path."""
     path = Path(directory) / name

@@ -48,7 +48,6 @@ from pulsemap.solvers.models.relaxed_kernel import J_MAX, J_MIN, ONSET_BEADS, Ke
 from pulsemap.solvers.models.relaxed_table import ONSET, SegmentSpec, SegmentTable, leave_one_out
 
 X_SMALL = 1e-3  # |x| below which a monomial's log-ratios are continued linearly in x
-TITLE = "relaxed transfer map (canonical segment runs) with the tabulated onset"
 
 
 class RelaxedError(PulsemapError):

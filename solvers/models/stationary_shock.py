@@ -20,15 +20,6 @@ from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.models.map_iteration import contact_params, step
 
 
-@dataclass(frozen=True)
-class StationaryRoot:
-    A: float
-    peak: float
-    fixed_point: float | None  # fixed point of the map variant near the root (None if none)
-    multiplier: float | None
-    stable: bool | None
-
-
 def _args(module: ModuleType, params: dict) -> tuple:
     """The generated functions' parameter arguments for a uniform chain (scalar parameters)."""
     return contact_params(module, params, 10**6)
@@ -95,11 +86,6 @@ def stability(module: ModuleType, root: float, eps: float, params: dict) -> tupl
     if not math.isfinite(lam):
         return fp, None, None
     return fp, float(lam), bool(abs(lam) < 1)
-
-
-def analyse(module: ModuleType, eps: float, params: dict) -> list[StationaryRoot]:
-    """Roots of Eq. 41 with the map's fixed point and multiplier near each."""
-    return [StationaryRoot(r, r * module.S0, *stability(module, r, eps, params)) for r in roots(module, params)]
 
 
 def is_fold(count_before: int, count_after: int) -> bool:

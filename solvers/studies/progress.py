@@ -87,9 +87,3 @@ class Progress:
         self.done += 1
         took = f" in {duration(seconds)}" if seconds is not None else ""
         self.say(f"{self.done}/{self.total} {label}: {status}{took} ({self.eta()})")
-
-
-def log_lines(enabled: bool, what: str) -> Callable[[str], None]:
-    """A plain ``log(text)`` printing '[what] text' to stderr, or nothing when disabled."""
-    reporter = Progress(what, 0, enabled)
-    return reporter.say

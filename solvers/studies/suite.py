@@ -27,7 +27,7 @@ from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.progress import Progress
 
 STIFF_SCENE, YARDSTICK = "damp-100", "nonstiff"
-STIFF_RATIO_TARGET = 5.0
+STIFF_RATIO_TARGET = 5.0  # stiff damping's DNS may cost this x the non-stiff yardstick's: stiffness must not price it out
 RATIO_REPEATS = 3  # the stiff ratio's two DNS times: best of at least this many (a process's first call of
 #                    a kernel loads it from numba's cache, which can take longer than the run itself)
 SILENT_ERROR = 0.5  # a model this far off the DNS (max relative error) must have been warned about

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import re
 import sys
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -145,8 +145,3 @@ def with_sets(scene: Scene, assignments: Iterable[str | tuple[str, Any]]) -> Sce
 
 def _text(value: float | int) -> str:
     return str(value) if isinstance(value, int) else repr(value)
-
-
-def describe_sets(assignments: Sequence[str]) -> str:
-    """'perturbation.eps=0.2, excitation.velocity=2' for reports."""
-    return ", ".join(f"{k}={v}" for k, v in (parse_assignment(a) for a in assignments))

@@ -414,12 +414,9 @@ def _check_consistency(scene: Scene) -> None:
         raise _Problem("[perturbation] " + _scene_hint(str(exc))) from None
 
 
-def _build_perturbation(table: Mapping[str, Any], name: str, drop_unused: bool = False) -> "Perturbation":
-    """make_perturbation(R, eps, params), its errors as one-line problems.
-
-    Every parameter given must occur in R (check_all_used); ``drop_unused`` instead drops the
-    ones R does not use (with_overrides(R=...) keeping the old parameters).
-    """
+def _build_perturbation(table: Mapping[str, Any], name: str) -> "Perturbation":
+    """make_perturbation(R, eps, params), its errors as one-line problems; every parameter given must
+    occur in R (check_all_used)."""
     from pulsemap.symbolic.expression import ExpressionError
     from pulsemap.symbolic.perturbation import PerturbationError, check_all_used, make_perturbation
 
@@ -431,11 +428,7 @@ def _build_perturbation(table: Mapping[str, Any], name: str, drop_unused: bool =
     if not isinstance(params, Mapping):
         raise _Problem(f"[perturbation] params must be a table of NAME = VALUE, got {_type_name(params)}")
     try:
-        pert = make_perturbation(R, eps, dict(params))
-        if drop_unused and pert.unused_parameters:
-            used = {key: value for key, value in params.items() if key not in pert.unused_parameters}
-            pert = make_perturbation(R, eps, used)
-        return check_all_used(pert)
+        return check_all_used(make_perturbation(R, eps, dict(params)))
     except (PerturbationError, ExpressionError) as exc:
         raise _Problem("[perturbation] " + _scene_hint(str(exc))) from None
 
