@@ -123,3 +123,20 @@ def test_relaxed_tells_segment_runs_that_blow_up_from_runs_that_die(tmp_path):
     assert "segment runs there blow up" in relaxed["message"] and "die" not in relaxed["message"]
     damped = run_scene(load_scene("fig8-eps1"), methods=["relaxed"])["relaxed"]
     assert damped["status"] in ("ok", "died") and "blow" not in damped["message"]
+
+
+def test_a_model_whose_derivation_fails_is_reported_and_the_others_run(monkeypatch):
+    from pulsemap.solvers.studies.run import models
+    from pulsemap.symbolic.budget import DeriveTimeout
+
+    def too_slow(*args, **kwargs):
+        raise DeriveTimeout("the map's derivation did not finish within --max-seconds 1: give more time")
+
+    monkeypatch.setattr(models, "map_module", too_slow)
+    state = _state(["map", "longwave", "energy-law"])
+    run_models(state)
+    for name in ("map", "longwave"):
+        assert state.out[name] == {"model": RUNNERS[name].title, "failed": "the map's derivation did not finish "
+                                   "within --max-seconds 1: give more time"}
+        assert state.out["peaks"][name] is None
+    assert "failed" not in state.out["energy-law"] and any(p is not None for p in state.out["peaks"]["energy-law"])

@@ -71,9 +71,14 @@ def derive_models(state: "RunState") -> tuple[ModuleType | None, dict[str, Modul
                     refuse(state, m, why)
         else:
             t0 = time.perf_counter()
-            mod = map_module(pert.text, pert.used_parameters, scene.exponent, choice.profile, choice.variant, site)
+            try:
+                mod = map_module(pert.text, pert.used_parameters, scene.exponent, choice.profile, choice.variant, site)
+            except PulsemapError as exc:  # e.g. a derivation past its time bound: these two fail, the rest run
+                for m in ("map", "longwave"):
+                    if m in methods:
+                        fail(state, m, exc)
             state.timings["derive_map"] = time.perf_counter() - t0
-            wide = _width_warning(mod)
+            wide = None if mod is None else _width_warning(mod)
             if wide is not None:
                 state.warnings.append(wide)
     for quantity in dict.fromkeys(BALANCE_METHODS[m][0] for m in methods if m in BALANCE_METHODS):
@@ -285,18 +290,23 @@ def failure(state: "RunState", name: str, exc: Exception) -> str:
             f"contact {seed.get('contact')} ({seed.get('from', '?')}): a number left float64's range; {fix}")
 
 
+def fail(state: "RunState", name: str, exc: Exception) -> None:
+    """Model ``name`` failed with ``exc``: its entry says why in one line, it has no peaks."""
+    why = failure(state, name, exc)
+    state.out["peaks"][name] = None
+    state.warnings.append(f"{name} failed: {why}")
+    state.out[name] = {"model": title(name), "failed": why}
+
+
 def run_model(state: "RunState", name: str, inputs: ModelInputs) -> None:
     """Run model ``name`` on its own: its entry of the result, or, when it fails (a PulsemapError, or
     numbers that leave float64), an entry saying why in one line; the other models are not touched."""
-    runner = RUNNERS[name]
     try:
-        info = runner.run(state, name, inputs)
+        info = RUNNERS[name].run(state, name, inputs)
     except (PulsemapError, ArithmeticError) as exc:
-        why = failure(state, name, exc)
-        state.out["peaks"][name] = None
-        state.warnings.append(f"{name} failed: {why}")
-        info = {"failed": why}
-    state.out[name] = {"model": runner.title, **info}
+        fail(state, name, exc)
+        return
+    state.out[name] = {"model": title(name), **info}
 
 
 def run_models(state: "RunState") -> None:
@@ -304,7 +314,11 @@ def run_models(state: "RunState") -> None:
     mod, balance = derive_models(state)
     dressed = None
     if "dressed-law" in state.methods:
-        dressed, why = prepare_dressed(state)
+        try:
+            dressed, why = prepare_dressed(state)
+        except PulsemapError as exc:  # forming the law failed (a calibration that cannot be done)
+            dressed, why = None, None
+            fail(state, "dressed-law", exc)
         if why is not None:
             refuse(state, "dressed-law", why)
     todo = [m for m in state.methods if m in RUNNERS and m not in state.out]  # not refused while deriving
