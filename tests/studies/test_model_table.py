@@ -140,3 +140,19 @@ def test_a_model_whose_derivation_fails_is_reported_and_the_others_run(monkeypat
                                    "within --max-seconds 1: give more time"}
         assert state.out["peaks"][name] is None
     assert "failed" not in state.out["energy-law"] and any(p is not None for p in state.out["peaks"]["energy-law"])
+
+
+def test_the_energy_map_by_quadrature_blows_up_where_the_generated_one_does(tmp_path):
+    """R times exp(1e-3 sin u) is no polynomial: its energy map is evaluated by quadrature of R over the wave,
+    independently of the generated module, and blows up within a contact of the polynomial R's."""
+    from pulsemap.solvers.studies.run import run_scene
+
+    runs = {}
+    for label, text in (("generated", BLOWS_UP), ("quadrature", BLOWS_UP.replace('"k*(u^2 - v)"',
+                                                                                   '"k*(u^2 - v)*exp(1e-3*sin(u))"'))):
+        res = run_scene(load_scene(str(write_scene(tmp_path, text, f"{label}.toml"))), methods=["energy-map"])
+        runs[label] = res["energy-map"]
+    assert runs["quadrature"]["generated"] is None and runs["generated"]["generated"] is not None
+    for entry in runs.values():
+        assert entry["status"] == "blow-up" and "blows up at contact" in entry["message"], entry
+    assert abs(runs["quadrature"]["ended_at"] - runs["generated"]["ended_at"]) <= 1

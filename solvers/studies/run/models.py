@@ -286,7 +286,7 @@ def failure(state: "RunState", name: str, exc: Exception) -> str:
     seed = state.out.get("seed", {})
     fix = ("give a smaller --seed-peak" if state.given_seed is not None else
            "its amplitude grows without bound, or R's coefficients are too large: scale R's parameters")
-    return (f"{type(exc).__name__} ({exc}) in its generated code, seeded with peak {seed.get('peak', math.nan):.6g} at "
+    return (f"{type(exc).__name__} ({exc}) while it ran, seeded with peak {seed.get('peak', math.nan):.6g} at "
             f"contact {seed.get('contact')} ({seed.get('from', '?')}): a number left float64's range; {fix}")
 
 
