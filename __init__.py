@@ -6,7 +6,7 @@ The public API (everything else in the package is internal and may change):
   :class:`Derivation`: the amplitude map (Eq. 23), the long-wave law (Eq. 30) and Eq. 41;
 * :func:`pulsemap.dressed` ``(R, eps=0.1, n=1.5, A0=None, i0=0, **params)`` -> the dressed
   (second-order) law of the energy balance, k1 derived, k2/k1, onset lag and cross terms calibrated;
-* :func:`pulsemap.scene` ``(name_or_path, **overrides)`` -> a validated Scene;
+* :func:`pulsemap.scene` ``(name_or_path, **overrides)`` -> a validated :class:`Scene`;
 * :func:`pulsemap.run` ``(scene, methods=...)`` -> a :class:`Result` (peaks as numpy arrays,
   errors against the DNS, timings, provenance);
 * :func:`pulsemap.scenes` ``()`` -> the names of the built-in scenes;
@@ -18,10 +18,8 @@ The symbolic layer (the ``derive/`` folder) installs as :mod:`pulsemap.symbolic`
 ``pulsemap.derive`` is a plain function.
 """
 
-from __future__ import annotations
-
-from pulsemap.solvers.api import Derivation, Result, derive, dressed, run, scene, scenes
+from pulsemap.solvers.api import Balance, Derivation, Result, Scene, derive, dressed, run, scene, scenes
 from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.provenance import __version__
 
-__all__ = ["Derivation", "PulsemapError", "Result", "__version__", "derive", "dressed", "run", "scene", "scenes"]
+__all__ = ["Balance", "Derivation", "PulsemapError", "Result", "Scene", "__version__", "derive", "dressed", "run", "scene", "scenes"]

@@ -81,10 +81,8 @@ def balance_expand(R: sympy.Expr, n: float | sympy.Rational = 1.5, model: str = 
     check_model(model)
     n_exact = exact_exponent(n)
     site = tuple(sorted(site_dependent))
-    instead = ("`pulsemap run SCENE --methods energy-law,energy-map` evaluates the energy balance of this R "
-               "by quadrature over the wave" if model == "energy" else "")
     check_polynomial_at_rest(R, f"the {model} balance integrates R term by term", f"the {model} balance's integrals",
-                             BalanceError, instead)
+                             BalanceError)
     u, v = symbol("u"), symbol("v")
     R_i = R.xreplace({symbol(name): bead_symbol(name, 0) for name in site}) if site else R
     s = (n_exact - 1) / 2
@@ -104,7 +102,7 @@ def balance_expand(R: sympy.Expr, n: float | sympy.Rational = 1.5, model: str = 
         raise BalanceError(
             f"the momentum balance is undefined for R = {R}: its term(s) without v ({shown}) keep acting "
             "on the bead the wave leaves displaced (x -> A*D), so the impulse int R dt diverges; "
-            "use the energy balance or the map"
+            "the energy balance (--model energy, run --methods energy-law) or the map (--model map) takes it"
         )
     if len(terms) > MAX_BALANCE_TERMS:
         raise BalanceError(

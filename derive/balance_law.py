@@ -15,7 +15,7 @@ from .longwave import LAW_RATE, A0, I, I0, check_values, missing_values, numeric
 from .perturbation import Perturbation
 from .site_law import SiteLaw, coefficient_of_i, site_law
 
-__all__ = ["B", "EPS", "K_SYMBOLS", "BalanceLaw", "balance_law", "balance_site_law"]
+__all__ = ["B", "EPS", "K_SYMBOLS", "BalanceLaw", "balance_law", "balance_site_law", "law_from_groups"]
 
 B = sympy.Symbol("B", positive=True)
 B0 = sympy.Symbol("B_0", positive=True)
@@ -40,13 +40,14 @@ class BalanceLaw:
     law: sympy.Expr | None  # A(i) in A_0, i, i_0 and k = eps C / K (one power)
     implicit: sympy.Expr | None  # i(A), numeric constants (several powers, closed form found)
     numeric_coefficients: tuple[sympy.Expr, ...] = ()  # C_p with numbers for all but the free parameters
+    eps_symbol: sympy.Expr = EPS  # the printed factor of the right-hand side (1 when eps sits in the C_p)
 
     def ode(self, symbolic: bool = True) -> sympy.Eq:
         """K dB/di = eps sum C_p B^p with B = A^Q."""
         Bf = sympy.Function("B")(I)
         cs = self.symbolic_coefficients if symbolic else numeric_coefficients(self)
         K = K_SYMBOLS[self.model] if symbolic else sympy.Float(self.K, 15)
-        e = EPS if symbolic else sympy.Float(self.eps, 15)
+        e = self.eps_symbol if symbolic else sympy.Float(self.eps, 15)
         return sympy.Eq(K * Bf.diff(I), e * sum((c * Bf**p for c, p in zip(cs, self.powers)), sympy.Integer(0)))
 
     def rate(self) -> float:
@@ -111,11 +112,17 @@ def balance_law(ex: BalanceExpansion, constants: dict, params: dict, eps: float,
             f"the {ex.model}-balance law needs a uniform perturbation; this R is site-dependent "
             "(per-bead parameters or i): iterate the balance map instead"
         )
-    Q = ex.Q
     K = constants["K1"] + constants["V1"] if ex.model == "energy" else constants["p1"]
     groups: dict[sympy.Rational, sympy.Expr] = {}
     for t in ex.terms:
         groups[t.power] = groups.get(t.power, sympy.Integer(0)) + t.coefficient * sympy.Symbol(t.integral, real=True)
+    return law_from_groups(ex.model, ex.Q, groups, constants, params, K, eps, seconds)
+
+
+def law_from_groups(model: str, Q: sympy.Rational, groups: dict, constants: dict, params: dict, K: float, eps: float,
+                    seconds: float = 2.0, eps_symbol: sympy.Expr = EPS) -> BalanceLaw:
+    """Solve K dB/di = eps sum_p C_p B^p, B = A^Q, from ``groups`` {power of A: C in the integrals' symbols and the
+    parameters} (closed form for one power); ``constants`` gives the integrals' values, ``params`` the parameters'."""
     powers, coeffs, symb, nums = [], [], [], []
     for power in sorted(groups):
         sym = sympy.expand(groups[power])
@@ -128,8 +135,9 @@ def balance_law(ex: BalanceExpansion, constants: dict, params: dict, eps: float,
         symb.append(sym)
         nums.append(sympy.expand(num))
     powers, coeffs, symb, num = tuple(powers), tuple(coeffs), tuple(symb), tuple(nums)
+    extra = dict(eps_symbol=eps_symbol)
     if not powers:
-        return BalanceLaw(ex.model, Q, (), (), (), K, eps, "constant", A0 + 0 * I, None)
+        return BalanceLaw(model, Q, (), (), (), K, eps, "constant", A0 + 0 * I, None, **extra)
     if len(powers) == 1:
         (p,) = powers
         if p == 1:
@@ -139,14 +147,14 @@ def balance_law(ex: BalanceExpansion, constants: dict, params: dict, eps: float,
             law_B = (B0 ** (1 - p) + (1 - p) * K_RATE * (I - I0)) ** (1 / (1 - p))
             kind = "power law"
         law_A = sympy.powsimp(sympy.powdenest(law_B.xreplace({B0: A0**Q}) ** (1 / Q), force=True), force=True)
-        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, kind, law_A, None, num)
+        return BalanceLaw(model, Q, powers, coeffs, symb, K, eps, kind, law_A, None, num, **extra)
     if any(c is None for c in coeffs):
-        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None, num)
+        return BalanceLaw(model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None, num, **extra)
     G = reciprocal_integral(coeffs, powers, seconds)
     if G is not None and not G.has(sympy.Integral):
         implicit = sympy.Float(K / eps, 17) * (G.xreplace({B: A**Q}) - G.xreplace({B: A0**Q})) + I0
-        return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "implicit", None, implicit, num)
-    return BalanceLaw(ex.model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None, num)
+        return BalanceLaw(model, Q, powers, coeffs, symb, K, eps, "implicit", None, implicit, num, **extra)
+    return BalanceLaw(model, Q, powers, coeffs, symb, K, eps, "quadrature", None, None, num, **extra)
 
 
 def balance_site_law(ex: BalanceExpansion, pert: Perturbation, constants: dict, seconds: float = 2.0) -> SiteLaw:

@@ -116,11 +116,16 @@ def _at_bead(R: sympy.Expr, offset: int, site_dependent: Iterable[str]) -> sympy
     return R.xreplace(sub) if sub else R
 
 
-def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str, error: type[ValueError] = ExpansionError,
-                             instead: str = "") -> None:
+NOT_POLYNOMIAL_INSTEAD = ("pulsemap derive R --model energy tabulates its energy law by quadrature over the wave "
+                          "and pulsemap run SCENE --methods energy-law,energy-map computes it")
+"""What does take a non-polynomial R (solvers/models/energy_quadrature.py), named by every refusal of one."""
+
+
+def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str,
+                             error: type[ValueError] = ExpansionError) -> None:
     """R must be a polynomial in u, v (Eq. 10) that vanishes at rest; else ``error`` saying what
-    ``needs`` the polynomial, what works ``instead`` for a smooth non-polynomial R (if anything)
-    and which ``integrals`` a constant force makes diverge."""
+    ``needs`` the polynomial, what takes a non-polynomial R instead and which ``integrals`` a
+    constant force makes diverge."""
     u, v = symbol("u"), symbol("v")
     if not is_polynomial_in_state(R):
         bad = [a for a in sympy.Add.make_args(sympy.expand(R)) if not is_polynomial_in_state(a)]
@@ -128,12 +133,11 @@ def check_polynomial_at_rest(R: sympy.Expr, needs: str, integrals: str, error: t
         if kinks:
             raise error(
                 f"R = {R} is not a polynomial in u, v ({kinks[0]} has a kink or a jump at 0): {needs}; "
-                "the DNS runs it (methods = [\"dns\"])"
+                f"{NOT_POLYNOMIAL_INSTEAD}; the DNS runs it (methods = [\"dns\"])"
             )
         raise error(
             f"R = {R} is not a polynomial in u, v (term {bad[0] if bad else R}): {needs}; "
-            + (f"{instead}; for a closed form, " if instead else "")
-            + "Taylor-expand it (e.g. sin(u) -> u - u**3/6)"
+            f"{NOT_POLYNOMIAL_INSTEAD}; for a closed form, Taylor-expand it (e.g. sin(u) -> u - u**3/6)"
         )
     at_rest = sympy.simplify(R.xreplace({u: 0, v: 0}))
     if at_rest != 0:

@@ -24,7 +24,8 @@ import numpy as np
 import sympy
 
 from pulsemap.symbolic.errors import closest
-from pulsemap.symbolic.expression import SYMBOLS, ExpressionError, check_parameter_name, parse_expression, symbol
+from pulsemap.symbolic.expression import (SYMBOLS, ExpressionError, check_parameter_name, formula, parse_expression,
+                                          symbol)
 from pulsemap.symbolic.expression.tokens import tokenize
 from pulsemap.symbolic.param_values import (DRAW_KEYS, IndexExpression, ParamMap, ParamValue, PerturbationError,
                                           RandomDraw, check_beads, check_name, evaluate_per_bead, exact, finite_float,
@@ -187,7 +188,7 @@ def make_perturbation(
         text = R.strip()
     elif isinstance(R, sympy.Basic):
         expr = _from_sympy(R, values.keys(), free)
-        text = str(expr)
+        text = formula(expr)
     elif isinstance(R, numbers.Real) and not isinstance(R, bool):
         expr = exact(finite_float("R", R))
         text = str(expr)
@@ -240,7 +241,10 @@ def _check_eps_sign(eps: float) -> float:
 def _free_names(text: str, values: Mapping[str, object]) -> list[str]:
     """Names in ``text`` that may name a parameter and have no value (the parser reports the others)."""
     found = []
-    for token in tokenize(text):
+    tokens = tokenize(text)
+    for token, after in zip(tokens, tokens[1:] + [None]):
+        if after is not None and after.text == "(":
+            continue  # a call: the parser names the unknown function and the closest known one
         if token.kind == "name" and token.text not in values and token.text not in found:
             try:
                 check_parameter_name(token.text)
@@ -334,7 +338,9 @@ def _check_rest_symbolic(perturbation: Perturbation) -> None:
         shown = shown[:77] + "..."
     if at_rest.is_number and not at_rest.is_Rational:
         shown = f"{shown} (= {float(sympy.N(at_rest)):.6g})"
+    unset = sorted(s.name for s in at_rest.free_symbols if s.name in perturbation.free_parameters)
+    hint = f" ({', '.join(unset)}: a parameter given no value; the state is u, v and the bead index i)" if unset else ""
     raise PerturbationError(
-        f"R(0,0) = {shown} is not zero: a constant force would move the chain before the pulse "
+        f"R(0,0) = {shown} is not zero{hint}: a constant force would move the chain before the pulse "
         "arrives (it starts at rest in equilibrium); subtract it from R"
     )

@@ -29,6 +29,7 @@ from sympy.core.function import AppliedUndef
 from .errors import PulsemapError
 from .expansion import bead_symbol
 from .expression import symbol
+from .longwave import needs_values
 from .perturbation import IndexExpression, Perturbation
 from .sympy_cache import bounded_cached
 
@@ -109,6 +110,9 @@ class SiteLaw:
             out.append(f"  A(i) = {self.law}")
         else:
             out.append(f"Amplitude law: by numerical integration of the ODE ({self.why_quadrature})")
+            missing = sorted({s.name for c in self.coefficients for s in sympy.sympify(c).free_symbols} - {I.name})
+            if missing:  # a parameter given no value: the integration needs its number
+                out.append("  " + needs_values("its numerical integration", missing))
         return out
 
     def data(self) -> dict:

@@ -24,6 +24,8 @@ JIT_FORCE_LAYOUT = 2
 INTEGRALS_METHOD = 1
 #: Bump when the numerical method of the balance constants changes (stale cache entries, generated code).
 BALANCE_METHOD = 1
+#: Bump when the numerical method of the contact-law integrals I_ab changes (stale cache entries).
+CONTACT_METHOD = 1
 #: The map variants (derive/amplitude_map.py), profiles (derive/profile.py) and balance models (derive/balance.py).
 VARIANTS = ("paper", "corrected", "1d")
 PROFILE_KINDS = ("exact", "pade")

@@ -131,7 +131,8 @@ def _solve_for_param(phi: sympy.Expr, par: sympy.Symbol):
 def find_folds(amap: AmplitudeMap, name: str, params: dict, S0: float, seconds: float = 10.0) -> tuple[Fold, ...]:
     """Saddle-nodes of Eq. 41 in parameter ``name`` (extrema of name(A) on Phi = 0)."""
     par = symbol(name)
-    if par not in params:
+    free = set().union(*(k.free_symbols for _, k in _power_terms(amap, params)))
+    if par not in params and par not in free:
         raise StationaryError(
             f"--fold {name}: '{name}' is not a scalar parameter of R "
             f"(parameters: {', '.join(sorted(s.name for s in params)) or 'none'})"
@@ -178,17 +179,18 @@ def stationary(amap: AmplitudeMap, params: dict, S0: float, fold: str | None = N
     sym = sum((t.coefficient * A**t.power for t in amap.power_terms(1, numeric=False)), sympy.Integer(0))
     terms = _power_terms(amap, params)
     numeric = sum((k * A**p for p, k in terms), sympy.Integer(0))
-    if any(k.free_symbols for _, k in terms):
-        missing = tuple(sorted({s.name for _, k in terms for s in k.free_symbols}))
+    missing = tuple(sorted({s.name for _, k in terms for s in k.free_symbols}))
+    if missing and (fold is None or missing != (fold,)):
         if fold is not None:
-            raise StationaryError(needs_values(f"--fold {fold}: Eq. 41", missing))
+            raise StationaryError(needs_values(f"--fold {fold}: Eq. 41", [m for m in missing if m != fold]))
         return Stationary(sym, numeric, (), S0, missing=missing)
-    roots = positive_roots([(p, float(k)) for p, k in terms])
+    roots = () if missing else positive_roots([(p, float(k)) for p, k in terms])
     folds: tuple[Fold, ...] = ()
     chosen = None
-    if fold is not None:
+    if fold is not None:  # the fold solves for its parameter: a value is only the reference among several folds
         folds = find_folds(amap, fold, params, S0)
+        if reference is None and symbol(fold) in params:
+            reference = float(params[symbol(fold)])
         if folds:
-            ref = reference if reference is not None else float(params[symbol(fold)])
-            chosen = min(folds, key=lambda f: abs(f.value - ref))
-    return Stationary(sym, numeric, roots, S0, chosen, folds)
+            chosen = folds[0] if reference is None else min(folds, key=lambda f: abs(f.value - reference))
+    return Stationary(sym, numeric, roots, S0, chosen, folds, missing=missing)

@@ -1,5 +1,6 @@
 """Shared test set-up: an isolated cache directory per test session; small scene files."""
 
+import io
 import json
 import os
 import tempfile
@@ -14,6 +15,11 @@ if not os.environ.get("NUMBA_CACHE_DIR"):
     from pulsemap.symbolic.cache import cache_root
 
     os.environ["NUMBA_CACHE_DIR"] = str(cache_root() / "numba")
+
+
+# No progress line driven by the clock (a long DNS's, every few seconds): what a command prints must not
+# depend on how fast this machine is (chain/dns_progress.py: PROGRESS_ENV); its own tests switch it back on.
+os.environ["PULSEMAP_PROGRESS"] = "off"
 
 
 @pytest.fixture(autouse=True, scope="session")
@@ -59,3 +65,19 @@ def write_scene(directory: Path, text: str, name: str = "scene.toml") -> Path:
     return path
 
 
+class Terminal(io.StringIO):
+    """A stream that says it is a terminal; :meth:`screen` is what a terminal shows of what was written
+    (the ANSI "cursor up, erase line" of chain/dns_progress.py removes the line above)."""
+
+    def isatty(self) -> bool:
+        return True
+
+    def screen(self) -> list[str]:
+        from pulsemap.solvers.chain.dns_progress import REPLACE_LAST
+
+        lines: list[str] = []
+        for part in self.getvalue().split(REPLACE_LAST):
+            if lines:
+                lines.pop()
+            lines.extend(part.splitlines())
+        return lines

@@ -25,9 +25,18 @@ def test_import_is_cheap_and_the_surface_is_small():
             "print(heavy); print(sorted(pulsemap.__all__))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
     assert out[0] == "[]"
-    assert out[1] == str(sorted(["Derivation", "Result", "__version__", "derive", "dressed", "run", "scene", "scenes"]))
+    assert out[1] == str(sorted(["Balance", "Derivation", "Result", "Scene", "__version__", "derive", "dressed", "run",
+                                 "scene", "scenes"]))
     for name in pulsemap.__all__:
         assert getattr(pulsemap, name) is not None
+
+
+def test_the_namespace_holds_the_public_names_and_the_three_installed_folders_only():
+    """dir(pulsemap) shows what a user may use (no ``annotations`` of a __future__ import)."""
+    shown = {name for name in dir(pulsemap) if not name.startswith("_")}
+    assert "annotations" not in shown and shown <= set(pulsemap.__all__) | {"solvers", "symbolic", "generated"}
+    assert pulsemap.Balance is type(pulsemap.derive("-mu*v").balance())
+    assert isinstance(pulsemap.scene("default"), pulsemap.Scene)
 
 
 def test_derive_is_a_plain_function_and_the_symbolic_layer_has_its_own_name():
@@ -48,13 +57,17 @@ def test_derive_is_a_plain_function_and_the_symbolic_layer_has_its_own_name():
 
 def _law_residual(d, Q=None) -> sympy.Expr:
     """The law A(i) put back into its ODE (B = A^Q; Q = (n+1)/2 for Eq. 30), written in the positive base
-    w of the power law (i solved for w), so that sympy may combine the powers."""
-    (B,) = d.ode.atoms(sympy.core.function.AppliedUndef)
+    w of the power law (i solved for w), so that sympy may combine the powers. The public symbols carry no
+    assumptions: the user's way to add them (real symbols, epsilon and A_0 positive) is a substitution."""
+    real = {s: sympy.Symbol(name, positive=True) if name in ("A_0", "epsilon") else sympy.Symbol(name, real=True)
+            for name, s in d.symbols.items()}
+    ode, law = d.ode.xreplace(real), d.law.xreplace(real)
+    (B,) = ode.atoms(sympy.core.function.AppliedUndef)
     i = B.args[0]
     Q = (sympy.Rational(1.5) + 1) / 2 if Q is None else Q
-    residual = (d.ode.lhs - d.ode.rhs).subs(B, d.law.rhs**Q).doit()
+    residual = (ode.lhs - ode.rhs).subs(B, law.rhs**Q).doit()
     w = sympy.Symbol("w", positive=True)
-    (i_of_w,) = sympy.solve(sympy.Eq(d.law.rhs.base, w), i)
+    (i_of_w,) = sympy.solve(sympy.Eq(law.rhs.base, w), i)
     return sympy.simplify(residual.subs(i, i_of_w))
 
 
@@ -81,10 +94,9 @@ def test_balance_laws_are_sympy_and_solve_their_ode(model, R, Q):
     par = next(s for s in free.law.free_symbols if s.name == name)
     assert _law_residual(free, Q) == 0
     fixed = pulsemap.derive(R, **{name: 0.7}).balance(model)
-    (i,) = (s for s in free.law.free_symbols if s.name == "i")
-    at = {sympy.Symbol("A_0", positive=True): 0.8, sympy.Symbol("i_0", real=True): 15.0, i: 30.0}
-    a = float(free.law.rhs.subs(free.values).subs({par: 0.7, **at}))
-    b = float(fixed.details.law.numeric_law().subs(at))
+    a = float(free.law.rhs.subs(free.values).subs({par: 0.7, "A_0": 0.8, "i_0": 15.0, "i": 30.0}))
+    internal = {s.name: s for s in fixed.details.law.numeric_law().free_symbols}
+    b = float(fixed.details.law.numeric_law().subs({internal["A_0"]: 0.8, internal["i_0"]: 15.0, internal["i"]: 30.0}))
     assert a == pytest.approx(b, rel=1e-13) and abs(a - 0.8) > 1e-3
     latex = free._repr_latex_()
     assert latex.startswith("$$\\begin{align}") and "A(i) = " in latex and f"model: {model}" not in latex
@@ -103,12 +115,11 @@ def test_symbolic_parameter_substituted_is_the_numeric_derivation():
     free, fixed = pulsemap.derive("-mu*v"), pulsemap.derive("-mu*v", mu=2)
     mu = next(s for s in free.law.free_symbols if s.name == "mu")
     assert free.free == ("mu",) and fixed.free == () and fixed.params == {"mu": 2.0}
-    at = {sympy.Symbol("A_0", positive=True): 0.8, sympy.Symbol("i_0", real=True): 15.0}
-    (i,) = (s for s in free.law.free_symbols if s.name == "i")
     numeric = fixed.details.longwave.numeric_law()  # A(i) with the rate lambda_L as a number
+    internal = {s.name: s for s in numeric.free_symbols}
     for index in (15.0, 20.0, 40.0):
-        a = float(free.law.rhs.subs(free.values).subs({mu: 2, i: index, **at}))
-        b = float(numeric.subs({i: index, **at}))
+        a = float(free.law.rhs.subs(free.values).subs({mu: 2, "i": index, "A_0": 0.8, "i_0": 15.0}))
+        b = float(numeric.subs({internal["i"]: index, internal["A_0"]: 0.8, internal["i_0"]: 15.0}))
         assert a == pytest.approx(b, rel=1e-13)
     assert [e.subs(mu, 2) for e in free.map] == [e.subs(mu, 2) for e in fixed.map]
     assert free.stationary == fixed.stationary and free.ode == fixed.ode
@@ -151,6 +162,8 @@ def test_free_parameter_next_to_per_bead_values():
     d = pulsemap.derive("-k*u - mu*v", k=[0.5] * 40)
     assert d.free == ("mu",) and "mu" in {s.name for s in d.ode.free_symbols} and d.roots == ()
     assert d.ode.has(sympy.Function("k")) and "stationary" in d.notes
+    assert "numerical integration cannot be computed without a value for mu" in str(d)
+    assert "without a value" not in str(pulsemap.derive("-k*u - mu*v", k=[0.5] * 40, mu=1))
 
 
 def test_van_der_pol_roots_solve_eq41():
@@ -241,6 +254,31 @@ def test_scene_overrides_dotted_and_short():
     assert pulsemap.scene(a.as_dict()) == a
 
 
+def _without_R(scene) -> dict:
+    data = scene.as_dict()
+    del data["perturbation"]["R"]
+    return data
+
+
+def test_scene_takes_a_sympy_R_as_derive_does():
+    """scene(R=<sympy expr>) is scene(R=<the same formula as text>), as an override and in a dict; the
+    scene's perturbation is derive's for the same expression (abs and exp(1) written in the parser's words)."""
+    u, v, mu = sympy.symbols("u v mu")
+    for expr, text in ((-mu * v * sympy.Abs(v), "-mu*v*abs(v)"), (-(u - mu * (1 - u**2) * v), "-(u - mu*(1-u^2)*v)"),
+                       (-sympy.E * mu * v**3, "-exp(1)*mu*v^3")):
+        a, b = pulsemap.scene("default", R=expr), pulsemap.scene("default", R=text)
+        assert a.perturbation.R == b.perturbation.R and a.perturbation.params == b.perturbation.params
+        assert _without_R(a) == _without_R(b)
+        data = b.as_dict()
+        data["perturbation"]["R"] = expr
+        assert pulsemap.scene(data) == a
+    d = pulsemap.derive(-(u - mu * (1 - u**2) * v), mu=3)
+    sc = pulsemap.scene("default", R=-(u - mu * (1 - u**2) * v), mu=3)
+    assert sc.perturbation.R == d.details.perturbation.R
+    with pytest.raises(ValueError, match="unknown symbol 'pi'"):
+        pulsemap.scene("default", R=-sympy.pi * mu * v)
+
+
 @pytest.mark.parametrize("overrides, error, words", [
     ({"epss": 1}, ValueError, "'epss' (did you mean 'eps'?)"),
     ({"perturbation.eeps": 1}, ValueError, "did you mean 'perturbation.eps'"),
@@ -307,6 +345,24 @@ def test_run_renders(result, tmp_path):
         assert f"<td>{result.errors[name]['rms_pct']:.3g}</td>" in html
     assert f"pulsemap {pulsemap.__version__}" in html  # provenance
     assert "map" in repr(result) and "scene fig8-eps0.3" in str(result)
+
+
+def test_every_result_object_has_a_short_one_line_repr(result):
+    """repr names the object, its R and what it holds, on one line (the long report is str())."""
+    free = pulsemap.derive("-mu*v")
+    vdp = pulsemap.derive("-(u - mu*(1 - u^2)*v)", mu=3)
+    shown = {
+        repr(free): ("Derivation(", "'-mu*v'", "free=['mu']", "map (Eq. 23)", "law (power law)", "Eq. 41"),
+        repr(vdp): ("Derivation(", "mu*(1 - u^2)", "law (quadrature)", "Eq. 41"),
+        repr(pulsemap.derive("-k*u", k=[0.5] * 40)): ("Derivation(", "'-k*u'", "map (Eq. 23)"),
+        repr(free.balance("momentum")): ("Balance(", "'momentum'", "'-mu*v'", "law (power law)"),
+        repr(result): ("Result(", "'fig8-eps0.3'", "'-mu*v'", "'dns', 'map', 'longwave'"),
+        repr(pulsemap.dressed("-mu*v", mu=1)): ("DressedDerivation(", "'-mu*v'", "1 monomial,", "0 cross terms"),
+    }
+    for text, words in shown.items():
+        assert "\n" not in text and len(text) <= 160, text
+        assert all(w in text for w in words), (text, words)
+    assert "Eq. 41" not in repr(pulsemap.derive("-k*u", k=[0.5] * 40))  # a site-dependent R has none
 
 
 def test_run_dataframe(result):

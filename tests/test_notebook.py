@@ -49,3 +49,14 @@ def test_the_notebook_shows_latex_html_and_a_figure(tmp_path, monkeypatch):
     assert base64.b64decode(png)[:8] == b"\x89PNG\r\n\x1a\n"
     rms = next(float(d["text/plain"]) for d in data if set(d) == {"text/plain"} and d["text/plain"][:1].isdigit())
     assert f"<td>{rms:.3g}</td>" in html  # the number the table shows is the Result's
+    # the free-parameter cells: lambdify in the notebook's own symbols gives what subs by name gives, and
+    # that is the law of derive(mu=1) at contact 20 (a decaying amplitude, 0 < A < A_0)
+    import ast
+
+    import pulsemap
+
+    pair = next(ast.literal_eval(d["text/plain"]) for d in data if d.get("text/plain", "").startswith("("))
+    fixed = pulsemap.derive("-mu*v", mu=1, eps=0.3)
+    expected = float(fixed.law.rhs.subs(fixed.values).subs({"A_0": 1, "i_0": 0, "i": 20}))
+    assert pair[0] == pytest.approx(pair[1], rel=1e-12) and pair[0] == pytest.approx(expected, rel=1e-12)
+    assert 0 < pair[0] < 1

@@ -53,3 +53,14 @@ def test_every_source_package_is_installed():
     missing = sorted(p.relative_to(ROOT).as_posix() for p in found - listed)
     assert not missing, f"not installed by `pip install .` (add to [tool.setuptools] packages): {missing}"
     assert all((folder / "__init__.py").is_file() for folder in listed), "a listed package has no __init__.py"
+
+
+def test_the_readme_installs_extras_of_the_checkout_editable():
+    """A developer's command with an extra (tests, docs) keeps the checkout's install editable: a plain
+    ``pip install '.[docs]'`` would replace it with a copy that edits no longer reach."""
+    import re
+
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    commands = re.findall(r"pip install[^`\n]*'\.\[\w+\]'", text)
+    assert {"test", "docs"} <= {re.search(r"\[(\w+)\]", c).group(1) for c in commands}
+    assert all(" -e " in c for c in commands), commands

@@ -24,11 +24,27 @@ from typing import Iterable
 
 import sympy
 
-from .names import FUNCTIONS, MAX_EXPONENT, MAX_LENGTH, NON_FINITE_NAMES, SYMBOLS, ExpressionError, symbol
+from .names import CONTACT_SYMBOLS, FUNCTIONS, MAX_EXPONENT, MAX_LENGTH, NON_FINITE_NAMES, SYMBOLS, ExpressionError, symbol
 from .parser import Parser
 from .tokens import PARAM_RE, WHITESPACE, context, printable, show, tokenize
 
-__all__ = ["check_parameter_name", "is_polynomial_in_state", "parse_expression", "singular_terms", "total_degree"]
+__all__ = ["check_parameter_name", "formula", "is_polynomial_in_state", "parse_expression", "singular_terms",
+           "total_degree"]
+
+
+class _FormulaPrinter(sympy.printing.str.StrPrinter):
+    """sympy's text with the parser's function names (abs, exp(1)), so that the text parses back."""
+
+    def _print_Abs(self, expr: sympy.Abs) -> str:
+        return f"abs({self._print(expr.args[0])})"
+
+    def _print_Exp1(self, expr: sympy.Expr) -> str:
+        return "exp(1)"
+
+
+def formula(expr: sympy.Expr) -> str:
+    """A sympy R as the text :func:`parse_expression` reads (a scene file's R, the generated force's source)."""
+    return _FormulaPrinter().doprint(expr)
 
 
 def check_parameter_name(name: object) -> str:
@@ -66,14 +82,16 @@ def parse_expression(
 ) -> sympy.Expr:
     """Parse ``text`` into a sympy expression in u, v, i and the declared ``parameters``.
 
-    ``symbols`` restricts the state symbols allowed (e.g. ``("i",)`` for per-bead values).
+    ``symbols`` restricts the state symbols allowed (e.g. ``("i",)`` for per-bead values) or names the
+    contact law's (names.CONTACT_SYMBOLS: d, w, k).
     """
     params = tuple(parameters) if not isinstance(parameters, str) else (parameters,)
     for name in params:
         check_parameter_name(name)
     state = tuple(symbols)
-    if not set(state) <= set(SYMBOLS):
-        raise ExpressionError(f"symbols must be among {', '.join(SYMBOLS)}, got {', '.join(state)}")
+    if not (set(state) <= set(SYMBOLS) or set(state) <= set(CONTACT_SYMBOLS)):
+        raise ExpressionError(f"symbols must be among {', '.join(SYMBOLS)} or {', '.join(CONTACT_SYMBOLS)}, "
+                              f"got {', '.join(state)}")
     if not isinstance(text, str):
         raise ExpressionError(f"an expression must be a string, got {type(text).__name__}")
     if len(text) > MAX_LENGTH:
@@ -93,18 +111,18 @@ def is_polynomial_in_state(expr: sympy.Expr) -> bool:
     return bool(sympy.sympify(expr).is_polynomial(symbol("u"), symbol("v")))
 
 
-def total_degree(expr: sympy.Expr) -> int:
+def total_degree(expr: sympy.Expr, names: tuple[str, ...] = SYMBOLS) -> int:
     """An upper bound on the total degree of ``expr`` in u, v, i, read off its tree without expanding
     it: sums over products, maxima over sums, degree times |exponent| over numeric powers (so
     ``((u^64)^64)^64`` and ``u*u*...*u`` count what they are); a function counts its argument."""
-    state = {symbol(name) for name in SYMBOLS}
+    state = {symbol(name) for name in names}
     if expr in state:
         return 1
     if not expr.free_symbols & state:
         return 0
     if isinstance(expr, sympy.Pow) and expr.exp.is_Number:
-        return total_degree(expr.base) * math.ceil(abs(expr.exp))
-    degrees = [total_degree(arg) for arg in expr.args]
+        return total_degree(expr.base, names) * math.ceil(abs(expr.exp))
+    degrees = [total_degree(arg, names) for arg in expr.args]
     if isinstance(expr, sympy.Mul) or isinstance(expr, sympy.Pow):
         return sum(degrees)
     return max(degrees, default=0)
@@ -152,7 +170,7 @@ def failing_term(expr: sympy.Expr, values: dict[str, float]) -> tuple[sympy.Expr
 
 
 def _check_result(expr: sympy.Expr, text: str) -> sympy.Expr:
-    degree = total_degree(expr)
+    degree = max(total_degree(expr), total_degree(expr, CONTACT_SYMBOLS))
     if degree > MAX_EXPONENT:
         raise ExpressionError(
             f"{context(text)} has total degree {degree} in u, v, i, more than {MAX_EXPONENT}: "

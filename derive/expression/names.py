@@ -13,6 +13,9 @@ from ..errors import PulsemapError
 SYMBOLS = ("u", "v", "i")
 """State symbols: displacement u = x_i, velocity v = x_i', bead index i (1-based)."""
 
+CONTACT_SYMBOLS = ("d", "w", "k")
+"""State symbols of a contact-law term P_k(d, w): overlap d = x_k - x_(k+1), its rate w = d', contact index k."""
+
 FUNCTIONS: Mapping[str, type] = MappingProxyType(
     {
         "sin": sympy.sin,

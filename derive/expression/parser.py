@@ -6,7 +6,7 @@ from __future__ import annotations
 import sympy
 
 from ..errors import closest
-from .names import FUNCTIONS, MAX_DEPTH, MAX_EXPONENT, MAX_POWER_BITS, SYMBOLS, ExpressionError, symbol
+from .names import CONTACT_SYMBOLS, FUNCTIONS, MAX_DEPTH, MAX_EXPONENT, MAX_POWER_BITS, SYMBOLS, ExpressionError, symbol
 from .tokens import Token, context, number, printable, show
 
 class Parser:
@@ -166,6 +166,10 @@ class Parser:
                 "'eps' must not appear in R: eps is the small parameter and is given "
                 "separately (eps = VALUE); R is multiplied by it"
             )
+        if self.state == CONTACT_SYMBOLS:
+            where = ("u, v, i belong in R ([perturbation]); P is a formula in the overlap d, its rate w and the "
+                     "contact index k" if name in SYMBOLS else "declare it in [contact.params] or use d, w, k")
+            raise ExpressionError(f"unknown symbol {show(name)} in {context(self.text)}: {where}")
         if self.state != SYMBOLS:
             allowed = ", ".join(self.state) or "no symbols"
             raise ExpressionError(
@@ -182,7 +186,7 @@ class Parser:
     def call(self, token: Token) -> sympy.Expr:
         name = token.text
         if name not in FUNCTIONS:
-            if name in SYMBOLS or name in self.params:
+            if name in SYMBOLS or name in self.state or name in self.params:
                 raise ExpressionError(
                     f"{show(name)} is not a function (position {token.pos} in "
                     f"{context(self.text)}): use '*' for multiplication"

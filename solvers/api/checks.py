@@ -6,7 +6,10 @@ from __future__ import annotations
 import math
 import numbers
 import re
-from typing import Any, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Mapping, Sequence
+
+if TYPE_CHECKING:  # pragma: no cover
+    from pulsemap.solvers.data.scene import Scene
 
 from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.errors import closest as closest_name
@@ -50,8 +53,9 @@ def merged_params(params: Any, keywords: Mapping[str, Any]) -> dict:
     return values
 
 
-def run_choices(scene, methods: "Sequence[str] | None", profile: str | None, variant: str | None,
-                seed_peak: float | None = None, snapshots: Sequence[int] = ()):
+def run_choices(scene: Scene, methods: "Sequence[str] | None", profile: str | None, variant: str | None,
+                seed_peak: float | None = None,
+                snapshots: Sequence[int] = ()) -> tuple[tuple[str, ...], str, str, tuple[int, ...]]:
     """A run's methods, profile and variant (names the scene file accepts, the closest one named
     otherwise; None: the scene's), its seed peak (finite, > 0) and snapshot contacts (integers within
     the scene's contacts, with the DNS among the methods), checked where the input enters
@@ -74,6 +78,10 @@ def run_choices(scene, methods: "Sequence[str] | None", profile: str | None, var
             raise RunError(f"snapshot contact {c!r} must be an integer in the scene's contacts {c0}..{c1}")
     if snapshots and "dns" not in names:
         raise RunError("snapshots are taken by the DNS: add dns to the methods")
+    momentum = [m for m in names if m.startswith("momentum")]
+    if momentum and getattr(scene, "contact", None) is not None:
+        raise RunError(f"{momentum[0]} cannot take a contact-law term: contact forces are internal, so the chain's "
+                       "momentum changes only through R; use energy-law or energy-map for P")
     return names, profile, variant, tuple(sorted(set(snapshots)))
 
 

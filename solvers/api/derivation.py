@@ -22,10 +22,13 @@ VARIANTS = ("paper", "corrected", "1d")
 class Derivation:
     """Everything derived for one perturbation eps R(u, v), with the choices that produced it.
 
-    The equations are sympy objects (``sympy.Eq``) in the user's symbols: u, v, i and the parameters of
+    The equations are sympy objects (``sympy.Eq``) in plain symbols (``sympy.Symbol(name)``, no
+    assumptions; the user's own symbol objects when R was given as sympy): u, v, i and the parameters of
     R; a parameter given no value stays a symbol (:attr:`free`). Integrals of the solitary-wave profile
-    appear as symbols (``f1`` ... ``f7``, ``g1_klmq``, ``g2_pr``) and eps as ``epsilon``; :attr:`values`
-    maps each of these symbols to its number, so ``d.law.subs(d.values)`` is the numeric law. ``str(d)``
+    appear as symbols (``f1`` ... ``f7``, ``g1_klmq``, ``g2_pr``) and eps as ``epsilon``; :attr:`symbols`
+    maps every name to its symbol, and :attr:`values` maps the symbols with a number to it, so
+    ``d.law.subs(d.values)`` is the numeric law and ``d.law.subs({"mu": 2})``, ``d.law.subs(mu, 2)`` (with
+    ``mu = sympy.Symbol("mu")``), ``sympy.lambdify`` and ``sympy.solve`` work as in any sympy code. ``str(d)``
     is the report of ``pulsemap derive``, :attr:`latex` its LaTeX (shown by Jupyter), ``to_dict()`` its
     JSON. Build one with :func:`pulsemap.derive`.
     """
@@ -65,6 +68,8 @@ class Derivation:
     """Eq. 41, ``Eq(0, Phi(A))``; None for a site-dependent R."""
     notes: Mapping[str, str]
     """Why the law or Eq. 41 is not available, when it is not."""
+    symbols: Mapping[str, sympy.Symbol] = field(default_factory=dict, repr=False)
+    """Every symbol of R and of the equations, by name (``d.symbols["mu"]``, ``d.symbols["A_0"]``)."""
     details: Any = field(default=None, repr=False, compare=False)
     """The internal derivation object (pulsemap.symbolic.derivation.Derivation); not a stable interface."""
 
@@ -74,7 +79,8 @@ class Derivation:
         parameters given a value (``expr.subs(d.values)``)."""
         from pulsemap.symbolic.amplitude_map import integral_symbol
 
-        return {**{integral_symbol(k): v for k, v in self.constants.items()}, **_scalar_values(self)}
+        values = {**{integral_symbol(k): v for k, v in self.constants.items()}, **_scalar_values(self)}
+        return {_public_symbol(s, self.symbols, self.details.perturbation): v for s, v in values.items()}
 
     @property
     def rate(self) -> float | None:
@@ -127,6 +133,12 @@ class Derivation:
 
         return to_text(self.details)
 
+    def __repr__(self) -> str:
+        models = ["map (Eq. 23)", f"law ({self.law_kind or 'none'})"]
+        models += ["Eq. 41"] if self.stationary is not None else []
+        free = f", free={list(self.free)}" if self.free else ""
+        return f"Derivation(R={self.expression!r}, eps={self.eps:g}, n={self.n:g}{free}: {', '.join(models)})"
+
     def balance(self, model: str = "energy") -> "Balance":
         """The energy- or momentum-balance model of the same R (beyond the paper; ``pulsemap derive
         --model energy``): its map and law as sympy equations. ValueError when the model is undefined
@@ -140,17 +152,20 @@ class Derivation:
             b = derive_balance(self.details.perturbation, model, n=self.n, profile=self.profile)
         except BalanceError as exc:
             raise PulsemapError(api_hint(str(exc))) from None
-        law = b.law
+        law, pert = b.law, self.details.perturbation
+        equations = {"map": map_equation(b), "ode": None if law is None else law.ode(),
+                     "law": _law_equation(law, K_SYMBOLS[model])}
+        values = {**{sympy.Symbol(k, real=True): v for k, v in b.constants.items()}, K_SYMBOLS[model]: b.K,
+                  **_scalar_values(self)}
+        table = _symbol_table([pert.R, *equations.values(), *values], self.symbols, pert)
         return Balance(
             model=model,
-            map=map_equation(b),
-            ode=None if law is None else law.ode(),
-            law=_law_equation(law, K_SYMBOLS[model]),
+            **{key: None if eq is None else eq.xreplace(table) for key, eq in equations.items()},
             law_kind=None if law is None else law.kind,
             constants={**b.constants, K_SYMBOLS[model].name: b.K},
-            values={**{sympy.Symbol(k, real=True): v for k, v in b.constants.items()}, K_SYMBOLS[model]: b.K,
-                    **_scalar_values(self)},
+            values={table[s]: v for s, v in values.items()},
             notes={"law": b.law_note} if b.law_note else {},
+            symbols=_by_name(table),
             details=b,
         )
 
@@ -177,6 +192,8 @@ class Balance:
     """Numbers of the symbols in the equations (integrals, K, epsilon, parameters given a value)."""
     notes: Mapping[str, str]
     """Why the law is not available, when it is not."""
+    symbols: Mapping[str, sympy.Symbol] = field(default_factory=dict, repr=False)
+    """Every symbol of the equations, by name (plain symbols, as in :attr:`Derivation.symbols`)."""
     details: Any = field(default=None, repr=False, compare=False)
     """The internal balance derivation (pulsemap.symbolic.balance.BalanceDerivation); not a stable interface."""
 
@@ -200,6 +217,42 @@ class Balance:
         from pulsemap.symbolic.balance import to_text
 
         return to_text(self.details)
+
+    def __repr__(self) -> str:
+        pert = self.details.perturbation
+        return (f"Balance(model={self.model!r}, R={pert.text!r}, eps={pert.eps:g}: map, "
+                f"law ({self.law_kind or 'none'}))")
+
+
+def _public_symbol(s: Any, given: Mapping[str, Any], pert: Any) -> Any:
+    """The public symbol of an internal one: the user's own object (``given``) or a plain Symbol(name).
+
+    The derivation makes its symbols with assumptions (real, positive) that its algebra needs; a user's
+    ``Symbol("mu")`` or ``subs({"mu": 2})`` would never match them. A symbol of the derivation (f1,
+    epsilon, A_0, ...) whose name is also a parameter of R keeps its own object, so the two stay apart."""
+    import sympy
+
+    from pulsemap.symbolic.expression import UserSymbol
+
+    if not isinstance(s, sympy.Symbol) or isinstance(s, (sympy.Dummy, sympy.Wild)):
+        return s
+    if not isinstance(s, UserSymbol) and (s.name in pert.params or s.name in pert.used_parameters):
+        return s
+    return given.get(s.name) or sympy.Symbol(s.name)
+
+
+def _symbol_table(exprs: Any, given: Mapping[str, Any], pert: Any) -> dict:
+    """{internal symbol: public symbol} for every symbol in ``exprs`` (:func:`_public_symbol`)."""
+    import sympy
+
+    atoms = set().union(*(e.atoms(sympy.Symbol) for e in exprs if e is not None))
+    return {s: _public_symbol(s, given, pert) for s in atoms}
+
+
+def _by_name(table: Mapping[Any, Any]) -> dict:
+    """{name: public symbol}; where a parameter and a symbol of the derivation share a name, the parameter's."""
+    kept = {s.name: s for internal, s in table.items() if s is internal}
+    return dict(sorted({**kept, **{s.name: s for internal, s in table.items() if s is not internal}}.items()))
 
 
 def _scalar_values(d: Derivation) -> dict:
@@ -232,7 +285,7 @@ def _law_equation(law: Any, scale: Any) -> Any:
 
 
 def derive(
-    R: Any,
+    R: str | sympy.Expr,
     *,
     eps: float = 0.1,
     n: float = 1.5,
@@ -243,9 +296,9 @@ def derive(
 ) -> Derivation:
     """Derive the map (Eq. 23), the long-wave law (Eq. 30) and Eq. 41 for eps R(u, v), as sympy equations.
 
-    ``R`` is a formula in the strain u, its rate v, the bead index i and parameters, as text
-    (``"-mu*v"`` for damping, ``"-(u - mu*(1 - u^2)*v)"`` for Van der Pol) or as a sympy expression in
-    symbols of those names. Give a parameter's value as a keyword (``mu=1``) or in ``params`` (for a
+    ``R`` is a formula in bead i's displacement u = x_i, its velocity v = x_i', the bead index i and
+    parameters, as text (``"-mu*v"`` for damping, ``"-(u - mu*(1 - u^2)*v)"`` for Van der Pol) or as a
+    sympy expression in symbols of those names. Give a parameter's value as a keyword (``mu=1``) or in ``params`` (for a
     name that clashes with an argument, e.g. ``n``): a number, a list of per-bead values or an
     expression of i (text). A parameter given no value stays a sympy symbol; what needs a number
     (the roots of Eq. 41, the rate lambda_L) then raises ValueError naming it.
@@ -256,6 +309,8 @@ def derive(
 
     Raises TypeError or ValueError naming the argument for bad input.
     """
+    from sympy import Symbol
+
     from pulsemap.symbolic.amplitude_map import MapError
     from pulsemap.symbolic.derivation import DerivationError, derive_all
     from pulsemap.symbolic.expression import ExpressionError
@@ -274,7 +329,7 @@ def derive(
         d = derive_all(pert, n=n, profile=profile, variant=variant)
     except (PerturbationError, ExpressionError, ProfileError, MapError, DerivationError, StationaryError) as exc:
         raise PulsemapError(api_hint(str(exc))) from None
-    return _public(d)
+    return _public(d, {} if isinstance(R, str) else {s.name: s for s in R.atoms(Symbol)})
 
 
 def _check_R(R: Any) -> None:
@@ -288,19 +343,30 @@ def _check_R(R: Any) -> None:
                         f"(e.g. '-mu*v'), got {type(R).__name__}")
 
 
-def _public(d: Any) -> Derivation:
+def _public(d: Any, given: Mapping[str, Any]) -> Derivation:
+    """The public Derivation of an internal one, its equations in the public symbols (:func:`_public_symbol`;
+    ``given``: the user's own symbols of a sympy R, by name)."""
     import sympy
 
-    from pulsemap.symbolic.amplitude_map import F_SYMBOLS
+    from pulsemap.symbolic.amplitude_map import EPS, F_SYMBOLS, integral_symbol
     from pulsemap.symbolic.perturbation import param_data
 
     law = d.longwave  # a LongwaveLaw, or a SiteLaw (derive/site_law.py) for a site-dependent R
-    law_eq = _law_equation(law, F_SYMBOLS["f1"] - F_SYMBOLS["f3"])
     st = d.stationary
     notes = {key: text for key, text in (("law", d.longwave_note), ("stationary", d.stationary_note)) if text}
     pert = d.perturbation
+    equations = {
+        "map": tuple(sympy.Eq(0, e, evaluate=False) for e in d.amap.equations()),
+        "ode": None if law is None else law.ode(),
+        "law": _law_equation(law, F_SYMBOLS["f1"] - F_SYMBOLS["f3"]),
+        "stationary": None if st is None else sympy.Eq(0, st.equation, evaluate=False),
+    }
+    valued = [EPS, *(integral_symbol(k) for k in d.constants), *pert.scalar_values()]
+    table = _symbol_table([pert.R, *equations["map"], equations["ode"], equations["law"], equations["stationary"],
+                           *valued], given, pert)
+    public = {key: None if eq is None else eq.xreplace(table) for key, eq in equations.items() if key != "map"}
     return Derivation(
-        R=pert.R,
+        R=pert.R.xreplace(table),
         expression=pert.text,
         eps=float(pert.eps),
         params={k: param_data(v) for k, v in pert.params.items()},
@@ -310,12 +376,13 @@ def _public(d: Any) -> Derivation:
         variant=d.variant,
         S0=float(d.S0),
         constants=dict(d.constants),
-        map=tuple(sympy.Eq(0, e, evaluate=False) for e in d.amap.equations()),
-        ode=None if law is None else law.ode(),
-        law=law_eq,
+        map=tuple(eq.xreplace(table) for eq in equations["map"]),
+        ode=public["ode"],
+        law=public["law"],
         law_kind=None if law is None else law.kind,
-        stationary=None if st is None else sympy.Eq(0, st.equation, evaluate=False),
+        stationary=public["stationary"],
         notes=notes,
+        symbols=_by_name(table),
         details=d,
     )
 
@@ -332,6 +399,10 @@ def quadrature_energy_law(pert: Any, n: float = 1.5) -> dict:
     if not pert.is_uniform:
         raise PulsemapError(f"R = {pert.text} varies along the chain: the tabulated energy law needs a uniform R; "
                          "pulsemap run --methods energy-law evaluates it bead by bead")
+    if pert.free_parameters:  # W(A) is a table of numbers
+        names = pert.free_parameters
+        raise PulsemapError(f"the energy law of R = {pert.text} by quadrature needs a value for {', '.join(names)}: give "
+                         + " ".join(f"--param {name}=VALUE" for name in names))
     n = float(check_exponent(n))
     values = {name: float(value) for name, value in pert.params.items()}
     module = force_module(pert.text, pert.used_parameters)

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.api.checks import api_hint, merged_params, number
+
+if TYPE_CHECKING:  # pragma: no cover - the dressed law loads sympy and scipy when it is derived
+    from pulsemap.solvers.studies.dressed import DressedDerivation
 
 __all__ = ["dressed"]
 
@@ -20,7 +23,7 @@ def dressed(
     params: Mapping[str, Any] | None = None,
     coefficients: str = "derived",
     **parameters: Any,
-):
+) -> DressedDerivation:
     """The dressed law d ln A/di = -sum k1 x/(1 - (k2/k1) x) - sum k2_jl x_j x_l of a uniform polynomial R.
 
     k1 is derived (energy balance); k2/k1, the onset lag and the cross terms are derived by expanding Eq. 1 to

@@ -6,7 +6,13 @@ from __future__ import annotations
 import copy
 import html
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
+
+if TYPE_CHECKING:  # pragma: no cover - numpy, pandas and matplotlib load when a result is made or shown
+    import numpy as np
+    import pandas
+    from matplotlib.figure import Figure
+    from numpy.typing import NDArray
 
 __all__ = ["Result"]
 
@@ -24,9 +30,9 @@ class Result:
 
     scene: str
     """Name of the scene that was run."""
-    contacts: Any
+    contacts: NDArray[np.int_]
     """Contacts i (numpy int array), first..last of the scene."""
-    peaks: Mapping[str, Any]
+    peaks: Mapping[str, NDArray[np.float64]]
     """Method -> peaks per contact (numpy float arrays), for every method that was computed."""
     errors: Mapping[str, Mapping[str, Any]]
     """Model -> its error against the DNS, the one definition every output uses: ``rms_pct`` and
@@ -81,7 +87,7 @@ class Result:
         """A deep copy of the JSON-serialisable data (``pulsemap run --json``)."""
         return copy.deepcopy(self.data)
 
-    def to_dataframe(self):
+    def to_dataframe(self) -> pandas.DataFrame:
         """A pandas DataFrame, one row per contact (index ``contact``), one column per method
         (NaN where a method has no value) and ``dns_alive`` when the DNS ran. Needs pandas."""
         try:
@@ -96,7 +102,7 @@ class Result:
         frame.attrs["scene"] = self.scene
         return frame
 
-    def plot(self, path: str | None = None, *, log_y: bool = False):
+    def plot(self, path: str | None = None, *, log_y: bool = False) -> Figure:
         """The peaks against the contact index in the paper's style (DNS +, map dots, law a line);
         saved to ``path`` when given. Returns the matplotlib Figure. Needs matplotlib."""
         from pulsemap.solvers.data.plotting import figures, peaks_figure, save
@@ -154,7 +160,8 @@ class Result:
 
     def __repr__(self) -> str:
         errs = ", ".join(f"{k} {_fmt(v.get('rms_pct'))}" for k, v in self.errors.items())
-        return (f"Result(scene={self.scene!r}, methods={list(self.methods)}, contacts="
+        R = self.provenance.get("scene", {}).get("perturbation", {}).get("R")
+        return (f"Result(scene={self.scene!r}, R={R!r}, methods={list(self.methods)}, contacts="
                 f"{int(self.contacts[0])}..{int(self.contacts[-1])}" + (f", RMS error % vs DNS: {errs}" if errs else "")
                 + ")")
 

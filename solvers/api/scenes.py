@@ -20,8 +20,9 @@ __all__ = ["scene", "scenes"]
 
 #: Every key of a scene file, dotted (the scene file's schema), except the parameters of R.
 KEYS = ("name",) + tuple(f"{table}.{key}" for table in TABLES for key in SCHEMA[table])
-#: Short names: the last part of each dotted key.
-SHORT = {key.rsplit(".", 1)[-1]: key for key in KEYS}
+#: Short names: the last part of each dotted key, the first table's where two share it (eps: perturbation.eps;
+#: contact.eps is given dotted).
+SHORT = dict(reversed([(key.rsplit(".", 1)[-1], key) for key in KEYS]))
 
 
 def scenes() -> list[str]:
@@ -35,6 +36,8 @@ def scenes() -> list[str]:
 def scene(name_or_path: "str | Path | Mapping[str, Any] | Scene", **overrides: Any) -> Scene:
     """A validated scene: a built-in name (:func:`scenes`; "default" too), a path to a ``.toml`` file,
     a dict laid out as a scene file, or a Scene; with ``overrides`` applied (see the module docstring).
+    R (``R=...`` or the dict's ``perturbation.R``) is a formula as text or a sympy expression, as
+    :func:`pulsemap.derive` takes it.
 
     >>> sc = scene("fig8-eps0.3", **{"perturbation.eps": 0.2, "output.contacts": [16, 40]})  # doctest: +SKIP
 
@@ -46,14 +49,29 @@ def scene(name_or_path: "str | Path | Mapping[str, Any] | Scene", **overrides: A
     elif isinstance(name_or_path, (str, Path)):
         base = load_scene(name_or_path)
     elif isinstance(name_or_path, Mapping):
-        base = parse_scene(name_or_path, str(name_or_path.get("source") or "<dict>"))
+        data = dict(name_or_path)
+        if isinstance(data.get("perturbation"), Mapping) and "R" in data["perturbation"]:
+            data["perturbation"] = {**data["perturbation"], "R": _formula(data["perturbation"]["R"])}
+        base = parse_scene(data, str(name_or_path.get("source") or "<dict>"))
     else:
         raise TypeError(f"name_or_path must be a built-in scene name, a path, a dict or a Scene, "
                         f"got {type(name_or_path).__name__}")
     if not overrides:
         return base
     params = base.perturbation.params
-    return apply_overrides(base, [(_resolve(key, params), value) for key, value in overrides.items()])
+    resolved = [(_resolve(key, params), value) for key, value in overrides.items()]
+    return apply_overrides(base, [(key, _formula(value) if key == "perturbation.R" else value)
+                                  for key, value in resolved])
+
+
+def _formula(R: Any) -> Any:
+    """R as a scene file holds it: text; a sympy expression (as :func:`pulsemap.derive` takes) is written
+    out in the parser's words. Anything else goes on to the scene's own check."""
+    if isinstance(R, str) or type(R).__module__.split(".")[0] != "sympy":
+        return R
+    from pulsemap.symbolic.expression import formula
+
+    return formula(R)
 
 
 def _resolve(key: str, params: Mapping[str, Any]) -> str:

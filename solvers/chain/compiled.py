@@ -30,11 +30,13 @@ import numpy as np
 
 from pulsemap.solvers.chain import compiled_aot
 from pulsemap.solvers.chain import compiled_layout as K
+from pulsemap.solvers.chain.contact_force import kernel_terms
 from pulsemap.solvers.chain.equations import ENERGY_BLOWUP, DNSResult, ForceNotFinite, energy
 from pulsemap.solvers.chain.force_table import JitForce, MonomialTable
 from pulsemap.solvers.chain.peaks import (PeakTracker, StopRules, contact_rate, first_threshold, primary_pulse_lost,
                                           velocity_scale)
-from pulsemap.solvers.chain.plan import HIGH_ORDER_METHOD, METHOD, explicit_reason
+from pulsemap.solvers.chain import methods
+from pulsemap.solvers.chain.plan import METHOD, explicit_reason
 
 Array = np.ndarray
 ENERGY_EVERY = 4  # blow-up guard and energy drift every this many steps (as solvers/window.py)
@@ -89,16 +91,18 @@ class _Run:
     y: Array
     f: Array
     method: str = METHOD  # the kernel: RK45 (compiled_kernel.py), DOP853 (compiled_dop853.py) or Rodas4
+    terms: tuple = ()  # the contact law's term and the masses: contact_force.kernel_terms (cx, cc, mi)
 
 
 def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
             table: "MonomialTable | JitForce | None", *, rule, rtol: float, atol: float, stop: StopRules,
-            method: str = METHOD, launch=None) -> _Run:
+            method: str = METHOD, launch=None, contact=None, masses=None) -> _Run:
     """The kernel's arrays at t = 0: all beads at rest, bead 1 with velocity v0 (Eq. 1), or with
     ``launch`` (a chain/launch.Launch, checked by dns.simulate; ``velocity`` is then its velocity
     scale) the exact solitary wave with contact launch.centre at its peak, the window holding every
     bead it moves and contacts up to the centre counted as peaked; ``stop``: the stop rules with t_max
-    and max_steps given; ``method``: the kernel (RK45, DOP853 or compiled_stiff.METHOD)."""
+    and max_steps given; ``method``: the kernel (RK45, DOP853 or compiled_stiff.METHOD); ``contact``: the
+    contact law's term (a contact_force.ContactTable or None), ``masses``: the beads' (None: all 1)."""
     first, last = int(contacts[0]), int(contacts[1])
     peak_fraction, death_fraction, overtake_factor = stop.peak_fraction, stop.death_fraction, stop.overtake_factor
     stall_factor, t_max, max_steps = stop.stall_factor, float(stop.t_max), int(stop.max_steps)
@@ -126,24 +130,22 @@ def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, i
     y, f = np.zeros(2 * cap), np.zeros(2 * cap)
     if launch is None:
         y[1] = velocity
-        fs[K.E0] = 0.5 * velocity * velocity
+        fs[K.E0] = 0.5 * velocity * velocity * (1.0 if masses is None else float(masses[0]))
     else:
         y[: 2 * hi] = launch.state(exponent, hi)
         fs[K.E0] = energy(y[0 : 2 * hi : 2], y[1 : 2 * hi : 2], exponent)
     return _Run(beads, exponent, velocity, first, last, rule, float(rtol), float(atol), t_max, max_steps, table,
                 cap, cf, ci, st, fs, np.full(last, np.nan), np.full(last, np.nan),
-                np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f, method)
+                np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f, method,
+                kernel_terms(contact, masses))
 
 
 def jit_kernel(method: str):
-    """The numba dispatcher of a kernel (its module imported, so compiled or loaded, only when a run needs it)."""
-    if method == METHOD:
-        from pulsemap.solvers.chain.compiled_kernel import run as kernel
-    elif method == HIGH_ORDER_METHOD:
-        from pulsemap.solvers.chain.compiled_dop853 import run as kernel
-    else:
-        from pulsemap.solvers.chain.compiled_stiff import run as kernel
-    return kernel
+    """The numba dispatcher of a kernel (its module, chain/methods.py's row, imported, so compiled or loaded, only
+    when a run needs it)."""
+    import importlib
+
+    return importlib.import_module(f"pulsemap.solvers.chain.{methods.by_name(method).kernel}").run
 
 
 def kernel_for(run: _Run, aot: bool = True) -> tuple:
@@ -164,7 +166,7 @@ def kernel_for(run: _Run, aot: bool = True) -> tuple:
 def kernel_args(run: _Run) -> tuple:
     """The kernel's arguments for ``run`` (compiled_kernel.run's order)."""
     return (run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e, run.total_e,
-            *run.table.kernel_args)
+            *run.table.kernel_args, *run.terms)
 
 
 def drive(run: _Run, kernel, code: int | None = None, report=None) -> int:
@@ -205,7 +207,7 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
         contacts=contacts_out, peaks=peaks_out, peak_times=times_out, alive=alive, stop_reason=reason,
         method=run.method, rtol=run.rtol, atol=run.atol, beads=int(run.beads), nfev=int(st[K.NFEV]),
         njev=int(st[K.NJEV]),
-        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.conservative else None,
+        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.conservative and not run.terms[0].shape[0] else None,
         exponent=float(run.exponent), velocity=float(run.velocity), t_end=float(fs[K.T]),
         mode="full" if run.rule is None else "window/compiled", window_beads=int(st[K.WIDEST]),
         window_shifts=int(st[K.SHIFTS]), window_rule=run.rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),

@@ -34,16 +34,17 @@ from pathlib import Path
 import numpy as np
 
 from pulsemap.symbolic.cache import cache_root
+from pulsemap.solvers.chain import methods
 
-#: The kernel module of each method (its ``run`` is what a module exports).
-KERNELS = {"RK45": "compiled_kernel", "DOP853": "compiled_dop853", "Rodas4": "compiled_stiff"}
 #: The files the kernels are compiled from, whose numba functions call or inline each other (each
 #: carries their common cache stamp: tests/chain/test_numba_stamp.py).
 SOURCES = ("compiled_ops.py", "compiled_track.py", "compiled_kernel.py", "compiled_stiff.py", "compiled_force.py",
            "compiled_dop853.py", "compiled_layout.py")
-#: ``run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef)``'s types (compiled.kernel_args),
-#: per form of ``coef``.
-SIGNATURE = "i8(f8[::1], f8[::1], f8[::1], i8[::1], f8[::1], i8[::1], f8[::1], f8[::1], f8[::1], f8[::1], i8[:, ::1], {})"
+#: ``run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi)``'s types
+#: (compiled.kernel_args), per form of ``coef``; (cx, cc, mi) in the bare form (contact_force.kernel_terms):
+#: a contact law's term or masses take numba's JIT kernels.
+SIGNATURE = ("i8(f8[::1], f8[::1], f8[::1], i8[::1], f8[::1], i8[::1], f8[::1], f8[::1], f8[::1], f8[::1], i8[:, ::1], {},"
+             " f8[:, ::1], f8[::1], f8[::1])")
 COEF_TYPES = {"dense": "f8[:, :, ::1]", "table": "f8[:, ::1]"}
 FORM_OF_NDIM = {3: "dense", 2: "table"}  # coef (2, 4, L): the dense cubics; (M, L): the table
 INTEGER_ARGS = (3, 5, 10)  # st, ci, exps: int64; every other argument float64
@@ -85,8 +86,10 @@ def writable(path: Path) -> bool:
 def form_of(args: tuple) -> str | None:
     """The force form of the kernel arguments ``args`` ("dense" or "table"), or None when no
     ahead-of-time kernel takes them (a generated numba force, or an array of another type or layout)."""
-    exps, coef = args[-2], args[-1]
+    exps, coef, cc = args[-5], args[-4], args[-2]
     if not isinstance(exps, np.ndarray) or not isinstance(coef, np.ndarray) or coef.ndim not in FORM_OF_NDIM:
+        return None
+    if not isinstance(cc, np.ndarray) or cc.ndim != 1:  # a contact law's term or masses: the JIT kernels
         return None
     for i, a in enumerate(args):
         want = np.int64 if i in INTEGER_ARGS else np.float64
@@ -161,7 +164,7 @@ def build(method: str, form: str, name: str, path: Path) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # numba.pycc is deprecated (still in numba 0.68)
         from numba.pycc import CC
-    kernel = importlib.import_module(f"pulsemap.solvers.chain.{KERNELS[method]}").run
+    kernel = importlib.import_module(f"pulsemap.solvers.chain.{methods.kernels()[method]}").run
     work = tempfile.mkdtemp(prefix=f".{name}-", dir=path.parent)
     saved_tmp, log = tempfile.tempdir, io.StringIO()
     out_fd, err_fd = os.dup(1), os.dup(2)
@@ -237,7 +240,7 @@ def kernel(method: str, args: tuple):
     cache not writable): the caller then takes numba's JIT kernel. Builds the module at its first use
     on this machine (build)."""
     form = form_of(args)
-    if form is None or method not in KERNELS:
+    if form is None or method not in methods.kernels():
         return None, 0.0
     return load(method, form)
 
@@ -285,7 +288,7 @@ def to_build(kernels) -> list[tuple[str, str]]:
     """Those of ``kernels`` ((method, form) pairs) that this machine has no module of yet and could build."""
     todo = []
     for method, form in dict.fromkeys(kernels):
-        if method in KERNELS and form in COEF_TYPES and module_name(method, form) not in _loaded:
+        if method in methods.kernels() and form in COEF_TYPES and module_name(method, form) not in _loaded:
             path, failed = _paths(module_name(method, form))
             if not path.exists() and not failed.exists() and writable(path.parent):
                 todo.append((method, form))

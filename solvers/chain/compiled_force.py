@@ -12,10 +12,11 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: fa9ca95239125c63
+# numba cache stamp: bd2c6ddd469c7315
 from __future__ import annotations
 
-from pulsemap.solvers.chain.jit import types
+import numpy as np
+from pulsemap.solvers.chain.jit import njit, types
 from numba.extending import overload
 
 
@@ -95,3 +96,131 @@ def _onsite_slopes(x, v, b0, exps, coef):
         return exps[1](x, v, b0 + 1.0, args), exps[2](x, v, b0 + 1.0, args)
 
     return function
+
+
+# --- the contact law's term eps_c P_k(d, w) and the bead masses (chain/contact_force.py's ContactTable):
+# ``(cx, cc, mi)``: exponents (M, 2) [a_m, b_m], per-contact coefficients (M, L) and inverse masses (L,),
+# column min(k0, L - 1); or, for the Hertz chain of unit masses, a 1-d ``cc`` (the bare form): numba then
+# compiles each helper to exactly the arithmetic of the bare chain (same numbers, same speed).
+
+
+def contact_force(d, wd, k0, n, cx, cc):  # pragma: no cover - numba replaces it (overload below)
+    """F(d, w) = d^n + eps_c P_k0(d, w) of contact k0 (0-based) at overlap d > 0 and its rate wd."""
+    raise NotImplementedError("compiled code only")
+
+
+def contact_slopes(d, wd, k0, n, cx, cc):  # pragma: no cover - numba replaces it (overload below)
+    """(dF/dd, dF/dw) of contact k0 at overlap d > 0 and rate wd."""
+    raise NotImplementedError("compiled code only")
+
+
+def inverse_mass(b0, cc, mi):  # pragma: no cover - numba replaces it (overload below)
+    """1 / m of bead b0 (0-based)."""
+    raise NotImplementedError("compiled code only")
+
+
+def kinetic(v, b0, cc, mi):  # pragma: no cover - numba replaces it (overload below)
+    """m v^2 / 2 of bead b0 with velocity v."""
+    raise NotImplementedError("compiled code only")
+
+
+def has_terms(cc):  # pragma: no cover - numba replaces it (overload below)
+    """True when the chain has a contact term or masses (the table form), a compile-time constant."""
+    raise NotImplementedError("compiled code only")
+
+
+@njit(cache=True, inline="always")
+def _pow(d, a):
+    """d^a for d > 0 (a = 0, 1/2, 1 without pow)."""
+    if a == 0.0:
+        return 1.0
+    if a == 0.5:
+        return np.sqrt(d)
+    if a == 1.0:
+        return d
+    return d**a
+
+
+@njit(cache=True, inline="always")
+def _hertz(d, n):
+    """d^n for d > 0 (compiled_ops.pos_pow's rule: n = 1.5 and 0.5 by a square root)."""
+    if n == 1.5:
+        return d * np.sqrt(d)
+    if n == 0.5:
+        return np.sqrt(d)
+    return d**n
+
+
+def _bare(cc) -> bool:
+    return isinstance(cc, types.Array) and cc.ndim == 1
+
+
+@njit(cache=True)
+def _table_force(d, wd, k0, n, cx, cc):
+    """contact_force of the table form (a call, not inlined: numba inlines no loop cleanly)."""
+    col = min(k0, cc.shape[1] - 1)
+    f = _hertz(d, n)
+    for m in range(cx.shape[0]):
+        c = cc[m, col]
+        if c != 0.0:
+            p = c * _pow(d, cx[m, 0])
+            for _ in range(int(cx[m, 1])):
+                p *= wd
+            f += p
+    return f
+
+
+@njit(cache=True)
+def _table_slopes(d, wd, k0, n, cx, cc):
+    """contact_slopes of the table form."""
+    col = min(k0, cc.shape[1] - 1)
+    sd = n * _hertz(d, n - 1.0)
+    sw = 0.0
+    for m in range(cx.shape[0]):
+        c = cc[m, col]
+        a, b = cx[m, 0], int(cx[m, 1])
+        if c != 0.0:
+            wb1 = 1.0  # w^(b-1)
+            for _ in range(b - 1):
+                wb1 *= wd
+            wb = wb1 * wd if b > 0 else 1.0
+            if b > 0:
+                sw += c * b * _pow(d, a) * wb1
+            if a != 0.0:
+                sd += c * a * d ** (a - 1.0) * wb
+    return sd, sw
+
+
+@overload(contact_force)
+def _contact_force(d, wd, k0, n, cx, cc):
+    if _bare(cc):
+        return lambda d, wd, k0, n, cx, cc: _hertz(d, n)
+    return lambda d, wd, k0, n, cx, cc: _table_force(d, wd, k0, n, cx, cc)
+
+
+@overload(contact_slopes)
+def _contact_slopes(d, wd, k0, n, cx, cc):
+    if _bare(cc):
+        return lambda d, wd, k0, n, cx, cc: (n * _hertz(d, n - 1.0), 0.0)
+    return lambda d, wd, k0, n, cx, cc: _table_slopes(d, wd, k0, n, cx, cc)
+
+
+@overload(inverse_mass, inline="always")
+def _inverse_mass(b0, cc, mi):
+    if _bare(cc):
+        return lambda b0, cc, mi: 1.0
+    return lambda b0, cc, mi: mi[min(b0, mi.shape[0] - 1)]
+
+
+@overload(kinetic, inline="always")
+def _kinetic(v, b0, cc, mi):
+    if _bare(cc):
+        return lambda v, b0, cc, mi: 0.5 * v * v
+    return lambda v, b0, cc, mi: 0.5 * v * v / mi[min(b0, mi.shape[0] - 1)]
+
+
+@overload(has_terms, inline="always")
+def _has_terms(cc):
+    if _bare(cc):
+        return lambda cc: False
+    return lambda cc: True

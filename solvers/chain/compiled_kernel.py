@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: fa9ca95239125c63
+# numba cache stamp: bd2c6ddd469c7315
 from __future__ import annotations
 
 import numpy as np
@@ -24,67 +24,21 @@ from pulsemap.solvers.chain.jit import njit
 from pulsemap.solvers.chain.compiled_ops import (
     A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65, A71, A73, A74, A75, A76, BETA, C2, C3,
     C4, C5, E1, E3, E4, E5, E6, E7, FAC_MAX, FAC_MIN, NO_NRT, SAFE, dopri_dense, rhs)
-from pulsemap.solvers.chain.compiled_layout import (
-    ATOL, BEADS, CAPACITY, EXP, FACOLD, H, HAS_LEFT, HI, LEFT_T, LEFT_V, LEFT_X, LO, NFEV, NONFINITE, REJECTED, RTOL,
-    STARTED, T, T_MAXC)
-from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_in_step, track_step, window_now
-
-
-@njit(**NO_NRT)
-def _initial_step(t, y, f, w, st, fs, cf, exps, coef, wall, work):
-    """Hairer's HINIT for the first step."""
-    w2 = 2 * w
-    rtol, atol = cf[RTOL], cf[ATOL]
-    sk = work[7]
-    y1 = work[8]
-    f1 = work[6]
-    dnf = 0.0
-    dny = 0.0
-    for i in range(w2):
-        s = atol + rtol * abs(y[i])
-        sk[i] = s
-        dnf += (f[i] / s) ** 2
-        dny += (y[i] / s) ** 2
-    dnf, dny = np.sqrt(dnf / w2), np.sqrt(dny / w2)
-    h = 1e-6 if (dnf <= 1e-10 or dny <= 1e-10) else 0.01 * dny / dnf
-    h = min(h, cf[T_MAXC] - t)
-    for i in range(w2):
-        y1[i] = y[i] + h * f[i]
-    rhs(t + h, y1, f1, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef)
-    st[NFEV] += 1
-    der2 = 0.0
-    for i in range(w2):
-        der2 += ((f1[i] - f[i]) / sk[i]) ** 2
-    der2 = np.sqrt(der2 / w2) / h
-    der12 = max(abs(der2), np.sqrt(dnf))
-    h1 = max(1e-6, h * 1e-3) if der12 <= 1e-15 else (0.01 / der12) ** 0.2
-    return min(100.0 * h, h1, cf[T_MAXC] - t)
-
-
-@njit(**NO_NRT)
-def start(t, y, f, st, fs, cf, ci, exps, coef, work):
-    """At a run's first call (st[STARTED] == 0): f at t and the first step size (HINIT)."""
-    if st[STARTED] == 0:
-        w = st[HI] - st[LO]
-        wall = st[HI] < ci[BEADS]
-        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef)
-        st[NFEV] += 1
-        fs[H] = _initial_step(t, y, f, w, st, fs, cf, exps, coef, wall, work)
-        fs[FACOLD] = 1e-4
-        st[STARTED] = 1
+from pulsemap.solvers.chain.compiled_layout import ATOL, CAPACITY, EXP, FACOLD, H, NFEV, NONFINITE, REJECTED, RTOL, T
+from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_in_step, start, track_step, window_now
 
 
 @njit(cache=True)
-def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
+def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi):
     """Integrate until a stop rule fires; returns its code (state in y, f, fs, st for a resume).
     Allocates the scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
     cap = ci[CAPACITY]
-    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, np.empty((10, 2 * cap)),
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, np.empty((10, 2 * cap)),
                  np.empty((4, 2 * cap)))
 
 
 @njit(**NO_NRT)
-def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work, rc):
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, work, rc):
     """The steps of ``run`` (``work``: 10 rows of scratch, ``rc``: the dense output's 4 rows, each of
     2 x ci[CAPACITY]).
 
@@ -101,7 +55,7 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work
     k2, k3, k4, k5, k6, k7, ys, yn = work[0], work[1], work[2], work[3], work[4], work[5], work[8], work[9]
     expo1 = 0.2 - BETA * 0.75
     t = fs[T]
-    start(t, y, f, st, fs, cf, ci, exps, coef, work)
+    start(t, y, f, st, fs, cf, ci, exps, coef, cx, cc, mi, work)
     h = fs[H]
     while True:
         h, code = next_step(t, h, st, fs, cf, ci)
@@ -111,22 +65,22 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work
         # ---- stages
         for i in range(w2):
             ys[i] = y[i] + h * A21 * f[i]
-        rhs(t + C2 * h, ys, k2, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + C2 * h, ys, k2, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         for i in range(w2):
             ys[i] = y[i] + h * (A31 * f[i] + A32 * k2[i])
-        rhs(t + C3 * h, ys, k3, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + C3 * h, ys, k3, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         for i in range(w2):
             ys[i] = y[i] + h * (A41 * f[i] + A42 * k2[i] + A43 * k3[i])
-        rhs(t + C4 * h, ys, k4, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + C4 * h, ys, k4, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         for i in range(w2):
             ys[i] = y[i] + h * (A51 * f[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i])
-        rhs(t + C5 * h, ys, k5, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + C5 * h, ys, k5, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         for i in range(w2):
             ys[i] = y[i] + h * (A61 * f[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i])
-        rhs(t + h, ys, k6, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + h, ys, k6, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         for i in range(w2):
             yn[i] = y[i] + h * (A71 * f[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i])
-        rhs(t + h, yn, k7, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t + h, yn, k7, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         st[NFEV] += 6
         err = 0.0
         for i in range(w2):
@@ -154,8 +108,8 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work
         # y_old stays in y until the bookkeeping is done (dense output needs y, f = k1, k3..k7)
         if peak_in_step(y, yn, st, ci):
             dopri_dense(rc, y, yn, h, f, k3, k4, k5, k6, k7, w2)
-        code = track_step(t_old, t, h, y, yn, rc, work[6], w, st, fs, cf, ci, peaks, times, pulse_e, total_e)
-        code = finish_step(t, h_new, y, f, yn, k7, w, st, fs, cf, ci, exps, coef, code)  # FSAL: f <- k7
+        code = track_step(t_old, t, h, y, yn, rc, work[6], w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi)
+        code = finish_step(t, h_new, y, f, yn, k7, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code)  # FSAL: f <- k7
         h = h_new
         if code != 0:
             return code

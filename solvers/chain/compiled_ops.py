@@ -7,13 +7,13 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: fa9ca95239125c63
+# numba cache stamp: bd2c6ddd469c7315
 from __future__ import annotations
 
 import numpy as np
 from pulsemap.solvers.chain.jit import njit
 
-from pulsemap.solvers.chain.compiled_force import add_onsite
+from pulsemap.solvers.chain.compiled_force import add_onsite, contact_force, inverse_mass, kinetic
 
 # --- Dormand-Prince 5(4) (Hairer & Wanner's DOPRI5), dense output of order 4 (CONTD5)
 C2, C3, C4, C5 = 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0
@@ -64,35 +64,42 @@ def pos_pow(d: float, n: float) -> float:
 
 
 @njit(**NO_NRT)
-def rhs(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef):
-    """Eq. 1 on the window's w beads (interleaved), the on-site force (exps, coef) as compiled_force.py reads it."""
+def rhs(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef, cx, cc, mi):
+    """Eq. 1 on the window's w beads (interleaved), the on-site force (exps, coef), the contact law's term
+    (cx, cc) and the masses (mi) as compiled_force.py reads them:
+    m_j x_j'' = F(d_(j-1), w_(j-1)) - F(d_j, w_j) + F_j(x_j, v_j)."""
     prev = 0.0
     if has_left:
         d = left_x + left_v * (t - left_t) - y[0]
         if d > 0.0:
-            prev = pos_pow(d, n)
+            prev = contact_force(d, left_v - y[1], lo - 1, n, cx, cc)
     for j in range(w):
         x = y[2 * j]
         v = y[2 * j + 1]
         if j < w - 1:
             d = x - y[2 * j + 2]
+            wd = v - y[2 * j + 3]
         elif wall:
             d = x
+            wd = v
         else:
             d = 0.0
-        fj = pos_pow(d, n) if d > 0.0 else 0.0
+            wd = 0.0
+        fj = contact_force(d, wd, lo + j, n, cx, cc) if d > 0.0 else 0.0
         acc = add_onsite(prev - fj, x, v, lo + j, exps, coef)
         out[2 * j] = v
-        out[2 * j + 1] = acc
+        out[2 * j + 1] = acc * inverse_mass(lo + j, cc, mi)
         prev = fj
 
 
 @njit(**NO_NRT)
-def window_energy(t, y, w, n, has_left, left_x, left_v, left_t):
-    """Kinetic + contact energy of the window (with the contact to the coasting left bead)."""
+def window_energy(t, y, w, n, has_left, left_x, left_v, left_t, lo, cc, mi):
+    """Kinetic + Hertz contact energy of the window (with the contact to the coasting left bead; the
+    contact law's term P is left out: the energy is the blow-up guard's, and a drift is reported only
+    for a conservative chain)."""
     e = 0.0
     for j in range(w):
-        e += 0.5 * y[2 * j + 1] * y[2 * j + 1]
+        e += kinetic(y[2 * j + 1], lo + j, cc, mi)
         if j < w - 1:
             d = y[2 * j] - y[2 * j + 2]
             if d > 0.0:
@@ -105,11 +112,11 @@ def window_energy(t, y, w, n, has_left, left_x, left_v, left_t):
 
 
 @njit(**NO_NRT)
-def segment_energy(y, a, b, n):
+def segment_energy(y, a, b, n, lo, cc, mi):
     """Kinetic + contact energy of local beads a..b-1 and the contacts between them (front.py)."""
     e = 0.0
     for j in range(a, b):
-        e += 0.5 * y[2 * j + 1] * y[2 * j + 1]
+        e += kinetic(y[2 * j + 1], lo + j, cc, mi)
         if j < b - 1:
             d = y[2 * j] - y[2 * j + 2]
             if d > 0.0:

@@ -18,17 +18,16 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: fa9ca95239125c63
+# numba cache stamp: bd2c6ddd469c7315
 from __future__ import annotations
 
 import numpy as np
 from pulsemap.solvers.chain.jit import njit
 
-from pulsemap.solvers.chain.compiled_force import onsite_slopes
-from pulsemap.solvers.chain.compiled_kernel import start
-from pulsemap.solvers.chain.compiled_ops import NO_NRT, hermite_dense, pos_pow, rhs
+from pulsemap.solvers.chain.compiled_force import contact_slopes, has_terms, inverse_mass, onsite_slopes
+from pulsemap.solvers.chain.compiled_ops import NO_NRT, hermite_dense, rhs
 from pulsemap.solvers.chain.compiled_layout import ATOL, CAPACITY, EXP, H, NFEV, NJEV, NONFINITE, REJECTED, RTOL, T
-from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_in_step, track_step, window_now
+from pulsemap.solvers.chain.compiled_track import start, finish_step, next_step, peak_in_step, track_step, window_now
 
 METHOD = "Rodas4"  # plan.STIFF_METHOD
 ORDER = 4  # of the step (the embedded one: 3); the dense output is a cubic Hermite (order 3)
@@ -55,33 +54,45 @@ SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 6.0
 
 
 @njit(**NO_NRT)
-def jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, band):
-    """Eq. 1's Jacobian on the window: band[0, j] the stiffness n delta^(n-1) of the contact left of
-    local bead j (j = 0: the coasting bead; band[0, w]: the wall), band[1], band[2] dF/dx, dF/dv.
-    Returns df/dt of v_0 (the coasting bead's push)."""
-    s = band[0]
+def jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi, band):
+    """Eq. 1's Jacobian on the window: band[0, j] the stiffness dF/dd of the contact left of local bead j
+    (j = 0: the coasting bead; band[0, w]: the wall), band[5, j] its damping dF/dw, band[1], band[2]
+    dF/dx, dF/dv of the on-site force, band[6] the inverse masses. Returns df/dt of v_0 (the coasting
+    bead's push)."""
+    s, g = band[0], band[5]
     s[0] = 0.0
+    g[0] = 0.0
     ft = 0.0
     if has_left:
         d = lx + lv * (t - lt) - y[0]
         if d > 0.0:
-            s[0] = n * pos_pow(d, n - 1.0)
-            ft = s[0] * lv
+            s[0], g[0] = contact_slopes(d, lv - y[1], lo - 1, n, cx, cc)
+            ft = s[0] * lv * inverse_mass(lo, cc, mi)
     for j in range(w - 1):
         d = y[2 * j] - y[2 * j + 2]
-        s[j + 1] = n * pos_pow(d, n - 1.0) if d > 0.0 else 0.0
+        if d > 0.0:
+            s[j + 1], g[j + 1] = contact_slopes(d, y[2 * j + 1] - y[2 * j + 3], lo + j, n, cx, cc)
+        else:
+            s[j + 1], g[j + 1] = 0.0, 0.0
     d = y[2 * w - 2] if wall else 0.0  # the wall ahead
-    s[w] = n * pos_pow(d, n - 1.0) if d > 0.0 else 0.0
+    if d > 0.0:
+        s[w], g[w] = contact_slopes(d, y[2 * w - 1], lo + w - 1, n, cx, cc)
+    else:
+        s[w], g[w] = 0.0, 0.0
     for j in range(w):
         band[1, j], band[2, j] = onsite_slopes(y[2 * j], y[2 * j + 1], lo + j, exps, coef)
+        band[6, j] = inverse_mass(lo + j, cc, mi)
     return ft
 
 
 @njit(**NO_NRT)
-def factor(hg, w, band):
+def factor(hg, w, band, cc):
     """LU (Thomas) of the tridiagonal system in K_v left by eliminating K_x = hg (r_x + K_v) from
     (1/hg - J) K = r: band[3] the inverse pivots, band[4] the normalised super-diagonal.
-    False when a pivot is not finite or zero (the step is then rejected)."""
+    False when a pivot is not finite or zero (the step is then rejected). With a contact term or masses
+    the couplings are (hg dF/dd + dF/dw) / m (factor_terms)."""
+    if has_terms(cc):
+        return factor_terms(hg, w, band)
     s, dfx, dfv, dinv, cp = band[0], band[1], band[2], band[3], band[4]
     prev = 0.0
     for j in range(w):
@@ -97,17 +108,47 @@ def factor(hg, w, band):
 
 
 @njit(**NO_NRT)
-def solve(r, k, hg, w, band):
-    """K from (1/hg - J) K = r with factor's LU (interleaved r, K; O(w))."""
-    s, dfx, dinv, cp = band[0], band[1], band[3], band[4]
+def factor_terms(hg, w, band):
+    """factor with damping band[5] (dF/dw per contact) and inverse masses band[6]: row j of (1/hg - J)
+    after eliminating K_x has sub-, main and super-diagonal -(hg s_j + g_j)/m_j,
+    1/hg + (hg (s_j + s_(j+1) - dfx_j) + g_j + g_(j+1) - dfv_j)/m_j, -(hg s_(j+1) + g_(j+1))/m_j."""
+    s, dfx, dfv, dinv, cp, g, mi = band[0], band[1], band[2], band[3], band[4], band[5], band[6]
     prev = 0.0
     for j in range(w):
-        rhs_v = r[2 * j + 1] + hg * (dfx[j] - s[j] - s[j + 1]) * r[2 * j]
+        b = 1.0 / hg + (hg * (s[j] + s[j + 1] - dfx[j]) + g[j] + g[j + 1] - dfv[j]) * mi[j]
         if j > 0:
-            rhs_v += hg * s[j] * r[2 * j - 2]
-        if j < w - 1:
-            rhs_v += hg * s[j + 1] * r[2 * j + 2]
-        prev = (rhs_v + hg * s[j] * prev) * dinv[j] if j > 0 else rhs_v * dinv[j]
+            b += (hg * s[j] + g[j]) * mi[j] * prev
+        if not (np.isfinite(b) and b != 0.0):
+            return False
+        dinv[j] = 1.0 / b
+        prev = -(hg * s[j + 1] + g[j + 1]) * mi[j] * dinv[j] if j < w - 1 else 0.0
+        cp[j] = prev
+    return True
+
+
+@njit(**NO_NRT)
+def solve(r, k, hg, w, band, cc):
+    """K from (1/hg - J) K = r with factor's LU (interleaved r, K; O(w))."""
+    s, dfx, dinv, cp = band[0], band[1], band[3], band[4]
+    terms = has_terms(cc)
+    g, mi = band[5], band[6]
+    prev = 0.0
+    for j in range(w):
+        if terms:
+            rx = (dfx[j] - s[j] - s[j + 1]) * r[2 * j]
+            if j > 0:
+                rx += s[j] * r[2 * j - 2]
+            if j < w - 1:
+                rx += s[j + 1] * r[2 * j + 2]
+            rhs_v = r[2 * j + 1] + hg * mi[j] * rx
+            prev = (rhs_v + (hg * s[j] + g[j]) * mi[j] * prev) * dinv[j] if j > 0 else rhs_v * dinv[j]
+        else:
+            rhs_v = r[2 * j + 1] + hg * (dfx[j] - s[j] - s[j + 1]) * r[2 * j]
+            if j > 0:
+                rhs_v += hg * s[j] * r[2 * j - 2]
+            if j < w - 1:
+                rhs_v += hg * s[j + 1] * r[2 * j + 2]
+            prev = (rhs_v + hg * s[j] * prev) * dinv[j] if j > 0 else rhs_v * dinv[j]
         k[2 * j + 1] = prev
     for j in range(w - 2, -1, -1):
         k[2 * j + 1] -= cp[j] * k[2 * j + 3]
@@ -116,14 +157,14 @@ def solve(r, k, hg, w, band):
 
 
 @njit(**NO_NRT)
-def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, k, work, band):
+def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi, k, work, band):
     """One Rodas4 step from (t, y) with f = f(t, y): yn and the error estimate err (= K_6).
     False when the linear system is singular. ``k``: (STAGES, >= 2w), ``work``: (3, >= 2w) scratch."""
     w2 = 2 * w
     r, ys, fy = work[0], work[1], work[2]
     hg = GAMMA * h
-    ft = jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, band)
-    if not factor(hg, w, band):
+    ft = jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi, band)
+    if not factor(hg, w, band, cc):
         return False
     for s in range(STAGES):
         if s == 0:
@@ -135,14 +176,14 @@ def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, e
                 for j in range(s):
                     acc += A[s, j] * k[j, i]
                 ys[i] = acc
-            rhs(t + ALPHA[s] * h, ys, fy, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+            rhs(t + ALPHA[s] * h, ys, fy, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         for i in range(w2):
             acc = fy[i]
             for j in range(s):
                 acc += C[s, j] / h * k[j, i]
             r[i] = acc
         r[1] += GAMMAS[s] * h * ft
-        solve(r, k[s], hg, w, band)
+        solve(r, k[s], hg, w, band, cc)
     for i in range(w2):
         acc = y[i]
         for s in range(STAGES):
@@ -153,24 +194,24 @@ def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, e
 
 
 @njit(cache=True)
-def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef):
+def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi):
     """compiled_kernel.run with Rodas4 steps (same arguments, state and stop codes; st[NJEV] counts
     the Jacobians, one per attempted step). Step control: h_new = h min(6, max(0.2, 0.9 err^(-1/4))),
     no growth right after a rejection. Allocates the scratch arrays, then ``steps`` (compiled without
     reference counting) does the work."""
     cap = ci[CAPACITY]
-    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, np.empty((10, 2 * cap)),
-                 np.empty((5, cap + 1)), np.empty((STAGES, 2 * cap)), np.empty((4, 2 * cap)))
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, np.empty((10, 2 * cap)),
+                 np.empty((7, cap + 1)), np.empty((STAGES, 2 * cap)), np.empty((4, 2 * cap)))
 
 
 @njit(**NO_NRT)
-def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work, band, k, rc):
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, work, band, k, rc):
     """The steps of ``run`` (scratch: ``work`` 10 rows of 2 x ci[CAPACITY], ``band`` the banded
-    Jacobian 5 x (ci[CAPACITY] + 1), ``k`` the stages, ``rc`` the dense output's 4 rows)."""
+    Jacobian 7 x (ci[CAPACITY] + 1), ``k`` the stages, ``rc`` the dense output's 4 rows)."""
     n = cf[EXP]
     rtol, atol = cf[RTOL], cf[ATOL]
     yn, fn, err_v, pk = work[6], work[7], work[8], work[9]
-    start(fs[T], y, f, st, fs, cf, ci, exps, coef, work)
+    start(fs[T], y, f, st, fs, cf, ci, exps, coef, cx, cc, mi, work)
     t, h = fs[T], fs[H]
     while True:
         h, code = next_step(t, h, st, fs, cf, ci)
@@ -179,7 +220,7 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work
         st[NJEV] += 1
         lo, w, wall, has_left, w2, lx, lv, lt = window_now(st, fs, ci)
         err = np.inf
-        if rosenbrock_step(t, h, y, f, yn, err_v, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, k, work, band):
+        if rosenbrock_step(t, h, y, f, yn, err_v, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi, k, work, band):
             st[NFEV] += STAGES - 1
             err = 0.0
             for i in range(w2):
@@ -203,12 +244,12 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, work
         h_new = h * fac
         t_old = t
         t = t + h
-        rhs(t, yn, fn, w, lo, n, has_left, lx, lv, lt, wall, exps, coef)
+        rhs(t, yn, fn, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         st[NFEV] += 1
         if peak_in_step(y, yn, st, ci):
             hermite_dense(rc, y, yn, f, fn, h, w2)
-        code = track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e)
-        code = finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, code)  # fn = f(t, yn)
+        code = track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi)
+        code = finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code)  # fn = f(t, yn)
         h = h_new
         if code != 0:
             return code

@@ -8,6 +8,8 @@ the blow-up guard, the leading-edge peaks (root of delta' = v_k - v_{k+1} on the
 PeakTracker.record semantics), the stop rules (PeakTracker.check_progress order) and the moving
 window's shifts.
 
+A run's first call starts every kernel alike (``start``: f at t = 0 and Hairer's HINIT first step).
+
 Dense output (Hairer's CONTD5 / CONTD8 form), per component i at t_old + theta h:
     y(theta) = y0 + theta (rc0 + (1 - theta) (rc1 + theta (rc2 + (1 - theta) (rc3 + theta (rc4 + ...)))))
 DOPRI5 fills rc0..rc3 from its stages (order 4); rc3 = 0 is the cubic Hermite interpolant of
@@ -17,7 +19,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci) and return codes: compiled_layout.py.
 """
 
-# numba cache stamp: fa9ca95239125c63
+# numba cache stamp: bd2c6ddd469c7315
 from __future__ import annotations
 
 import numpy as np
@@ -27,8 +29,9 @@ from pulsemap.solvers.chain.compiled_layout import (
     LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM, PAUSED, T, H, LEFT_X, LEFT_V, LEFT_T, E0,
     E_GONE, DRIFT, THRESH, LAST_PEAK_T, STALL, E_LAST, LO, HI, NEXT, STEPS, NFEV, HAS_LEFT, DIED_AT, WIDEST, SHIFTS,
     LOST, EXP, T_MAXC, SCALE_X, SCALE_V, AHEAD_THR, PEAK_FRAC, DEATH_FRAC, OVERTAKE, STALL_FAC, E_LIMIT, DELAY_FAC,
-    BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY, PAUSE_EVERY)
-from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, pos_pow, pulse_lost, rhs, segment_energy, window_energy
+    BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY, PAUSE_EVERY, RTOL, ATOL, STARTED, FACOLD)
+from pulsemap.solvers.chain.compiled_force import contact_force, inverse_mass
+from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, pulse_lost, rhs, segment_energy, window_energy
 
 
 @njit(**NO_NRT)
@@ -108,7 +111,7 @@ def peak_in_step(y, yn, st, ci):
 
 
 @njit(cache=True, inline="always")
-def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e):
+def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi):
     """After an accepted step t_old -> t (state y -> yn, dense output rc): the blow-up guard (energy
     every ci[ENERGY_EVERY] steps), the leading-edge peaks completed in the step, at each requested
     contact's peak the energies of front.FrontRecorder (``pulse_e``: beads k-8..k+8, ``total_e``:
@@ -121,7 +124,7 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
     has_left = st[HAS_LEFT] == 1
     code = 0
     if st[STEPS] % ci[ENERGY_EVERY] == 0 or not np.isfinite(yn[w2 - 1] + yn[0]):
-        e_now = window_energy(t, yn, w, n, has_left, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T]) + fs[E_GONE]
+        e_now = window_energy(t, yn, w, n, has_left, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], lo, cc, mi) + fs[E_GONE]
         fs[E_LAST] = e_now
         if not np.isfinite(e_now) or not e_now <= cf[E_LIMIT] * fs[E0]:
             return BLOWUP
@@ -145,8 +148,9 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
             for i in range(w2):
                 pk[i] = dense_value(theta, i, y, rc)
             kl = k - 1 - lo
-            pulse_e[k - first] = segment_energy(pk, max(0, kl - PULSE_HALF_WIDTH), min(w, kl + PULSE_HALF_WIDTH + 1), n)
-            total_e[k - first] = segment_energy(pk, w - w, w, n) + fs[E_GONE]  # w - w: not a literal 0 (one compile)
+            pulse_e[k - first] = segment_energy(pk, max(0, kl - PULSE_HALF_WIDTH), min(w, kl + PULSE_HALF_WIDTH + 1), n,
+                                                   lo, cc, mi)
+            total_e[k - first] = segment_energy(pk, w - w, w, n, lo, cc, mi) + fs[E_GONE]  # w - w: not a literal 0 (one compile)
         fs[STALL] = cf[STALL_FAC] * (t_pk - fs[LAST_PEAK_T])
         fs[LAST_PEAK_T] = t_pk
         fs[THRESH] = cf[PEAK_FRAC] * value
@@ -173,7 +177,7 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
 
 
 @njit(cache=True, inline="always")
-def drop_behind(t, y, f, w, st, fs, cf, ci):
+def drop_behind(t, y, f, w, st, fs, cf, ci, cc, mi):
     """Drop the beads more than ``behind`` behind the last peaked contact (the last one coasts, or the
     chain gets a free end); the energy they carry goes to fs[E_GONE]. Returns (w, the caller must
     re-evaluate f: the first bead lost its left contact)."""
@@ -182,7 +186,7 @@ def drop_behind(t, y, f, w, st, fs, cf, ci):
     drop = st[NEXT] - 1 - ci[BEHIND] - lo
     if drop <= 0:
         return w, False
-    e_before = window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T])
+    e_before = window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], lo, cc, mi)
     j = drop - 1  # local index of the last dropped bead
     if ci[COAST] == 1:
         fs[LEFT_X], fs[LEFT_V], fs[LEFT_T] = y[2 * j], y[2 * j + 1], t
@@ -194,13 +198,14 @@ def drop_behind(t, y, f, w, st, fs, cf, ci):
         f[i] = f[i + 2 * drop]  # coast: the new left contact pushes exactly as before
     st[LO] = lo + drop
     w -= drop
-    fs[E_GONE] += e_before - window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T])
+    fs[E_GONE] += e_before - window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T],
+                                          st[LO], cc, mi)
     st[SHIFTS] += 1
     return w, ci[COAST] == 0
 
 
 @njit(cache=True, inline="always")
-def add_ahead(y, f, w, st, cf, ci):
+def add_ahead(y, f, w, st, cf, ci, cx, cc, mi):
     """A bead at rest ahead when the last one has moved by more than the threshold (relative to
     v0^(2/(n+1)) and v0): the wall it replaces pushed exactly as it does (F(0, 0) = 0 is checked by
     the caller). Returns w; records the widest window."""
@@ -209,7 +214,8 @@ def add_ahead(y, f, w, st, cf, ci):
         y[2 * w + 1] = 0.0
         f[2 * w] = 0.0
         d = y[2 * w - 2]
-        f[2 * w + 1] = pos_pow(d, cf[EXP]) if d > 0.0 else 0.0
+        hi = st[HI]
+        f[2 * w + 1] = contact_force(d, y[2 * w - 1], hi - 1, cf[EXP], cx, cc) * inverse_mass(hi, cc, mi) if d > 0.0 else 0.0
         st[HI] += 1
         w += 1
     if w > st[WIDEST]:
@@ -234,22 +240,66 @@ def pause_now(st, ci) -> bool:
 
 
 @njit(cache=True, inline="always")
-def shift_window(t, y, f, w, st, fs, cf, ci, exps, coef):
+def shift_window(t, y, f, w, st, fs, cf, ci, exps, coef, cx, cc, mi):
     """drop_behind (f re-evaluated when the chain got a free end), then add_ahead: the new w."""
-    w, refresh = drop_behind(t, y, f, w, st, fs, cf, ci)
+    w, refresh = drop_behind(t, y, f, w, st, fs, cf, ci, cc, mi)
     if refresh:  # free: the first bead lost its left contact
         # has_left as st[HAS_LEFT] == 1 (False here), not a literal False: rhs is compiled once
-        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, 0.0, 0.0, 0.0, st[HI] < ci[BEADS], exps, coef)
+        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, 0.0, 0.0, 0.0, st[HI] < ci[BEADS], exps, coef, cx, cc, mi)
         st[NFEV] += 1
-    return add_ahead(y, f, w, st, cf, ci)
+    return add_ahead(y, f, w, st, cf, ci, cx, cc, mi)
 
 
 @njit(cache=True, inline="always")
-def finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, code):
+def finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code):
     """After track_step: accept the step (y <- yn, f <- fn), then, unless ``code`` stops the run, shift
     the window and pause for a progress line when it is due. Returns the code (PAUSED, or 0: go on)."""
     accept(t, h_new, y, f, yn, fn, 2 * w, fs)
     if code != 0:
         return code
-    shift_window(t, y, f, w, st, fs, cf, ci, exps, coef)
+    shift_window(t, y, f, w, st, fs, cf, ci, exps, coef, cx, cc, mi)
     return PAUSED if pause_now(st, ci) else 0
+
+
+@njit(**NO_NRT)
+def _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work):
+    """Hairer's HINIT for the first step."""
+    w2 = 2 * w
+    rtol, atol = cf[RTOL], cf[ATOL]
+    sk = work[7]
+    y1 = work[8]
+    f1 = work[6]
+    dnf = 0.0
+    dny = 0.0
+    for i in range(w2):
+        s = atol + rtol * abs(y[i])
+        sk[i] = s
+        dnf += (f[i] / s) ** 2
+        dny += (y[i] / s) ** 2
+    dnf, dny = np.sqrt(dnf / w2), np.sqrt(dny / w2)
+    h = 1e-6 if (dnf <= 1e-10 or dny <= 1e-10) else 0.01 * dny / dnf
+    h = min(h, cf[T_MAXC] - t)
+    for i in range(w2):
+        y1[i] = y[i] + h * f[i]
+    rhs(t + h, y1, f1, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, cx, cc, mi)
+    st[NFEV] += 1
+    der2 = 0.0
+    for i in range(w2):
+        der2 += ((f1[i] - f[i]) / sk[i]) ** 2
+    der2 = np.sqrt(der2 / w2) / h
+    der12 = max(abs(der2), np.sqrt(dnf))
+    h1 = max(1e-6, h * 1e-3) if der12 <= 1e-15 else (0.01 / der12) ** 0.2
+    return min(100.0 * h, h1, cf[T_MAXC] - t)
+
+
+@njit(**NO_NRT)
+def start(t, y, f, st, fs, cf, ci, exps, coef, cx, cc, mi, work):
+    """At a run's first call (st[STARTED] == 0): f at t and the first step size (HINIT)."""
+    if st[STARTED] == 0:
+        w = st[HI] - st[LO]
+        wall = st[HI] < ci[BEADS]
+        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, cx, cc, mi)
+        st[NFEV] += 1
+        fs[H] = _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work)
+        fs[FACOLD] = 1e-4
+        st[STARTED] = 1

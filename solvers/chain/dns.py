@@ -21,6 +21,8 @@ import numpy as np
 
 from pulsemap.solvers.chain import scaling as _scaling
 from pulsemap.solvers.chain import window as _window
+from pulsemap.solvers.chain.contact_force import ContactTable, check_masses
+from pulsemap.solvers.chain.methods import selectable
 from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
     ENERGY_BLOWUP, ENGINES, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
@@ -48,8 +50,10 @@ MIN_RTOL = 100 * float(np.finfo(float).eps)
 @dataclass(frozen=True)
 class Chain:
     """The chain of paper Eq. 1 and how it starts: ``beads`` N, the contact ``exponent`` n, bead 1's
-    impact ``velocity`` v0, the on-site ``force`` F_i (an OnSiteForce; None: the bare chain), and
-    ``launch`` (chain/launch.Launch): an exact solitary wave instead of the impact (None: the impact).
+    impact ``velocity`` v0, the on-site ``force`` F_i (an OnSiteForce; None: the bare chain),
+    ``launch`` (chain/launch.Launch): an exact solitary wave instead of the impact (None: the impact),
+    the contact law's term ``contact`` eps_c P_k(d, w) (a contact_force.ContactTable; None: Hertz alone)
+    and the bead ``masses`` (N values; None: all 1).
     One-line TypeError/ValueError naming the field on bad input."""
 
     beads: int
@@ -57,6 +61,8 @@ class Chain:
     velocity: float
     force: OnSiteForce | None = None
     launch: Launch | None = None
+    contact: ContactTable | None = None
+    masses: "Array | None" = None
 
     def __post_init__(self) -> None:
         beads, exponent, velocity = self.beads, self.exponent, self.velocity
@@ -79,6 +85,13 @@ class Chain:
             raise TypeError(f"force must be an OnSiteForce or None, got {type(self.force).__name__}")
         if self.launch is not None and not isinstance(self.launch, Launch):
             raise TypeError(f"launch must be a solvers.chain.launch.Launch or None, got {type(self.launch).__name__}")
+        if self.contact is not None and not isinstance(self.contact, ContactTable):
+            raise TypeError(f"contact must be a solvers.chain.contact_force.ContactTable or None, "
+                            f"got {type(self.contact).__name__}")
+        object.__setattr__(self, "masses", check_masses(self.masses, int(beads)))
+        if self.launch is not None and (self.contact is not None or self.masses is not None):
+            raise ValueError("a launched solitary wave starts a chain of unit masses with the Hertz law: "
+                             "give contact=None and masses=None, or start from the impact")
         object.__setattr__(self, "beads", int(beads))
         object.__setattr__(self, "exponent", float(exponent))
         object.__setattr__(self, "velocity", float(velocity))
@@ -99,10 +112,11 @@ class Integrator:
         method, rtol, atol = self.method, self.rtol, self.atol
         _real(rtol, "rtol")
         _real(atol, "atol")
+        known = selectable()
         if not isinstance(method, str):
-            raise TypeError(f"method must be a string ({', '.join(METHODS)}), got {type(method).__name__}")
-        if method not in METHODS:
-            raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+            raise TypeError(f"method must be a string ({', '.join(known)}), got {type(method).__name__}")
+        if method not in known:
+            raise ValueError(f"unknown method {method!r}; choose one of {', '.join(known)}")
         if not (math.isfinite(rtol) and rtol > 0.0):
             raise ValueError(f"rtol must be a finite number > 0, got {rtol!r}")
         if rtol < MIN_RTOL:
@@ -238,11 +252,13 @@ def simulate(
     first, last = check_run(chain, contacts, stop)
     beads, exponent, velocity, force, launch = chain.beads, chain.exponent, chain.velocity, chain.force, chain.launch
     rtol, atol = integrator.rtol, integrator.atol
+    contact, masses = chain.contact, chain.masses
     if launch is None and _scaling.needs_rescaling(velocity):  # a rescaled run at v0 = 1 (solvers/chain/scaling.py)
         _scaling.check_force_range(force, exponent, velocity, beads)
         scale = _scaling.Scaling(exponent, velocity)
         unit = simulate(
-            replace(chain, velocity=1.0, force=scale.force(force)), (first, last), integrator=integrator,
+            replace(chain, velocity=1.0, force=scale.force(force), contact=scale.contact(contact)), (first, last),
+            integrator=integrator,
             stop=replace(stop, t_max=None if stop.t_max is None else float(stop.t_max) / scale.tau),
             window=window, snapshots=snapshots, progress=progress)
         return scale.result(unit)
@@ -262,11 +278,16 @@ def simulate(
         try:
             res = compiled.simulate_compiled(
                 beads, exponent, velocity, (first, last), data, rule=how.rule, rtol=rtol, atol=atol, stop=rules,
-                method=how.method, engine_reason=how.reason, progress=progress, launch=launch,
+                method=how.method, engine_reason=how.reason, progress=progress, launch=launch, contact=contact,
+                masses=masses,
                 failure_note=lambda lo, y: largest_force(_window.restrict_force(force, beads, lo, lo + y.size // 2), y, lo))
         except ForceNotFinite as exc:
             raise _locate(force, beads, exc) from None
         return _window_energies(force, res)
+    terms = (contact, masses)
+    if how.rule is not None and (contact is not None or masses is not None):
+        raise ValueError("the scipy engine's moving window does not take a contact law's term or masses: run the "
+                         "compiled engine (engine='compiled', a smooth R) or the full chain (window=None, mode full)")
     if how.rule is not None:
         with np.errstate(all="ignore"):  # a non-finite force raises ForceNotFinite (models/onsite.py), unprinted
             res = _window.simulate_windowed(
@@ -274,10 +295,10 @@ def simulate(
                 stop=rules, progress=progress, engine=how.window_engine, front=front, launch=launch)
         return _window_energies(force, replace(res, engine="scipy", engine_reason=how.reason))
     y0 = initial_state(beads, velocity) if launch is None else launch.state(exponent, beads)
-    e0 = energy(y0[0::2], y0[1::2], exponent)
+    e0 = energy(y0[0::2], y0[1::2], exponent, masses)
 
     wall0 = _time.perf_counter()
-    solver = make_solver(chosen, beads, exponent, force, y0, t_limit, rtol, atol)
+    solver = make_solver(chosen, beads, exponent, force, y0, t_limit, rtol, atol, terms=terms)
     track = PeakTracker.start(first, last, velocity, exponent, rules,
                               next_contact=1 if launch is None else launch.centre + 1, method=chosen)
     drift = 0.0
@@ -286,7 +307,7 @@ def simulate(
     def on_step(t_old: float, y_old: Array, t_new: float, y_new: Array, dense_factory) -> bool:
         """Bookkeeping after one accepted step (energy every step); True stops the run."""
         nonlocal drift
-        e = energy(y_new[0::2], y_new[1::2], exponent)
+        e = energy(y_new[0::2], y_new[1::2], exponent, masses)
         if track.check_state(t_new, e, e0, ENERGY_BLOWUP):
             return True
         drift = max(drift, abs(e - e0) / e0)
@@ -310,7 +331,8 @@ def simulate(
     wall = _time.perf_counter() - wall0
     return DNSResult.tracked(
         track, front, method=chosen, rtol=float(rtol), atol=float(atol), beads=beads, nfev=int(solver.nfev),
-        njev=int(getattr(solver, "njev", 0)), wall_time_s=wall, energy_drift=drift if force is None else None,
+        njev=int(getattr(solver, "njev", 0)), wall_time_s=wall,
+        energy_drift=drift if force is None and contact is None else None,
         exponent=exponent, velocity=velocity, t_end=float(solver.t), window_beads=beads, energy_initial=e0,
         engine="scipy", engine_reason=how.reason,
     )
@@ -326,7 +348,7 @@ def compiled_kernel_of(chain: Chain, *, integrator: Integrator = Integrator(),
     if chain.launch is None and _scaling.needs_rescaling(chain.velocity):  # simulate's rescaled run at v0 = 1
         chain = replace(chain, velocity=1.0, force=_scaling.Scaling(chain.exponent, chain.velocity).force(chain.force))
     data, how = _planned(chain, integrator, window, False)
-    if how.engine != "compiled" or isinstance(data, JitForce):
+    if how.engine != "compiled" or isinstance(data, JitForce) or chain.contact is not None or chain.masses is not None:
         return None
     return how.method, FORM_OF_NDIM[(MonomialTable.zero() if data is None else data).kernel_args[1].ndim]
 

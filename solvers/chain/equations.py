@@ -20,13 +20,14 @@ if TYPE_CHECKING:  # scipy loads only when a scipy engine runs (~0.3 s per proce
 
 from pulsemap.symbolic.errors import PulsemapError
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
+from pulsemap.solvers.chain import methods
 from pulsemap.solvers.chain.front import pulse_speed
 from pulsemap.solvers.chain.peaks import PeakTracker, contact_rate, scan_step, velocity_scale  # noqa: F401
 
 Array = np.ndarray
-EXPLICIT_METHODS = ("DOP853", "RK45", "RK23")
-IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
-METHODS = ("auto",) + EXPLICIT_METHODS + IMPLICIT_METHODS
+EXPLICIT_METHODS = methods.names(scipy=True, implicit=False)  # scipy's explicit OdeSolvers (chain/methods.py)
+IMPLICIT_METHODS = methods.names(scipy=True, implicit=True)
+METHODS = methods.selectable()
 ENGINES = ("compiled", "scipy")
 STIFFNESS_RATIO = 30.0  # 'auto' goes implicit when stiffness_hint > this x contact rate
 ENERGY_BLOWUP = 1e6  # blow-up guard: energy (kinetic + contact) beyond this x initial
@@ -195,10 +196,11 @@ def chain_length_for(last_contact: int, margin: int = 10) -> int:
     return int(last_contact) + 1 + int(margin)
 
 
-def energy(x: Array, v: Array, exponent: float) -> float:
-    """Kinetic plus contact energy of Eq. 1: sum v^2/2 + sum (x_i - x_{i+1})_+^(n+1)/(n+1)."""
+def energy(x: Array, v: Array, exponent: float, masses: Array | None = None) -> float:
+    """Kinetic plus contact energy of Eq. 1: sum m v^2/2 + sum (x_i - x_{i+1})_+^(n+1)/(n+1) (m = 1 by default)."""
     d = np.maximum(np.asarray(x[:-1]) - np.asarray(x[1:]), 0.0)
-    return float(0.5 * np.dot(v, v) + np.sum(d ** (exponent + 1.0)) / (exponent + 1.0))
+    kinetic = 0.5 * np.dot(v, v) if masses is None else 0.5 * np.dot(masses * v, v)
+    return float(kinetic + np.sum(d ** (exponent + 1.0)) / (exponent + 1.0))
 
 
 def choose_method(force: OnSiteForce | None, velocity: float, exponent: float) -> str:
@@ -253,6 +255,7 @@ def make_rhs(
     force: OnSiteForce | None,
     left: Boundary | None = None,
     wall: bool = False,
+    terms: "tuple | None" = None,
 ) -> Callable[[float, Array], Array]:
     """Vectorised right-hand side of Eq. 1 on ``beads`` consecutive beads (interleaved state).
 
@@ -262,7 +265,11 @@ def make_rhs(
     The positions sit in one padded array with the boundary beads (a free end is a copy of
     its neighbour: no compression), so the contact forces are one difference and the
     accelerations another (few numpy calls: call overhead dominates on a small window).
+    ``terms``: (contact, masses) of the whole chain (a contact_force.ContactTable or None, the masses or
+    None), taken on the full chain only (make_terms_rhs).
     """
+    if terms is not None and any(term is not None for term in terms):
+        return make_terms_rhs(beads, exponent, force, *terms)
     n = float(exponent)
     on_site = None if force is None else force.force
     xe = np.zeros(beads + 2)  # xe[0]: left boundary bead, xe[-1]: the bead after the last
@@ -285,6 +292,36 @@ def make_rhs(
                 a += on_site(inner, y[1::2])
             except ForceNotFinite as exc:  # the time the force does not know
                 raise exc.at(t) from None
+        return out
+
+    return rhs
+
+
+def make_terms_rhs(beads: int, exponent: float, force: OnSiteForce | None, contact, masses) -> Callable[[float, Array], Array]:
+    """make_rhs of the full chain with the contact law's term and the masses:
+    m_i x_i'' = F(d_(i-1), w_(i-1)) - F(d_i, w_i) + F_i, F(d, w) = H(d) (d^n + eps_c P_k(d, w))."""
+    n = float(exponent)
+    on_site = None if force is None else force.force
+    inverse = np.ones(beads) if masses is None else 1.0 / np.asarray(masses, float)
+    k = np.arange(beads - 1)
+
+    def rhs(t: float, y: Array) -> Array:
+        x, v = y[0::2], y[1::2]
+        d = x[:-1] - x[1:]
+        wd = v[:-1] - v[1:]
+        on = d > 0.0
+        f = np.zeros(beads + 1)  # f[j]: force of the contact left of bead j (free ends: 0)
+        dd = d[on]
+        f[1:-1][on] = dd**n + (0.0 if contact is None else contact.value(dd, wd[on], k[on]))
+        a = f[:-1] - f[1:]
+        if on_site is not None:
+            try:
+                a = a + on_site(x, v)
+            except ForceNotFinite as exc:
+                raise exc.at(t) from None
+        out = np.empty(2 * beads)
+        out[0::2] = v
+        out[1::2] = a * inverse
         return out
 
     return rhs
@@ -356,13 +393,14 @@ def make_jacobians(
     return sparse_jac, packed_jac
 
 
-def band_pattern(beads: int) -> sparse.csc_matrix:
-    """Structural sparsity of the Jacobian: neighbours only (offsets -3, -1, 0, +1)."""
+def band_pattern(beads: int, upper: int = 1) -> sparse.csc_matrix:
+    """Structural sparsity of the Jacobian: neighbours only (offsets -3, -1, 0, +1; with ``upper`` = 3, the
+    contact law's rate terms, every offset from -3 to +3)."""
     from scipy import sparse
 
     m = 2 * beads
-    ones = [np.ones(m - 3), np.ones(m - 1), np.ones(m), np.ones(m - 1)]
-    return sparse.diags(ones, (-3, -1, 0, 1), shape=(m, m), format="csc")
+    offsets = (-3, -1, 0, 1) if upper == 1 else tuple(range(-3, upper + 1))
+    return sparse.diags([np.ones(m - abs(o)) for o in offsets], offsets, shape=(m, m), format="csc")
 
 
 def make_solver(
@@ -379,6 +417,7 @@ def make_solver(
     first_step: float | None = None,
     left: Boundary | None = None,
     wall: bool = False,
+    terms: "tuple | None" = None,
 ) -> _integrate.OdeSolver:
     """The scipy OdeSolver for ``method`` with the best Jacobian information available.
 
@@ -387,13 +426,17 @@ def make_solver(
     """
     import scipy.integrate as _integrate
 
-    rhs = make_rhs(beads, exponent, force, left, wall)
+    rhs = make_rhs(beads, exponent, force, left, wall, terms)
     cls = getattr(_integrate, method)
     kw = dict(rtol=rtol, atol=atol)
     if first_step is not None:
         kw["first_step"] = min(first_step, t_max - t0)
-    if method in EXPLICIT_METHODS:
+    if not methods.by_name(method).implicit:
         return cls(rhs, t0, y0, t_max, **kw)
+    if terms is not None and any(term is not None for term in terms):  # a rate-dependent contact couples v_(i-1), v_(i+1): band 3
+        if method == "LSODA":
+            return cls(rhs, t0, y0, t_max, lband=3, uband=3, **kw)
+        return cls(rhs, t0, y0, t_max, jac_sparsity=band_pattern(beads, 3), **kw)
     analytic = force is None or force.has_jacobian
     sparse_jac, packed_jac = make_jacobians(beads, exponent, force, left, wall)
     if method == "LSODA":

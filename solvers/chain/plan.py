@@ -14,15 +14,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from pulsemap.solvers.chain import methods
 from pulsemap.solvers.chain.equations import ENGINES, STIFFNESS_RATIO, choose_method
 from pulsemap.solvers.chain.hairer import FORTRAN_CODES
 from pulsemap.solvers.chain.peaks import contact_rate
 from pulsemap.solvers.chain.window import WindowRule, WindowSpec, resolve_rule, window_accuracy_for
 
-METHOD = "RK45"  # Dormand-Prince 5(4), scipy's name for it: the default explicit kernel
-HIGH_ORDER_METHOD = "DOP853"  # compiled_dop853.METHOD: taken only when asked for by name
-STIFF_METHOD = "Rodas4"  # compiled_stiff.METHOD (that module imports numba: named here)
-EXPLICIT_METHODS = (METHOD, HIGH_ORDER_METHOD)
+METHOD = "RK45"  # the default explicit kernel: 'auto' on a force that is not stiff (docs/dns.rst)
+STIFF_METHOD = "Rodas4"  # the kernel 'auto' takes for a stiff force
 #: Method 'auto' on the compiled engine runs Rodas4 when the force's stiffness hint exceeds this x the
 #: contact rate: below it the explicit kernel is the cheaper at every rtol (docs/dns.rst).
 COMPILED_STIFFNESS_RATIO = 300.0
@@ -47,8 +46,9 @@ def unavailable(method: str, snapshots: bool = False) -> str:
     it can take the force)."""
     if snapshots:
         return "strain snapshots are recorded by the scipy engine only"
-    if method not in ("auto",) + EXPLICIT_METHODS:
-        return f"method {method} has no compiled kernel (compiled: RK45, Dormand-Prince 5(4); DOP853)"
+    if method != "auto" and method not in methods.names(kernel=True, implicit=False):
+        shown = "; ".join(f"{m}, {methods.by_name(m).title}" for m in methods.names(kernel=True, implicit=False))
+        return f"method {method} has no compiled kernel (compiled: {shown})"
     return ""
 
 
@@ -61,16 +61,17 @@ def wants_force_data(engine: str, method: str, snapshots: bool) -> bool:
 def kernel_method(method: str, stiff: bool) -> str:
     """The compiled kernel for simulate's ``method``: the one named (RK45, DOP853), else ('auto')
     Rodas4 for a stiff force and Dormand-Prince 5(4) for any other."""
-    if method in EXPLICIT_METHODS:
+    if method in methods.names(kernel=True, implicit=False):
         return method
     return STIFF_METHOD if stiff else METHOD
 
 
 def explicit_reason(method: str) -> str:
     """What an explicit kernel's result says ran."""
-    if method == HIGH_ORDER_METHOD:
-        return "compiled DOP853 (explicit Runge-Kutta 8(5,3)), method 'DOP853' requested"
-    return "compiled RK45 (Dormand-Prince 5(4))"
+    title = methods.by_name(method).title
+    if method == METHOD:
+        return f"compiled {method} ({title})"
+    return f"compiled {method} ({title}), method '{method}' requested"
 
 
 def is_stiff(force, velocity: float, exponent: float) -> bool:

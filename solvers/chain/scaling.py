@@ -101,6 +101,16 @@ class Scaling:
                     size = max(size, float(np.max(np.abs(f))) if f.size else 0.0)
         return size
 
+    def contact(self, contact):
+        """The contact law's term in the unit frame: c d^a w^b -> c lam^(a + b - n) tau^(-b) D^a W^b."""
+        if contact is None:
+            return None
+        from pulsemap.solvers.chain.contact_force import ContactTable
+
+        a, b = contact.exps[:, 0], contact.exps[:, 1]
+        factor = self.lam ** (a + b - self.exponent) * self.tau ** (-b)
+        return ContactTable(contact.exps, contact.coef * factor[:, None])
+
     def result(self, res: DNSResult) -> DNSResult:
         """A unit-frame result in the physical frame of ``velocity``."""
         lam, tau, e = self.lam, self.tau, self.velocity ** 2

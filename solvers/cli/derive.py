@@ -20,7 +20,8 @@ def register(sub) -> None:
     p = sub.add_parser("derive", help="derive the map, long-wave law and stationary equation for R(u, v)")
     p.add_argument("expr", metavar="EXPR", help='on-site perturbation R in u, v, i and parameters, e.g. "-mu*v"')
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="parameter value: a number, a comma list (per bead) or an expression of i")
+                   help="parameter value: a number, a comma list (per bead) or an expression of i; a parameter "
+                        "given none stays a symbol")
     p.add_argument("--eps", type=number, default=0.1, help="small parameter eps (default 0.1)")
     p.add_argument("--n", type=number, default=1.5, help="contact exponent n > 1 (default 1.5)")
     p.add_argument("--profile", default="exact", help="exact (default) or pade")
@@ -83,7 +84,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
         if name in params:
             raise UsageError(f"--param {name} given twice")
         params[name] = value
-    pert = check_all_used(make_perturbation(args.expr, args.eps, params))
+    pert = check_all_used(make_perturbation(args.expr, args.eps, params, free=True))  # as pulsemap.derive
     if args.coefficients is not None and args.model != "dressed":
         raise UsageError("--coefficients applies to the dressed law only: add --model dressed or drop it")
     if args.model == "dressed":  # coefficients derived by the expansion about the wave (solvers/studies/dressed.py)

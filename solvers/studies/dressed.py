@@ -71,6 +71,7 @@ from pulsemap.symbolic.scaling import scaling_exponent
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
 from pulsemap.solvers.studies.workers import cores, fork_pool
+from pulsemap.solvers.studies.errors import counted
 from pulsemap.solvers.models.dressed import (DressedCoefficients, ExpansionError, check_monomial, derive_cross,
                                              derive_monomial, first_order_rate, is_derived)
 
@@ -168,6 +169,11 @@ class DressedDerivation:
 
     def __str__(self) -> str:
         return to_text(self)
+
+    def __repr__(self) -> str:
+        holds = f"{counted(len(self.law.terms), 'monomial')}, {counted(len(self.law.cross), 'cross term')}"
+        return (f"DressedDerivation(R={self.perturbation.text!r}, eps={self.perturbation.eps:g}, n={self.n:g}: "
+                f"dressed law of {holds})")
 
 
 def coefficients(law: DressedLaw) -> DressedCoefficients:
@@ -301,6 +307,11 @@ def derive_dressed(pert: Perturbation, n: float = 1.5, A0_value: float | None = 
         raise DressedError("the dressed law uses the exact profile (its DNS launches exact solitons): drop --profile")
     if A0_value is not None and not A0_value > 0:
         raise DressedError(f"the initial amplitude A0 must be > 0, got {A0_value}")
+    if pert.free_parameters:  # its second-order coefficients are numbers (DNS fits or numeric expansions)
+        names = pert.free_parameters
+        raise DressedError(f"the dressed law needs a value for {', '.join(names)}: give "
+                           + " ".join(f"--param {name}=VALUE" for name in names)
+                           + f"; --model energy derives the energy law with {', '.join(names)} symbolic")
     t0 = time.perf_counter()
     law = dressed_law(pert, n, source=source, i0=i0)
     return DressedDerivation(pert, float(n), law, A0_value, i0, {"total": time.perf_counter() - t0})

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
-__all__ = ["LIVE_FRACTION", "UNIT", "live_contacts", "model_error"]
+__all__ = ["LIVE_FRACTION", "UNIT", "counted", "live_contacts", "model_error"]
 
 LIVE_FRACTION = 0.02  # below 2 % of the seed the pulse has all but died: a relative error there measures noise
 UNIT = "percent"
@@ -22,6 +22,11 @@ UNIT = "percent"
 DEFINITION = (f"|model peak - DNS peak| / DNS peak in percent over the live range (contacts first_perturbed up to "
               f"the last whose DNS peak is >= {100 * LIVE_FRACTION:g} % of the seed peak); a live contact where the "
               "model has no value counts 100 %")
+
+
+def counted(count: int, noun: str) -> str:
+    """'1 contact', '3 contacts': a count with its noun, plural unless one (every report's wording)."""
+    return f"{count} {noun}" + ("" if count == 1 else "s")
 
 
 def live_contacts(contacts: Sequence[int], dns: Sequence[float | None], seed_contact: int,

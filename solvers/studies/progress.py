@@ -1,18 +1,20 @@
-"""Progress of long commands on stderr: what, k of N, elapsed time and ETA, one plain line each.
+"""Progress of long commands on stderr: what, k of N, elapsed time and ETA.
 
-Plain lines (no carriage returns, no terminal codes) so the same output reads on a terminal and
-in a log file (``pulsemap table 2> table.log``); every line starts with ``[what]`` and is flushed.
-``--quiet`` gives a disabled reporter, which prints nothing.
+On a terminal one updating line per job (each line replaces the one before; an item that failed
+keeps its line); in a log file or a pipe (``pulsemap table 2> table.log``) one plain line each,
+without terminal codes (chain/dns_progress.py: StatusLine, PULSEMAP_PROGRESS). Every line starts
+with ``[what]`` and is flushed. ``--quiet`` gives a disabled reporter, which prints nothing.
 """
 
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
-from pulsemap.solvers.chain.dns_progress import duration  # noqa: F401  (one format for every progress line)
+from pulsemap.solvers.chain.dns_progress import StatusLine, duration  # one format for every progress line
+
+__all__ = ["Progress", "StatusLine", "describe", "duration"]
 
 
 def _flat(value: object, prefix: str = "") -> dict[str, object]:
@@ -53,22 +55,23 @@ class Progress:
     what: str
     total: int
     enabled: bool = True
-    sink: Callable[[str], None] | None = None  # default: a line on sys.stderr, flushed
+    sink: Callable[[str], None] | None = None  # default: the screen below (sys.stderr), flushed
     clock: Callable[[], float] = time.monotonic
     done: int = 0
     started: float = field(default=0.0)
+    screen: StatusLine = field(default_factory=StatusLine)
 
     def __post_init__(self) -> None:
         self.started = self.clock()
 
-    def say(self, text: str) -> None:
-        """One line '[what] text' (when enabled)."""
+    def say(self, text: str, keep: bool = False) -> None:
+        """One line '[what] text' (when enabled); ``keep``: it stays on a terminal, not replaced by the next."""
         if not self.enabled:
             return
         if self.sink is not None:
             self.sink(f"[{self.what}] {text}")
         else:
-            print(f"[{self.what}] {text}", file=sys.stderr, flush=True)
+            self.screen.show(f"[{self.what}] {text}", keep)
 
     def eta(self) -> str:
         """Elapsed time and, once an item has finished, the estimated time left."""
@@ -86,4 +89,5 @@ class Progress:
         """An item finished: k/N, its label and status, elapsed and ETA."""
         self.done += 1
         took = f" in {duration(seconds)}" if seconds is not None else ""
-        self.say(f"{self.done}/{self.total} {label}: {status}{took} ({self.eta()})")
+        self.say(f"{self.done}/{self.total} {label}: {status}{took} ({self.eta()})",
+                 keep=status not in ("done", "ok") or self.done == self.total)

@@ -114,14 +114,14 @@ def scene_sweep(scene: Scene, overs: Sequence[str], *, methods: Sequence[str] | 
 
 
 def to_text(report: dict) -> str:
-    """One line per point: the values set, live contacts, each model's RMS / max error (%)."""
+    """One line per point: the values set, live contacts, each model's max / RMS error (%), as ``table`` orders them."""
     from pulsemap.solvers.studies.errors import DEFINITION
 
     keys = report["keys"]
     models = [m for m in report["methods"] if m != "dns"]
-    head = [k.removeprefix("perturbation.params.") for k in keys] + ["alive", *(f"{m} rms/max %" for m in models)]
+    head = [k.removeprefix("perturbation.params.") for k in keys] + ["alive", *(f"{m} max / RMS %" for m in models)]
     lines = [f"sweep of scene {report['scene']['name']} over {', '.join(report['over'])}",
-             f"errors: RMS / max of {DEFINITION}; alive: how many contacts the DNS's primary pulse reached",
+             f"errors: max / RMS of {DEFINITION}; alive: how many contacts the DNS's primary pulse reached",
              "  ".join(f"{h:>18s}" for h in head)]
     for row in report["points"]:
         cells = [_fmt(row["sets"][k]) for k in keys]
@@ -131,7 +131,7 @@ def to_text(report: dict) -> str:
         cells.append("-" if row.get("live_contacts") is None else str(row["live_contacts"]))
         for m in models:
             e = row["errors"].get(m)
-            cells.append("-" if not e or e.get("rms_pct") is None else f"{e['rms_pct']:.3g} / {e['max_pct']:.3g}")
+            cells.append("-" if not e or e.get("rms_pct") is None else f"{e['max_pct']:.3g} / {e['rms_pct']:.3g}")
         lines.append("  ".join(f"{c:>18s}" for c in cells))
     lines.append(f"{report['computed']} points run, {report['skipped']} from the --out file, {report['failed']} failed "
                  f"({report['wall_s']:.1f} s, {report['executor']})")

@@ -38,7 +38,7 @@ from typing import Any, Callable, Iterable, Mapping, TextIO
 from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.numba_cache import remove_damaged_numba_cache
 from pulsemap.solvers.data.records import open_for_append, read_keyed, write_record
-from pulsemap.solvers.studies.progress import Progress, describe
+from pulsemap.solvers.studies.progress import Progress, StatusLine, describe
 
 __all__ = [
     "SweepError",
@@ -302,7 +302,7 @@ def run_sweep(
 
     fh = open_for_append(path) if path is not None and pending else None
     computed = 0
-    report = Progress(label, len(pending), enabled=progress, sink=lambda s: print(s, file=err, flush=True))
+    report = Progress(label, len(pending), enabled=progress, screen=StatusLine(err))
     if not progress:
         names = {}
     elif name_of is not None:

@@ -23,7 +23,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-SOURCES = ("derive", "generated", "solvers", "__init__.py", "pyproject.toml", "README.md", "LICENSE")
+SOURCES = ("derive", "generated", "solvers", "__init__.py", "py.typed", "pyproject.toml", "README.md", "LICENSE")
 IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "build", "*.egg-info")
 
 

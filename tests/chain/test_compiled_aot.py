@@ -13,6 +13,8 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+
+from pulsemap.solvers.chain.contact_force import ContactTable, kernel_terms
 import pytest
 
 import pulsemap
@@ -46,7 +48,7 @@ def _run_both(name: str, method: str, **overrides):
     ("vdp-mu3-v2.3", plan.METHOD, {}, "dense"),
     ("fig8-eps0.1", plan.METHOD, {}, "dense"),
     ("fig8-eps0.1", plan.METHOD, {"perturbation.R": "-mu*v**3"}, "table"),
-    ("fig8-eps0.1", plan.HIGH_ORDER_METHOD, {}, "dense"),
+    ("fig8-eps0.1", "DOP853", {}, "dense"),
     ("fig8-eps0.1", plan.STIFF_METHOD, {"perturbation.params.mu": 10000.0}, "dense"),
 ])
 def test_the_ahead_of_time_kernel_is_taken_and_equals_the_jit_kernel_bit_for_bit(name, method, overrides, form):
@@ -75,14 +77,20 @@ def test_form_of_takes_only_what_the_compiled_signatures_accept():
     ints = np.zeros(4, dtype=np.int64)
     base = (y, y, y, ints, y, ints, y, y, y, y)
     exps = np.zeros((2, 2), dtype=np.int64)
-    assert compiled_aot.form_of(base + (exps, np.zeros((2, 4, 3)))) == "dense"
-    assert compiled_aot.form_of(base + (exps, np.zeros((2, 3)))) == "table"
-    assert compiled_aot.form_of(base + (exps, np.zeros((3, 2)).T)) is None  # not C-contiguous
-    assert compiled_aot.form_of(base + (exps, np.zeros((2, 3), dtype=np.float32))) is None
-    assert compiled_aot.form_of(base + (exps.astype(np.int32), np.zeros((2, 3)))) is None
+    bare = kernel_terms(None, None)
+    assert compiled_aot.form_of(base + (exps, np.zeros((2, 4, 3))) + bare) == "dense"
+    assert compiled_aot.form_of(base + (exps, np.zeros((2, 3))) + bare) == "table"
+    assert compiled_aot.form_of(base + (exps, np.zeros((3, 2)).T) + bare) is None  # not C-contiguous
+    assert compiled_aot.form_of(base + (exps, np.zeros((2, 3), dtype=np.float32)) + bare) is None
+    assert compiled_aot.form_of(base + (exps.astype(np.int32), np.zeros((2, 3))) + bare) is None
     jit_force = JitForce((None, None, None), np.zeros((1, 2)))
-    assert compiled_aot.form_of(base + jit_force.kernel_args) is None
-    assert compiled_aot.kernel(plan.METHOD, base + jit_force.kernel_args) == (None, 0.0)
+    assert compiled_aot.form_of(base + jit_force.kernel_args + bare) is None
+    assert compiled_aot.kernel(plan.METHOD, base + jit_force.kernel_args + bare) == (None, 0.0)
+    # a contact law's term or masses take numba's JIT kernels
+    masses = kernel_terms(None, np.ones(4))
+    dashpot = kernel_terms(ContactTable(np.array([[0.0, 1.0]]), np.ones((1, 3))), None)
+    for terms in (masses, dashpot):
+        assert compiled_aot.form_of(base + (exps, np.zeros((2, 3))) + terms) is None
 
 
 def test_the_module_name_follows_kernel_form_and_cpu(monkeypatch):

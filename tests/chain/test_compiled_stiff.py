@@ -10,6 +10,8 @@ fourth order (fixed steps against an independent Radau solution) and its Jacobia
 from __future__ import annotations
 
 import numpy as np
+
+from pulsemap.solvers.chain.contact_force import ContactTable, kernel_terms
 import pytest
 from scipy.integrate import solve_ivp
 
@@ -85,67 +87,81 @@ W, N = 6, 1.5
 LEFT = (0.7, 1.2, 0.0)  # coasting left bead: x = 0.7 + 1.2 t
 
 
-def small_window(mu: float):
-    """Six compressed beads (every contact stays closed), a coasting left bead and a wall; R = -mu v - 5 u."""
+#: The chain's contact-law term and masses in the small window: none; a dashpot and a Kuwabara-Kono term on
+#: uneven masses (every contact of the window and the coasting bead's carry them).
+TERMS = {"bare": (None, None),
+         "dashpot, KK, masses": (ContactTable(np.array([[0.0, 1.0], [0.5, 1.0], [2.5, 0.0]]),
+                                              np.array([[3.0, 2.0, 1.0], [1.5, 0.5, 2.0], [0.4, 0.2, 0.1]])),
+                                 np.array([1.0, 1.3, 0.7, 2.0, 1.1, 0.9]))}
+
+
+def small_window(mu: float, terms=(None, None)):
+    """Six compressed beads (every contact stays closed), a coasting left bead and a wall; R = -mu v - 5 u;
+    ``terms``: (contact, masses) of the window's beads (contact_force.kernel_terms)."""
     from pulsemap.solvers.chain.compiled_ops import rhs
 
     table = MonomialTable.of([[0, 1], [1, 0]], [[-mu], [-5.0]])
     y0 = np.zeros(2 * W)
     y0[0::2] = [0.55, 0.45, 0.35, 0.25, 0.15, 0.05]
     y0[1::2] = [1.0, 0.8, 0.5, 0.3, 0.1, 0.0]
+    args = (table.exponents, table.coefficients, *kernel_terms(*terms))
 
     def f(t, y):
         out = np.empty_like(y)
-        rhs(t, y, out, W, 0, N, True, *LEFT, True, table.exponents, table.coefficients)
+        rhs(t, y, out, W, 1, N, True, *LEFT, True, *args)
         return out
 
-    return table, y0, f
+    return args, y0, f
 
 
-def test_jacobian_and_linear_solve_are_eq1s():
+@pytest.mark.parametrize("terms", TERMS)
+def test_jacobian_and_linear_solve_are_eq1s(terms):
+    """The banded Jacobian (contact stiffness, damping dF/dw, on-site slopes, masses) against central
+    differences of the right-hand side, and the tridiagonal solve against a dense one."""
     from pulsemap.solvers.chain import compiled_stiff as S
 
-    table, y0, f = small_window(30.0)
-    band = np.empty((5, W + 1))
+    args, y0, f = small_window(30.0, TERMS[terms])
+    band = np.empty((7, W + 1))
     t = 0.1
-    ft = S.jacobian(t, y0, W, 0, N, True, *LEFT, True, table.exponents, table.coefficients, band)
+    ft = S.jacobian(t, y0, W, 1, N, True, *LEFT, True, *args, band)
     step = 1e-6
     fd = np.column_stack([(f(t, y0 + step * e) - f(t, y0 - step * e)) / (2 * step) for e in np.eye(2 * W)])
-    s = band[0]
+    s, g, mi = band[0], band[5], band[6]
     jac = np.zeros((2 * W, 2 * W))
     for j in range(W):
         jac[2 * j, 2 * j + 1] = 1.0
-        jac[2 * j + 1, 2 * j] = band[1, j] - s[j] - s[j + 1]
-        jac[2 * j + 1, 2 * j + 1] = band[2, j]
+        jac[2 * j + 1, 2 * j] = (band[1, j] - s[j] - s[j + 1]) * mi[j]
+        jac[2 * j + 1, 2 * j + 1] = (band[2, j] - g[j] - g[j + 1]) * mi[j]
         if j > 0:
-            jac[2 * j + 1, 2 * j - 2] = s[j]
+            jac[2 * j + 1, 2 * j - 2] = s[j] * mi[j]
+            jac[2 * j + 1, 2 * j - 1] = g[j] * mi[j]
         if j < W - 1:
-            jac[2 * j + 1, 2 * j + 2] = s[j + 1]
+            jac[2 * j + 1, 2 * j + 2] = s[j + 1] * mi[j]
+            jac[2 * j + 1, 2 * j + 3] = g[j + 1] * mi[j]
     assert np.max(np.abs(jac - fd)) < 1e-6
     assert abs(ft - (f(t + step, y0) - f(t - step, y0))[1] / (2 * step)) < 1e-6
     hg = 0.01
-    assert S.factor(hg, W, band)
+    assert S.factor(hg, W, band, args[3])
     r, k = np.random.default_rng(0).normal(size=2 * W), np.empty(2 * W)
-    S.solve(r, k, hg, W, band)
+    S.solve(r, k, hg, W, band, args[3])
     np.testing.assert_allclose((np.eye(2 * W) / hg - jac) @ k, r, atol=1e-12)
 
 
-@pytest.mark.parametrize("mu", [0.0, 20.0])
-def test_rosenbrock_step_is_fourth_order(mu):
+@pytest.mark.parametrize("mu, terms", [(0.0, "bare"), (20.0, "bare"), (20.0, "dashpot, KK, masses")])
+def test_rosenbrock_step_is_fourth_order(mu, terms):
     """Fixed steps h, h/2, ... against Radau at rtol 1e-13: the error falls 2^4 per halving."""
     from pulsemap.solvers.chain import compiled_stiff as S
 
-    table, y0, f = small_window(mu)
+    args, y0, f = small_window(mu, TERMS[terms])
     t_end = 0.4
     ref = solve_ivp(f, (0.0, t_end), y0, method="Radau", rtol=1e-13, atol=1e-15).y[:, -1]
     errors = []
     for m in (10, 20, 40, 80):
         h = t_end / m
         y, yn, err = y0.copy(), np.empty(2 * W), np.empty(2 * W)
-        k, work, band = np.empty((S.STAGES, 2 * W)), np.empty((3, 2 * W)), np.empty((5, W + 1))
+        k, work, band = np.empty((S.STAGES, 2 * W)), np.empty((3, 2 * W)), np.empty((7, W + 1))
         for i in range(m):
-            assert S.rosenbrock_step(i * h, h, y, f(i * h, y), yn, err, W, 0, N, True, *LEFT, True, table.exponents,
-                                     table.coefficients, k, work, band)
+            assert S.rosenbrock_step(i * h, h, y, f(i * h, y), yn, err, W, 1, N, True, *LEFT, True, *args, k, work, band)
             y = yn.copy()
         errors.append(np.max(np.abs(y - ref)))
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))

@@ -28,15 +28,45 @@ def test_derive_json_has_the_contract_keys(tmp_path):
     assert len(data["stationary"]["roots"]) == 2
 
 
+def test_derive_keeps_a_parameter_without_value_symbolic_as_the_api_does(tmp_path, capsys):
+    """``pulsemap derive "-mu*v"``: the law with mu free, the same law as pulsemap.derive's; mu = 2
+    substituted in it is the numeric law of ``--param mu=2``. A fold solves for its own parameter, so
+    ``--fold mu`` needs no value of mu and finds the fold of ``--param mu=3 --fold mu``."""
+    import sympy
+
+    import pulsemap
+
+    free, fixed = tmp_path / "free.json", tmp_path / "fixed.json"
+    assert main(["derive", "-mu*v", "--quiet", "--json", str(free)]) == 0
+    out = capsys.readouterr().out
+    assert "roots of Eq. 41 cannot be computed without a value for mu" in out and "*mu*" in out
+    assert main(["derive", "-mu*v", "--param", "mu=2", "--quiet", "--json", str(fixed)]) == 0
+    free, fixed = json.loads(free.read_text()), json.loads(fixed.read_text())
+    assert free["free_parameters"] == ["mu"] and "free_parameters" not in fixed
+    law = sympy.sympify(free["longwave"]["law_numeric"])
+    assert law == sympy.sympify(str(pulsemap.derive("-mu*v").details.longwave.numeric_law()))
+    point = {"A_0": 0.7, "i_0": 3, "i": 17}
+    a = float(law.subs({"mu": 2, **point}))
+    b = float(sympy.sympify(fixed["longwave"]["law_numeric"]).subs(point))
+    assert a == pytest.approx(b, rel=1e-14) and abs(a - 0.7) > 1e-3
+    vdp = "-(u - mu*(1 - u^2)*v)"
+    folds = []
+    for extra in ([], ["--param", "mu=3"]):
+        path = tmp_path / f"fold{len(extra)}.json"
+        assert main(["derive", vdp, "--fold", "mu", "--quiet", "--json", str(path), *extra]) == 0
+        folds.append(json.loads(path.read_text())["stationary"]["fold"])
+    assert folds[0] == folds[1] and folds[0]["param"] == "mu" and folds[0]["value"] > 0
+
+
 @pytest.mark.parametrize(
     "argv, fragment",
     [
         (["profile", "--n", "1"], "exponent n"),
         (["profile", "--profile", "spline"], "unknown profile"),
-        (["derive", "-mu*w", "--param", "mu=1"], "unknown symbol 'w'"),
+        (["derive", "-mu*w", "--param", "mu=1"], "R(0,0) = -w"),
         (["derive", "__import__('os').system('true')"], "__import__"),
         (["derive", "sinn(u)"], "sinn"),
-        (["derive", "-mu*v"], "mu"),
+        (["derive", "-mu*u^2", "--model", "dressed"], "mu"),
         (["derive", "sin(u)"], "not a polynomial"),
         (["derive", "-mu*v", "--param", "mu=1", "--fold", "nu"], "nu"),
         (["derive", "-mu*v", "--param", "mu=1", "--variant", "2d"], "variant"),

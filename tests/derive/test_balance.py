@@ -471,5 +471,5 @@ def test_cli_derive_model_and_refusal(tmp_path, capsys):
 def test_a_non_polynomial_r_is_sent_to_the_quadrature_energy_law():
     """derive's closed form needs a polynomial R; the message names what runs any R instead."""
     R = make_perturbation("-mu*sin(u)", 0.1, {"mu": 1.0})
-    with pytest.raises(BalanceError, match="--methods energy-law.*quadrature.*Taylor-expand"):
+    with pytest.raises(BalanceError, match="--model energy.*quadrature.*--methods energy-law.*Taylor-expand"):
         derive_model(R, "energy")

@@ -75,7 +75,8 @@ def test_every_model_run_offers_is_measured(tiny_report):
     assert {m.split("/")[0] for m in lines} <= set(models)
     for p in tiny_report["points"]:
         if p["kind"] == "model":
-            assert p["error"] is not None and math.isfinite(p["error"]) and p["time_s"] > 0
+            assert p["error"] is None and p["time_s"] > 0  # a model's error is in percent, as every output's
+            assert math.isfinite(p["max_pct"]) and 0 <= p["rms_pct"] <= p["max_pct"]
 
 
 @pytest.mark.bench

@@ -96,3 +96,28 @@ def test_progress_log_is_plain_stderr_unless_quiet(capsys, quiet):
 
     progress_log(quiet)("[x] 1/2")
     assert capsys.readouterr().err == ("" if quiet else "[x] 1/2\n")
+
+
+def test_on_a_terminal_a_sweep_is_one_updating_line_and_a_failed_point_keeps_its_line(monkeypatch):
+    """run_sweep on a terminal: the points replace one another's line, a failed one stays on screen,
+    and the last line says N/N with the time; in a log every point keeps its line."""
+    from conftest import Terminal
+    from pulsemap.solvers.chain.dns_progress import PROGRESS_ENV
+    from pulsemap.solvers.studies.sweep import run_sweep
+
+    monkeypatch.setenv(PROGRESS_ENV, "auto")
+    points = [{"a": float(a)} for a in range(1, 6)]
+    tty, log = Terminal(), io.StringIO()
+    for stream in (tty, log):
+        run_sweep(_fails_at_three, points, max_workers=1, progress=True, stream=stream, label="sweep")
+    screen = tty.screen()
+    assert screen[0].startswith("[sweep] 5 points") and len(screen) == 4, screen
+    assert screen[1].startswith("[sweep] 3/5 a=3: FAILED") and screen[2].startswith("[sweep] 5/5 a=5: ok")
+    assert screen[3].startswith("[sweep] done: 5 run")
+    assert len(log.getvalue().splitlines()) == 7 and "\x1b" not in log.getvalue()
+
+
+def _fails_at_three(p: dict) -> dict:
+    if p["a"] == 3:
+        raise ValueError("three")
+    return {"y": p["a"]}

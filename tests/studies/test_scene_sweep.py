@@ -49,7 +49,10 @@ def test_product_grid_and_results_match_run_scene():
     assert point["errors"]["map"] == direct["errors"]["map"]  # run's own error, the same deterministic run
     assert point["live_contacts"] == len(direct["dns"]["live_contacts"])
     text = to_text(report)
-    assert "in percent" in text and "map rms/max %" in text
+    assert "in percent" in text and "map max / RMS %" in text  # the order and units of pulsemap table
+    err = point["errors"]["map"]
+    cell = f"{err['max_pct']:.3g} / {err['rms_pct']:.3g}"
+    assert err["max_pct"] > err["rms_pct"] and cell in text.splitlines()[3 + 3]
 
 
 def test_cli_sweep(capsys):

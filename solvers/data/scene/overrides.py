@@ -28,7 +28,9 @@ PARAMS_PREFIX = "perturbation.params."
 #: Keys that name the scene rather than set it (not overridable).
 FIXED = ("source",)
 #: Keys a scene may set that have no default value in it (absent: the documented default applies).
-OPTIONAL = ("dns.engine", "dns.mode")
+OPTIONAL = ("dns.engine", "dns.mode", "contact.P", "contact.eps", "contact.first_perturbed", "masses.m",
+            "masses.first_perturbed")
+PARAMS_TABLES = ("perturbation.params.", "contact.params.", "masses.params.")
 
 
 
@@ -37,7 +39,7 @@ def _flat(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, value in data.items():
         path = prefix + key
-        if isinstance(value, Mapping) and not path.startswith(PARAMS_PREFIX):
+        if isinstance(value, Mapping) and not path.startswith(PARAMS_TABLES):
             out.update(_flat(value, path + "."))
         else:
             out[path] = value
@@ -67,9 +69,10 @@ def parse_assignment(text: str) -> tuple[str, Any]:
 def check_key(key: str, scene: Scene) -> None:
     """A one-line SceneError for a key the scene file does not have, naming the closest one."""
     known = scene_keys(scene)
-    if key in known or key == "perturbation.params":  # a parameter, or the whole table of them
+    if key in known or key in ("perturbation.params", "contact.params", "masses.params"):  # a whole table
         return
-    name = key[len(PARAMS_PREFIX):] if key.startswith(PARAMS_PREFIX) else ""
+    prefix = next((p for p in PARAMS_TABLES if key.startswith(p)), "")
+    name = key[len(prefix):] if prefix else ""
     if name and "." not in name and name.isidentifier():
         return  # a new parameter (for a new R); parse_scene says if R does not use it
     close = closest(key, known)
@@ -81,8 +84,9 @@ def check_key(key: str, scene: Scene) -> None:
 
 def set_key(data: dict, key: str, value: Any) -> None:
     """data[a][b]... = value for key 'a.b...' (parameters: the name after perturbation.params)."""
-    if key.startswith(PARAMS_PREFIX):
-        parts = ["perturbation", "params", key[len(PARAMS_PREFIX):]]
+    prefix = next((p for p in PARAMS_TABLES if key.startswith(p)), "")
+    if prefix:
+        parts = [*prefix.split(".")[:2], key[len(prefix):]]
     else:
         parts = key.split(".")
     node = data

@@ -32,6 +32,7 @@ from pulsemap.solvers.data.scene.schema import (
     FIELD_KEYS,
     MAX_BEADS,
     METHODS,
+    PERTURBATION_TABLES,
     PROFILES,
     REQUIRED_KEYS,
     REQUIRED_TABLES,
@@ -163,7 +164,9 @@ def parse_scene(data: Mapping[str, Any], source: str) -> Scene:
             "source": source,
         }
         fields = _check_fields(raw)
-        fields["perturbation"] = _build_perturbation(tables["perturbation"], name)
+        fields["perturbation"] = _build_perturbation(data.get("perturbation", {"R": "0", "eps": 0.0}), name)
+        fields["contact"] = _build_contact(tables["contact"]) if "contact" in data else None
+        fields["masses"] = _build_masses(tables["masses"]) if "masses" in data else None
         scene = Scene(**fields)
         _check_consistency(scene)
     except _Problem as exc:
@@ -190,6 +193,8 @@ def _check_structure(data: Mapping[str, Any]) -> None:
             raise _Problem(_unknown(key, SCHEMA[""], "at the top level"))
     for table in TABLES:
         if table not in data:
+            if table == "perturbation" and any(t in data for t in PERTURBATION_TABLES):
+                continue  # a contact-law or mass perturbation alone: R = 0
             if table in REQUIRED_TABLES:
                 key = REQUIRED_KEYS[table][0]
                 raise _Problem(
@@ -216,11 +221,10 @@ def _check_structure(data: Mapping[str, Any]) -> None:
                 raise _Problem(
                     f"missing key {key!r} in [{table}]: add {EXAMPLES.get(f'{table}.{key}', key + ' = ...')}"
                 )
-    params = _as_table(data["perturbation"], "perturbation").get("params", {})
-    if not isinstance(params, Mapping):
-        raise _Problem(
-            f"[perturbation] params must be a table [perturbation.params] of NAME = VALUE, got {_type_name(params)}"
-        )
+    for table in PERTURBATION_TABLES:
+        params = _as_table(data.get(table, {}), table).get("params", {})
+        if not isinstance(params, Mapping):
+            raise _Problem(f"[{table}] params must be a table [{table}.params] of NAME = VALUE, got {_type_name(params)}")
 
 
 def _check_fields(raw: Mapping[str, Any]) -> dict[str, Any]:
@@ -395,6 +399,7 @@ def _check_consistency(scene: Scene) -> None:
             f"{' and '.join(seeded)} start at the first perturbed contact (seeded by contact "
             f"{scene.first_perturbed - 1}): set contacts = [{scene.first_perturbed}, {last}] or methods = [\"dns\"]"
         )
+    _check_chain_terms(scene)
     pert = scene.perturbation
     if scene.beads is None:
         for pname, value in pert.params.items():
@@ -414,6 +419,36 @@ def _check_consistency(scene: Scene) -> None:
         raise _Problem("[perturbation] " + _scene_hint(str(exc))) from None
 
 
+def _check_chain_terms(scene: Scene) -> None:
+    """The contact law's per-contact values and the masses against the chain (when its length is known)."""
+    from pulsemap.symbolic.param_values import PerturbationError
+
+    if scene.masses is not None:
+        try:
+            scene.masses.check_list(scene.contacts[1] + 1)
+            if scene.beads is not None:
+                scene.masses.bead_masses(scene.beads)
+        except PerturbationError as exc:
+            raise _Problem(str(exc)) from None
+    law = scene.contact
+    if law is None:
+        return
+    momentum = [m for m in scene.methods if m.startswith("momentum")]
+    if momentum:
+        raise _Problem(f"[output] methods has {momentum[0]}, which cannot take a contact-law term: contact forces are "
+                       "internal, so the chain's momentum changes only through R; use energy-law or energy-map for P")
+    for pname, value in law.params.items():
+        if isinstance(value, tuple) and (scene.beads is None or len(value) != scene.beads - 1):
+            need = "set [chain] beads to one more than the list's length" if scene.beads is None else \
+                f"give exactly {scene.beads - 1} (contacts 1..{scene.beads - 1})"
+            raise _Problem(f"[contact] parameter '{pname}' lists {len(value)} per-contact values: {need}")
+    if scene.beads is not None:
+        try:
+            law.table(scene.beads - 1)
+        except PerturbationError as exc:
+            raise _Problem(f"[contact] {exc}") from None
+
+
 def _build_perturbation(table: Mapping[str, Any], name: str) -> "Perturbation":
     """make_perturbation(R, eps, params), its errors as one-line problems; every parameter given must
     occur in R (check_all_used)."""
@@ -431,6 +466,34 @@ def _build_perturbation(table: Mapping[str, Any], name: str) -> "Perturbation":
         return check_all_used(make_perturbation(R, eps, dict(params)))
     except (PerturbationError, ExpressionError) as exc:
         raise _Problem("[perturbation] " + _scene_hint(str(exc))) from None
+
+
+def _build_contact(table: Mapping[str, Any]):
+    """make_contact_law(P, eps, params, first_perturbed), its errors as one-line problems."""
+    from pulsemap.symbolic.contact_law import make_contact_law
+    from pulsemap.symbolic.param_values import PerturbationError
+
+    if not isinstance(table["P"], str):
+        raise _Problem(f"[contact] P must be a string formula in d, w, k and parameters, got {_type_name(table['P'])}: "
+                       "e.g. P = \"gamma*d^(1/2)*w\"")
+    eps = _number(table["eps"], "[contact] eps")
+    first = _integer(table.get("first_perturbed", DEFAULT_FIRST_PERTURBED), "[contact] first_perturbed")
+    try:
+        return make_contact_law(table["P"], eps, dict(table.get("params") or {}), first)
+    except PerturbationError as exc:
+        raise _Problem(_scene_hint(str(exc))) from None
+
+
+def _build_masses(table: Mapping[str, Any]):
+    """make_masses(m, params, first_perturbed), its errors as one-line problems."""
+    from pulsemap.symbolic.contact_law import make_masses
+    from pulsemap.symbolic.param_values import PerturbationError
+
+    first = _integer(table.get("first_perturbed", DEFAULT_FIRST_PERTURBED), "[masses] first_perturbed")
+    try:
+        return make_masses(table["m"], dict(table.get("params") or {}), first)
+    except PerturbationError as exc:
+        raise _Problem(_scene_hint(str(exc))) from None
 
 
 def _check_perturbation_object(value: Any) -> "Perturbation":

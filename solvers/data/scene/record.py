@@ -8,8 +8,8 @@ where it came from. Loading the same text again builds the Scene from that recor
 is a :class:`CachedPerturbation`, which answers what a run asks from those facts and parses R with
 sympy only when something needs the expression itself.
 
-Scenes with a parameter given as an expression of i are not recorded (their per-bead values are
-evaluated through sympy anyway).
+Scenes with a parameter given as an expression of i, a contact law's term or masses are not recorded
+(their values are evaluated through sympy anyway).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
 
 NAMESPACE = "scenes"
-FORMAT = 1  # the record's layout; a new one ignores older records
+FORMAT = 2  # the record's layout; a new one ignores older records (2: scenes with [contact] or [masses] are not recorded)
 
 
 def record_key(text: bytes, source: str) -> str:
@@ -140,6 +140,8 @@ def save_record(text: bytes, source: str, scene: Scene) -> None:
 
     pert = scene.perturbation
     if not all(isinstance(v, (float, tuple, RandomDraw)) for v in pert.params.values()):
+        return
+    if scene.contact is not None or scene.masses is not None:  # their tables are evaluated through sympy anyway
         return
     facts = {"used_parameters": list(pert.used_parameters), "uses_i": symbol("i") in pert.R.free_symbols,
              "is_zero": bool(pert.is_zero)}

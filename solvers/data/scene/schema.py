@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 from pulsemap.symbolic.errors import PulsemapError
+from pulsemap.solvers.chain.methods import selectable
 
 
 METHODS = ("map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "relaxed", "dressed-law",
@@ -19,7 +20,7 @@ DEFAULT_METHODS = ("map", "longwave", "dns")
 """What a scene without [output] methods computes."""
 PROFILES = ("exact", "pade")
 VARIANTS = ("paper", "corrected", "1d")
-DNS_METHODS = ("auto", "DOP853", "RK45", "Radau", "BDF", "LSODA")
+DNS_METHODS = selectable()  # chain/methods.py's table
 DNS_ENGINES = ("compiled", "scipy")  # [dns] engine, optional (absent: "compiled" where it applies)
 DNS_MODES = ("window", "full")  # [dns] mode, optional (absent: "window", the moving window of chain/window.py)
 DNS_DEFAULTS: Mapping[str, Any] = {"rtol": 1e-10, "atol": 1e-12, "method": "auto"}
@@ -32,22 +33,30 @@ MAX_BEADS = 1_000_000
 
 # Keys allowed in each table; None marks a sub-table.
 SCHEMA: dict[str, tuple[str, ...]] = {
-    "": ("name", "source", "chain", "excitation", "perturbation", "output", "model", "dns"),
+    "": ("name", "source", "chain", "excitation", "perturbation", "contact", "masses", "output", "model", "dns"),
     "chain": ("beads", "exponent", "first_perturbed"),
     "excitation": ("velocity",),
     "perturbation": ("R", "eps", "params"),
+    "contact": ("P", "eps", "first_perturbed", "params"),
+    "masses": ("m", "first_perturbed", "params"),
     "output": ("contacts", "methods"),
     "model": ("profile", "variant"),
     "dns": ("rtol", "atol", "method", "engine", "mode"),
 }
-TABLES = ("chain", "excitation", "perturbation", "output", "model", "dns")
+TABLES = ("chain", "excitation", "perturbation", "contact", "masses", "output", "model", "dns")
 REQUIRED_TABLES = ("excitation", "perturbation", "output")
-REQUIRED_KEYS = {"excitation": ("velocity",), "perturbation": ("R", "eps"), "output": ("contacts",)}
+"""[perturbation] may be left out when [contact] or [masses] is given (R = 0 then)."""
+PERTURBATION_TABLES = ("perturbation", "contact", "masses")
+REQUIRED_KEYS = {"excitation": ("velocity",), "perturbation": ("R", "eps"), "output": ("contacts",),
+                 "contact": ("P", "eps"), "masses": ("m",)}
 EXAMPLES = {
     "excitation.velocity": "velocity = 1.0",
     "perturbation.R": 'R = "-mu*v"',
     "perturbation.eps": "eps = 0.1",
     "output.contacts": "contacts = [16, 120]",
+    "contact.P": 'P = "gamma*w"',
+    "contact.eps": "eps = 0.02",
+    "masses.m": 'm = "1 + taper*(i - 16)"',
 }
 
 
@@ -56,6 +65,8 @@ FIELD_KEYS = {"beads": "chain.beads", "exponent": "chain.exponent", "first_pertu
               "velocity": "excitation.velocity", "contacts": "output.contacts", "methods": "output.methods",
               "profile": "model.profile", "variant": "model.variant", "R": "perturbation.R",
               "eps": "perturbation.eps", "params": "perturbation.params", "name": "name"}
+#: Tables a Scene holds whole (None: absent), by field: the contact law and the masses.
+TABLE_FIELDS = {"contact": "contact", "masses": "masses"}
 
 
 class SceneError(PulsemapError):

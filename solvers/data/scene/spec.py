@@ -11,6 +11,7 @@ from pulsemap.symbolic.param_forms import param_data
 from pulsemap.solvers.data.scene.schema import DNS_DEFAULTS
 
 if TYPE_CHECKING:  # pragma: no cover
+    from pulsemap.symbolic.contact_law import ContactLaw, Masses
     from pulsemap.symbolic.perturbation import Perturbation
 
 
@@ -34,6 +35,8 @@ class Scene:
     variant: str = "paper"  # "paper" | "corrected" | "1d"
     dns: Mapping[str, Any] = dataclasses.field(default_factory=_default_dns)
     source: str = ""  # path or "builtin:NAME"
+    contact: "ContactLaw | None" = None  # eps_c P_k(d, w) in the contact law (None: Hertz d^n alone)
+    masses: "Masses | None" = None  # bead masses (None: all 1)
 
     def as_dict(self) -> dict:
         """The scene as resolved, JSON-serialisable, in the layout of a scene file.
@@ -61,4 +64,18 @@ class Scene:
             "output": {"contacts": list(self.contacts), "methods": list(self.methods)},
             "model": {"profile": self.profile, "variant": self.variant},
             "dns": dict(self.dns),
+            **self.extra_tables(),
         }
+
+    def extra_tables(self) -> dict:
+        """The [contact] and [masses] tables, in a scene file's layout (only those the scene has)."""
+        out: dict = {}
+        if self.contact is not None:
+            c = self.contact
+            out["contact"] = {"P": c.text, "eps": c.eps, "first_perturbed": c.first_perturbed,
+                              "params": {name: param_data(value) for name, value in c.params.items()}}
+        if self.masses is not None:
+            m = self.masses
+            out["masses"] = {"m": m.data(), "first_perturbed": m.first_perturbed,
+                             "params": {name: param_data(value) for name, value in m.params.items()}}
+        return out

@@ -19,7 +19,7 @@ For one scene (``bench_scene``):
 Error of a DNS: max relative peak error over the contacts where the reference has a live primary
 pulse (a run without a value at such a contact is counted separately as ``missing``). Error of a
 model: ``pulsemap run``'s (studies/errors.py: RMS and max in percent over the live range, against
-the reference DNS; ``Point.error`` holds its max as a fraction for the work-precision plot). Time: one
+the reference DNS; ``Point.rms_pct`` and ``Point.max_pct``, the plot shows the max as a fraction). Time: one
 warm-up run, then the best of K (DiffEqDevTools' convention); for a DNS the integrator's wall
 time (force construction excluded), for a model its evaluation (derivation and code loading,
 one-off and cached, excluded).
@@ -59,9 +59,14 @@ from pulsemap.solvers.studies.bench.measure import (
 )
 from pulsemap.solvers.studies.bench.engines import cold_runs, engine_ratios, reference_points
 from pulsemap.solvers.studies.bench.report import plot, to_csv, to_text
+from pulsemap.solvers.studies.errors import counted
+
 
 def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = lambda s: None) -> dict:
     """Work-precision report of one scene (JSON-able; see the module docstring)."""
+    from pulsemap.solvers.studies.run.chain_terms import require_onsite_only
+
+    require_onsite_only(scene, "bench")
     from pulsemap.solvers.studies.points import dns_span
 
     wall0 = time.perf_counter()
@@ -79,7 +84,7 @@ def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = l
     conv, conv_missing = peak_error(check["peaks"]["dns"], ref)
     ref_note = (f"DOP853 full chain rtol {ladder.reference_rtol:g}: {reference['dns']['stop_reason']}; "
                 f"max rel difference to rtol {ladder.check_rtol:g}: {fmt(conv)}"
-                + (f" ({conv_missing} contacts missing)" if conv_missing else ""))
+                + (f" ({counted(conv_missing, 'contact')} missing)" if conv_missing else ""))
     log("  reference: " + ref_note)
     live = [c for c, p in zip(contacts, ref) if p is not None]
 

@@ -11,6 +11,7 @@ import numpy as np
 from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.bench.measure import Ladder, Point, best_of, fmt, peak_error, tolerances
+from pulsemap.solvers.studies.errors import counted
 
 __all__ = ["dns_points", "model_points", "reference_run", "script_points", "script_span"]
 
@@ -132,10 +133,10 @@ def model_points(scene, reference: dict, ref: list, ladder: Ladder, log: Callabl
                     log(f"  model      {label}: not computed ({why})")
                     continue
                 e = res["errors"][model]  # studies/errors.py: every output's error, against the reference DNS
-                point = Point("model", label, profile + (f" {variant}" if variant else ""), None,
-                              None if e["max_pct"] is None else e["max_pct"] / 100.0, e["missing"], best, None,
-                              f"{e['missing']} live contacts without a value (counted 100 %)" if e["missing"] else "",
-                              rms_pct=e["rms_pct"], live_range=None if e["live_range"] is None else tuple(e["live_range"]))
+                point = Point("model", label, profile + (f" {variant}" if variant else ""), None, None, e["missing"],
+                              best, None, f"{counted(e['missing'], 'live contact')} without a value (counted 100 %)"
+                              if e["missing"] else "", rms_pct=e["rms_pct"], max_pct=e["max_pct"],
+                              live_range=None if e["live_range"] is None else tuple(e["live_range"]))
                 log(f"  model      {label:24s} RMS {fmt(e['rms_pct'], '.3g')} % max {fmt(e['max_pct'], '.3g')} % "
                     f"time {best:10.6f} s")
                 out.append(point)

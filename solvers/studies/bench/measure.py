@@ -57,12 +57,13 @@ class Point:
     line: str  # the work-precision line it belongs to (method and mode, or model)
     setting: str  # tolerance / sampling / profile, human-readable
     rtol: float | None
-    error: float | None  # max relative peak error vs the reference (a model: max_pct / 100 over the live range)
+    error: float | None  # a DNS run's max relative peak error vs the reference (a fraction, as rtol); None for a model
     missing: int  # live reference contacts without a value
     time_s: float
     nfev: int | None = None
     note: str = ""
-    rms_pct: float | None = None  # a model's error as every output reports it (studies/errors.py)
+    rms_pct: float | None = None  # a model's error as every output reports it (studies/errors.py), percent
+    max_pct: float | None = None  # ... its max, percent
     live_range: tuple[int, int] | None = None  # the contacts that error is taken over
 
 

@@ -30,7 +30,7 @@ def to_text(reports: list[dict]) -> str:
                          + (f"; live range {span[0]}..{span[1]}" if span else "") + "):")
             for p in models:
                 lines.append(f"  {'model':10s} {p['line']:26s} RMS {fmt(p['rms_pct'], '.3g'):>6s} %  max "
-                             f"{fmt(None if p['error'] is None else 100 * p['error'], '.3g'):>6s} %  time {p['time_s']:.4g} s"
+                             f"{fmt(p['max_pct'], '.3g'):>6s} %  time {p['time_s']:.4g} s"
                              + (f"  ({p['note']})" if p.get("note") else ""))
         rat = r["ratios"]
         t = rat["target"]
@@ -80,15 +80,17 @@ def engine_lines(e: dict, cold: dict, target: float) -> list[str]:
 
 
 def to_csv(reports: list[dict]) -> str:
-    """One row per measured run (a model's also with its RMS error in percent, studies/errors.py)."""
-    rows = ["scene,kind,line,setting,rtol,max_rel_error,missing,time_s,nfev,rms_pct"]
+    """One row per measured run: a DNS run's max relative error against the reference (a fraction, as rtol), a
+    model's RMS and max error in percent (studies/errors.py)."""
+    rows = ["scene,kind,line,setting,rtol,max_rel_error,missing,time_s,nfev,rms_pct,max_pct"]
     for r in reports:
         for p in r["points"]:
             rows.append(",".join([r["scene"], p["kind"], p["line"], p["setting"],
                                   "" if p["rtol"] is None else repr(p["rtol"]),
                                   "" if p["error"] is None else repr(p["error"]), str(p["missing"]),
                                   repr(p["time_s"]), "" if p["nfev"] is None else str(p["nfev"]),
-                                  "" if p.get("rms_pct") is None else repr(p["rms_pct"])]))
+                                  "" if p.get("rms_pct") is None else repr(p["rms_pct"]),
+                                  "" if p.get("max_pct") is None else repr(p["max_pct"])]))
     return "\n".join(rows) + "\n"
 
 
@@ -103,8 +105,9 @@ def plot(reports: list[dict], path: str) -> None:
     for ax, r in zip(axes[0], reports):
         lines: dict[str, list] = {}
         for p in r["points"]:
-            if p["error"] is not None and p["error"] > 0 and p["missing"] == 0:
-                lines.setdefault((p["kind"], p["line"]), []).append((p["time_s"], p["error"]))
+            err = p["max_pct"] / 100 if p["kind"] == "model" and p.get("max_pct") is not None else p["error"]
+            if err is not None and err > 0 and p["missing"] == 0:
+                lines.setdefault((p["kind"], p["line"]), []).append((p["time_s"], err))
         for (kind, line), pts in lines.items():
             xs, ys = zip(*pts)
             ax.loglog(xs, ys, styles.get(kind, "o"), label=f"{names.get(kind, kind)} {line}" if kind != "model" else line,

@@ -29,6 +29,7 @@ from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import force_failure, make_force
 from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
+from pulsemap.solvers.studies.run import chain_terms
 from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
 from pulsemap.solvers.studies.run.state import RunState
 
@@ -68,6 +69,14 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
                                "(1 + f7/(2 f1))^(-1/P) per contact, docs/errata.rst item 5); --variant corrected "
                                "or 1d keeps A constant")
     assert all(isinstance(c, int) and c0 <= c <= c1 for c in snapshots) and (not snapshots or "dns" in methods), snapshots
+    refused = chain_terms.refusals(scene, methods)
+    if refused:
+        from pulsemap.solvers.studies.run.models import title  # the model table (loads the models' modules)
+
+        for m, why in refused.items():
+            out[m] = {"model": title(m), "refused": why}
+            out["warnings"].append(f"{m} refused: {why}")
+    methods = tuple(m for m in methods if m not in refused)
     return RunState(scene, methods, choice, out, given_seed=seed_peak, contacts=contacts,
                     snapshots=tuple(sorted(set(snapshots))))
 
@@ -85,10 +94,22 @@ def _dns_force(scene: Scene, beads: int):
     return None if (pert.is_zero or pert.eps == 0) else make_force(scene, beads)
 
 
+def dns_chain(scene: Scene, beads: int, force=None) -> Chain:
+    """The chain of the scene's DNS: N, n, v0, the on-site force (``force``, made by _dns_force), the contact
+    law's term (its table over contacts 1..N-1, eps folded in) and the masses."""
+    contact = None
+    if scene.contact is not None and scene.contact.eps != 0.0:
+        from pulsemap.solvers.chain.contact_force import ContactTable
+
+        contact = ContactTable(*scene.contact.table(beads - 1))
+    masses = None if scene.masses is None else scene.masses.bead_masses(beads)
+    return Chain(beads, scene.exponent, scene.velocity, force, contact=contact, masses=masses)
+
+
 def dns_kernel(scene: Scene) -> tuple[str, str] | None:
     """The compiled kernel (method, force form) the scene's DNS runs on (chain/dns.compiled_kernel_of), or None."""
     beads, _ = dns_span(scene)
-    return compiled_kernel_of(Chain(beads, scene.exponent, scene.velocity, _dns_force(scene, beads)),
+    return compiled_kernel_of(dns_chain(scene, beads, _dns_force(scene, beads)),
                               integrator=_integrator(scene), window=dns_window_of(scene, "scene"))
 
 
@@ -152,7 +173,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
-        res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, integrator=_integrator(scene),
+        res = simulate(dns_chain(scene, beads, force), span, integrator=_integrator(scene),
                        snapshots=Snapshots([c for c in state.snapshots if span[0] <= c <= span[1]]),
                        progress=progress, window=dns_window_of(scene, dns_window))
     except ArithmeticError as exc:  # R not finite (or not real) where the chain went
@@ -265,6 +286,9 @@ def run_scene(
         run_dns(state, progress, dns_window)
     if reuse_dns is not None and "dns" not in state.methods:
         reuse_dns_run(state, reuse_dns)
+    if chain_terms.has_chain_terms(scene):  # a contact law's term or masses: the energy law of its own module
+        chain_terms.run_chain_term_models(state, state.seed_peak)
+        state.methods = tuple(m for m in state.methods if m not in chain_terms.CHAIN_TERM_MODELS)
     if any(m != "dns" for m in state.methods):
         from pulsemap.solvers.studies.run.models import run_models  # the models' modules load when a model runs
 

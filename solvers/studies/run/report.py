@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pulsemap.solvers.studies.errors import DEFINITION, LIVE_FRACTION
+from pulsemap.solvers.studies.errors import DEFINITION, LIVE_FRACTION, counted
 from pulsemap.solvers.studies.methods import MODELS, RunError
 
 __all__ = ["LEGEND", "nothing_ran", "plot", "to_csv", "to_text"]
@@ -69,7 +69,7 @@ def _error_line(name: str, err: dict) -> str:
                 f"{100 * LIVE_FRACTION:g} % of the seed's)")
     a, b = err["live_range"]
     return (f"  {name:8s} vs DNS: RMS {_pct(err['rms_pct'])}, max {_pct(err['max_pct'])} over the live range {a}..{b}"
-            + (f" ({err['missing']} contacts without a value count as 100 %)" if err["missing"] else ""))
+            + (f" ({counted(err['missing'], 'contact')} without a value count as 100 %)" if err["missing"] else ""))
 
 
 def _ranking_lines(result: dict) -> list[str]:
@@ -134,8 +134,14 @@ def to_text(result: dict, every: int | None = None) -> str:
     default all up to MAX_ROWS rows, else evenly thinned with a note saying so."""
     sc = result["scene"]
     ch = result["choices"]
+    terms = ""
+    if "contact" in sc:
+        c = sc["contact"]
+        terms += f", contact P = {c['P']} (eps {c['eps']}, contacts >= {c['first_perturbed']})"
+    if "masses" in sc:
+        terms += f", masses m = {sc['masses']['m']} (beads >= {sc['masses']['first_perturbed']})"
     lines = [
-        f"scene {sc['name']}: R = {sc['perturbation']['R']}, eps = {sc['perturbation']['eps']}, "
+        f"scene {sc['name']}: R = {sc['perturbation']['R']}, eps = {sc['perturbation']['eps']}{terms}, "
         f"v0 = {sc['excitation']['velocity']}, contacts {result['contacts'][0]}..{result['contacts'][-1]}",
         f"  profile {ch['profile']}, map variant {ch['variant']}, methods {', '.join(ch['methods'])}",
         "  " + LEGEND,

@@ -1,0 +1,103 @@
+"""The contact law's term and the bead masses as the DNS engines take them (data, no sympy).
+
+    m_i x_i'' = F(d_(i-1), w_(i-1)) - F(d_i, w_i) + F_i(x_i, x_i'),
+    F(d, w) = H(d) (d^n + eps_c P_k(d, w)),  d_k = x_k - x_(k+1),  w_k = d_k'
+
+``ContactTable``: eps_c P_k(d, w) = sum_m coef[m, k] d^(a_m) w^(b_m) (contact k 0-based; the last
+column serves every contact after it), made from a scene's contact law (derive/contact_law.py).
+``Masses`` of a Chain are a float64 array of the masses of beads 1..N. ``kernel_terms`` turns both into
+the compiled kernels' three arrays (compiled_force.py: the bare form when there is neither).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+Array = np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class ContactTable:
+    """eps_c P_k(d, w) as data: ``exps`` (M, 2) [a_m >= 0, whole b_m >= 0], ``coef`` (M, L) per contact
+    (0-based; column min(k, L - 1)), eps folded in. One-line ValueErrors naming the problem."""
+
+    exps: Array
+    coef: Array
+
+    def __post_init__(self) -> None:
+        exps = np.ascontiguousarray(self.exps, dtype=np.float64).reshape(-1, 2)
+        coef = np.ascontiguousarray(self.coef, dtype=np.float64)
+        if coef.ndim == 1:
+            coef = coef.reshape(-1, 1)
+        if coef.ndim != 2 or coef.shape[0] != exps.shape[0] or coef.shape[1] < 1:
+            raise ValueError(f"a ContactTable's coef must have one row per exponent pair and at least one column, "
+                             f"got exps {exps.shape} and coef {coef.shape}")
+        if not (np.all(np.isfinite(exps)) and np.all(np.isfinite(coef))):
+            raise ValueError("a ContactTable's exponents and coefficients must be finite")
+        a, b = exps[:, 0], exps[:, 1]
+        if np.any(a < 0) or np.any(b < 0) or np.any(b != np.round(b)):
+            raise ValueError("a ContactTable takes terms d^a w^b with a >= 0 and whole b >= 0")
+        if np.any((a == 0) & (b == 0) & np.any(coef != 0, axis=1)):
+            raise ValueError("a ContactTable term d^0 w^0 is a force at zero overlap: the chain starts at rest")
+        object.__setattr__(self, "exps", exps)
+        object.__setattr__(self, "coef", coef)
+
+    @property
+    def dissipative(self) -> bool:
+        """True when a term has an odd power of w (it does work on the wave)."""
+        return bool(np.any(self.exps[:, 1] % 2 == 1))
+
+    def _columns(self, k: Array) -> Array:
+        return self.coef[:, np.minimum(k, self.coef.shape[1] - 1)]
+
+    def value(self, d: Array, w: Array, k: Array) -> Array:
+        """eps_c P_k(d, w) for overlaps d > 0, rates w and 0-based contacts k (arrays of one shape)."""
+        c = self._columns(k)
+        out = np.zeros(np.shape(d))
+        for m, (a, b) in enumerate(self.exps):
+            out += c[m] * d**a * w ** int(b)
+        return out
+
+    def slopes(self, d: Array, w: Array, k: Array) -> tuple[Array, Array]:
+        """(d/dd, d/dw) of eps_c P_k(d, w) for overlaps d > 0."""
+        c = self._columns(k)
+        sd, sw = np.zeros(np.shape(d)), np.zeros(np.shape(d))
+        for m, (a, b) in enumerate(self.exps):
+            b = int(b)
+            if a != 0.0:
+                sd += c[m] * a * d ** (a - 1.0) * w**b
+            if b > 0:
+                sw += c[m] * b * d**a * w ** (b - 1)
+        return sd, sw
+
+    def stiffness_hint(self, mass_min: float) -> float:
+        """A damping rate: the largest |coefficient| of a term linear in w over the lightest mass (d^a at
+        a unit overlap), for plan()'s stiff/explicit choice."""
+        linear = self.exps[:, 1] == 1
+        return float(np.max(np.abs(self.coef[linear]), initial=0.0)) / mass_min
+
+
+def check_masses(masses: object, beads: int) -> Array | None:
+    """The masses of beads 1..beads as float64 (None: all 1), or a one-line ValueError."""
+    if masses is None:
+        return None
+    m = np.ascontiguousarray(masses, dtype=np.float64)
+    if m.ndim != 1 or m.size != beads:
+        raise ValueError(f"masses must list one mass per bead ({beads}), got shape {m.shape}")
+    bad = np.flatnonzero(~(np.isfinite(m) & (m > 0.0)))
+    if bad.size:
+        j = int(bad[0])
+        raise ValueError(f"the mass of bead {j + 1} is {m[j]!r}: masses must be finite and > 0")
+    return m
+
+
+def kernel_terms(contact: ContactTable | None, masses: Array | None) -> tuple[Array, Array, Array]:
+    """The compiled kernels' (cx, cc, mi): the bare form (a 1-d cc) for the Hertz chain of unit masses,
+    else the contact table (an empty one for masses alone) and the inverse masses."""
+    if contact is None and masses is None:
+        return np.zeros((0, 2)), np.zeros(0), np.ones(1)
+    table = contact if contact is not None else ContactTable(np.zeros((0, 2)), np.zeros((0, 1)))
+    mi = np.ones(1) if masses is None else 1.0 / masses
+    return table.exps, table.coef, np.ascontiguousarray(mi)

@@ -1,0 +1,63 @@
+"""The DNS methods of paper Eq. 1: one frozen record each, the one table every part reads.
+
+``plan()`` (which engine and kernel), the compiled kernels' loading and ahead-of-time build list, the scipy
+solver factory, the scene schema's ``[dns] method`` choices, the command line's ``--method`` choices and the
+tests all read :data:`METHODS`; a new method is its kernel module (compiled) or scipy's class (scipy) plus one row.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class DNSMethod:
+    """A way to integrate Eq. 1: ``name`` (scipy's where scipy has it), ``kernel`` (the module in solvers/chain
+    of its compiled kernel, whose ``run`` integrates; "" none), ``scipy`` (scipy.integrate has a solver of that
+    name), ``implicit`` (stiff: it solves with the Jacobian), ``order`` of the step, and ``title``."""
+
+    name: str
+    kernel: str
+    scipy: bool
+    implicit: bool
+    order: int
+    title: str
+
+
+METHODS: tuple[DNSMethod, ...] = (
+    DNSMethod("DOP853", "compiled_dop853", True, False, 8, "explicit Runge-Kutta 8(5,3)"),
+    DNSMethod("RK45", "compiled_kernel", True, False, 5, "Dormand-Prince 5(4)"),
+    DNSMethod("RK23", "", True, False, 3, "Bogacki-Shampine 3(2)"),
+    DNSMethod("Radau", "", True, True, 5, "implicit Runge-Kutta (Radau IIA)"),
+    DNSMethod("BDF", "", True, True, 5, "backward differentiation formulas"),
+    DNSMethod("LSODA", "", True, True, 12, "Adams/BDF switching (ODEPACK)"),
+    DNSMethod("Rodas4", "compiled_stiff", False, True, 4, "Rosenbrock"),
+)
+AUTO = "auto"  # plan() chooses (chain/plan.py)
+
+
+def by_name(name: str) -> DNSMethod:
+    """The record of method ``name`` (KeyError when there is none)."""
+    for method in METHODS:
+        if method.name == name:
+            return method
+    raise KeyError(name)
+
+
+def names(*, kernel: bool | None = None, scipy: bool | None = None, implicit: bool | None = None) -> tuple[str, ...]:
+    """The methods' names in table order, those with a compiled kernel (``kernel``), a scipy solver (``scipy``),
+    implicit or explicit (``implicit``) as asked (None: either)."""
+    return tuple(m.name for m in METHODS
+                 if (kernel is None or bool(m.kernel) == kernel) and (scipy is None or m.scipy == scipy)
+                 and (implicit is None or m.implicit == implicit))
+
+
+def selectable() -> tuple[str, ...]:
+    """What Integrator(method=...) and a scene's [dns] method take: 'auto', every scipy method and every explicit
+    compiled kernel (an implicit kernel runs when 'auto' finds the force stiff: chain/plan.py)."""
+    return (AUTO,) + tuple(dict.fromkeys(names(scipy=True) + names(kernel=True, implicit=False)))
+
+
+def kernels() -> dict[str, str]:
+    """Compiled kernel module of every method that has one: name -> module (chain/compiled_aot.py builds them)."""
+    return {m.name: m.kernel for m in METHODS if m.kernel}

@@ -1,0 +1,129 @@
+"""The reduced models of a scene with a contact law's term P or bead masses: the first-order energy law.
+
+    dA/dk = -eps_c sum_j c_j(k) m(k)^(-b_j/2) I_j A^(q_j) / ((n + 1) E_1)  [+ the on-site R's energy law]
+
+(derive/contact.py, evaluated by models/contact_law.py) as ``energy-law`` (the ODE) and ``energy-map`` (the
+energy stepped contact by contact), seeded like every model at contact first_perturbed - 1. The other models
+are derived for an on-site R on a chain of unit masses and say so (:func:`refusals`).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from pulsemap.symbolic.errors import PulsemapError
+from pulsemap.solvers.studies.methods import MODELS
+from pulsemap.solvers.studies.points import dns_span, on_contacts
+
+#: The models a scene with a contact law's term or masses runs here: name -> the law's form.
+CHAIN_TERM_MODELS = {"energy-law": "law", "energy-map": "map"}
+TITLES = {"energy-law": "first-order energy law of the contact law's term and the masses (+ R's): "
+                        "E_1 dA^(n+1)/dk = W(A)",
+          "energy-map": "energy map of the contact law's term and the masses (+ R's): "
+                        "E_1 A_k^(n+1) = E_1 A_(k-1)^(n+1) + W(A)"}
+
+
+def has_chain_terms(scene) -> bool:
+    return scene.contact is not None or scene.masses is not None
+
+
+def require_onsite_only(scene, what: str) -> None:
+    """A one-line RunError where a study builds its chains from R alone and would drop P or the masses."""
+    if has_chain_terms(scene):
+        from pulsemap.solvers.studies.methods import RunError
+
+        raise RunError(f"scene {scene.name} has a contact-law term or masses: {what} builds its chains from the on-site "
+                       "R alone and does not take them yet; `pulsemap run` and `pulsemap table` do")
+
+
+def refusals(scene, methods) -> dict[str, str]:
+    """The reduced models asked for that are not derived for the scene's contact-law term or masses, with why
+    and what does it."""
+    if not has_chain_terms(scene):
+        return {}
+    kinds = [what for what, given in (("a contact-law term P", scene.contact is not None),
+                                      ("bead masses", scene.masses is not None)) if given]
+    why = (f"derived for an on-site R on a chain of unit masses; this scene has {' and '.join(kinds)}: "
+           f"energy-law, energy-map and the DNS run it")
+    return {m: why for m in methods if m in MODELS and m not in CHAIN_TERM_MODELS}
+
+
+def _law_inputs(scene, beads: int):
+    """(monomials with one coefficient symbol each, their per-contact values indexed from contact 0, masses
+    indexed from bead 0): the scene's P with eps, first_perturbed and parameters folded into numbers."""
+    import sympy
+
+    from pulsemap.symbolic.contact import ContactMonomial
+
+    monomials, params = [], {}
+    law = scene.contact
+    if law is not None and law.eps != 0.0:
+        _, coef = law.table(beads - 1)
+        for j, m in enumerate(law.monomials):
+            name = f"c{j}"
+            monomials.append(ContactMonomial(sympy.Symbol(name), m.a, m.b))
+            params[name] = np.concatenate([[0.0], coef[j]])
+    masses = None if scene.masses is None else np.concatenate([[1.0], scene.masses.bead_masses(beads)])
+    return tuple(monomials), params, masses
+
+
+def _onsite_terms(scene) -> tuple:
+    """The on-site R's energy law as terms (q, rate) dA/dk = rate A^q, () without R (uniform R only)."""
+    pert = scene.perturbation
+    if pert.is_zero or pert.eps == 0.0:
+        return ()
+    from pulsemap.symbolic.balance import derive_balance
+    from pulsemap.symbolic.contact import amplitude_terms
+
+    parsed = getattr(pert, "parsed", pert)
+    if not parsed.is_uniform:
+        raise PulsemapError(f"R = {pert.text} varies along the chain: the combined energy law takes a uniform R")
+    return amplitude_terms(derive_balance(parsed, "energy", n=scene.exponent).law)
+
+
+def run_chain_term_models(state, seed_A_peak: float | None) -> None:
+    """energy-law and energy-map of a scene with a contact-law term or masses, into the run's result; a model
+    that cannot run says why in its own entry."""
+    from pulsemap.solvers.models.contact_law import contact_law_peaks
+
+    scene, out = state.scene, state.out
+    asked = [m for m in state.methods if m in CHAIN_TERM_MODELS]
+    if not asked:
+        return
+    beads, _ = dns_span(scene)
+    seed_contact = scene.first_perturbed - 1
+    if seed_A_peak is None:
+        from pulsemap.solvers.chain.kappa import peak_from_velocity
+
+        seed_A_peak, seed_from = float(peak_from_velocity(scene.velocity, scene.exponent)), "impulse v0 through kappa_n"
+    else:
+        seed_from = f"DNS peak at contact {seed_contact}"
+    from pulsemap.symbolic.profile import exact_profile
+
+    out["seed"] = {"contact": seed_contact, "peak": seed_A_peak, "A": seed_A_peak / exact_profile(scene.exponent).S0,
+                   "from": seed_from}
+    for m in asked:
+        t0 = time.perf_counter()
+        try:
+            monomials, params, masses = _law_inputs(scene, beads)
+            run = contact_law_peaks(monomials, scene.exponent, 1.0, seed_A_peak, seed_contact, scene.contacts[1],
+                                    params=params, masses=masses, extra_terms=_onsite_terms(scene),
+                                    form=CHAIN_TERM_MODELS[m])
+        except PulsemapError as exc:
+            out[m] = {"model": TITLES[m], "refused": str(exc)}
+            state.warnings.append(f"{m} refused: {exc}")
+            continue
+        state.timings[m] = time.perf_counter() - t0
+        contacts = [int(c) for c in run.contacts]
+        out["peaks"][m] = on_contacts(state.contacts, contacts, run.peaks)
+        out[m] = {"model": TITLES[m], "profile": run.profile, "status": run.status, "tolerance": run.tolerance,
+                  "ended_at": run.ended_at,
+                  "velocity_peaks": {"beads": [int(b) for b in run.beads], "peaks": list(run.velocity_peaks)}
+                  if scene.masses is not None else None}
+        if run.status != "ok":
+            state.warnings.append(f"{m}: the law ended ({run.status}) at contact index {run.ended_at:.6g}")
+
+
+__all__ = ["CHAIN_TERM_MODELS", "has_chain_terms", "refusals", "require_onsite_only", "run_chain_term_models"]

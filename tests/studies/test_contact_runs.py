@@ -1,0 +1,69 @@
+"""Scenes with a contact law's term or masses run from Python as a user would: the first-order energy law
+against the project's own DNS, the measure of the targets (RMS of (law - DNS) / entry peak over the contacts
+where the law keeps >= 10 % of the entry peak, seeded at contact 15), and the models that refuse say why."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import pulsemap
+
+
+def scene(contact=None, masses=None, R=None, last=100, methods=("dns", "energy-law")):
+    data = {"name": "contact-test", "excitation": {"velocity": 1.0},
+            "output": {"contacts": [16, last], "methods": list(methods)}}
+    for key, table in (("contact", contact), ("masses", masses), ("perturbation", R)):
+        if table is not None:
+            data[key] = table
+    return pulsemap.scene(data)
+
+
+def law_error(result, model: str = "energy-law") -> float:
+    dns = np.array([np.nan if p is None else p for p in result.peaks["dns"]], float)
+    law = np.array([np.nan if p is None else p for p in result.peaks[model]], float)
+    entry = dns[0]
+    kept = law >= 0.1 * entry
+    assert kept.sum() > 20
+    return float(np.sqrt(np.mean(((law - dns) / entry)[kept] ** 2)))
+
+
+@pytest.mark.parametrize("contact, R, masses, bound", [
+    ({"P": "gamma*w", "eps": 0.02, "params": {"gamma": 1.0}}, None, None, 0.035),
+    ({"P": "d^(1/2)*w", "eps": 0.05}, None, None, 0.03),
+    ({"P": "w", "eps": 0.01}, {"R": "-v", "eps": 0.01}, None, 0.012),
+    ({"P": "w", "eps": 0.01}, None, {"m": "1 + 0.003*(i - 16)"}, 0.013),
+    ({"P": "d^(1/2)*w", "eps": 0.03}, {"R": "-u", "eps": 0.01}, None, 0.008),
+], ids=["dashpot", "kuwabara-kono", "dashpot+damping", "dashpot-on-taper", "kk+foundation"])
+def test_the_energy_law_follows_the_dns(contact, R, masses, bound):
+    result = pulsemap.run(scene(contact, masses, R))
+    assert result.peaks["dns"][-1] < 0.95 * result.peaks["dns"][0]  # the contact term damps the pulse
+    assert law_error(result) <= bound
+
+
+def test_the_energy_map_and_law_agree_to_first_order():
+    result = pulsemap.run(scene({"P": "w", "eps": 0.01}, methods=("dns", "energy-law", "energy-map")))
+    law = np.array(result.peaks["energy-law"], float)
+    step = np.array(result.peaks["energy-map"], float)
+    assert np.max(np.abs(step / law - 1.0)) < 0.01
+
+
+def test_a_taper_keeps_the_strain_peak_and_gives_bead_velocity_peaks():
+    """Masses alone do no work: the strain peak stays within a few tenths of a percent of the entry while
+    the masses grow by half; the law's bead-velocity peaks fall as m^(-1/2)."""
+    result = pulsemap.run(scene(masses={"m": "1 + 0.004*(i - 16)"}, last=140))
+    dns = np.array(result.peaks["dns"], float)
+    assert np.max(np.abs(dns / dns[0] - 1.0)) < 0.01
+    assert law_error(result) < 0.005
+    vel = result.data["energy-law"]["velocity_peaks"]
+    beads, peaks = np.array(vel["beads"]), np.array(vel["peaks"], float)
+    m = np.maximum(1 + 0.004 * (beads - 16), 1.0)
+    ratio = peaks * np.sqrt(m)
+    assert peaks[-1] < 0.85 * peaks[0]
+    assert np.ptp(ratio[beads > 20]) / ratio[-1] < 0.01
+
+
+def test_models_derived_for_an_onsite_force_refuse_a_contact_term_naming_what_runs_it():
+    result = pulsemap.run(scene({"P": "w", "eps": 0.01}, methods=("dns", "map", "longwave")))
+    assert result.peaks.get("map") is None and result.data["map"]["refused"]
+    assert any("energy-law" in w and "map refused" in w for w in result.warnings)
