@@ -98,3 +98,10 @@ def test_every_did_you_mean_uses_closest():
     users = [p.relative_to(ROOT) for folder in ("derive", "solvers") for p in (ROOT / folder).rglob("*.py")
              if re.search(r"\bdifflib\b", p.read_text(encoding="utf-8"))]
     assert users == [Path("derive/errors.py")]
+
+
+def test_a_bad_environment_setting_is_bad_input_not_a_bug(monkeypatch, capsys):
+    monkeypatch.setenv("PULSEMAP_PROGRESS", "bogus")
+    assert cli_main.main(["run", "default", "--methods", "dns"]) == cli_main.EXIT_USAGE
+    err = capsys.readouterr().err.splitlines()
+    assert err[-1] == "pulsemap: error: PULSEMAP_PROGRESS='bogus': give auto, lines or off"
