@@ -8,11 +8,11 @@ Importing this package is cheap: sympy, scipy and numpy are imported when a func
 needs them.
 """
 
-from pulsemap.solvers.api.derivation import Balance, Derivation, derive
+from pulsemap.solvers.api.derivation import Balance, Derivation, derive, derive_contact
 from pulsemap.solvers.api.dressed import dressed
 from pulsemap.solvers.api.result import Result
 from pulsemap.solvers.api.running import run
 from pulsemap.solvers.api.scenes import scene, scenes
 from pulsemap.solvers.data.scene import Scene
 
-__all__ = ["Balance", "Derivation", "Result", "Scene", "derive", "dressed", "run", "scene", "scenes"]
+__all__ = ["Balance", "Derivation", "Result", "Scene", "derive", "derive_contact", "dressed", "run", "scene", "scenes"]

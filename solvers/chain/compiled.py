@@ -92,6 +92,7 @@ class _Run:
     f: Array
     method: str = METHOD  # the kernel: RK45 (compiled_kernel.py), DOP853 (compiled_dop853.py) or Rodas4
     terms: tuple = ()  # the contact law's term and the masses: contact_force.kernel_terms (cx, cc, mi)
+    vpeaks: Array | None = None  # bead velocity peaks, beads 1..last + 1 (tracked with masses; empty otherwise)
 
 
 def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
@@ -137,7 +138,18 @@ def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, i
     return _Run(beads, exponent, velocity, first, last, rule, float(rtol), float(atol), t_max, max_steps, table,
                 cap, cf, ci, st, fs, np.full(last, np.nan), np.full(last, np.nan),
                 np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f, method,
-                kernel_terms(contact, masses))
+                kernel_terms(contact, masses), _velocity_peaks(masses, last, velocity, st))
+
+
+def _velocity_peaks(masses, last: int, velocity: float, st: Array) -> Array:
+    """Where the kernel puts the bead velocity peaks: beads 1..last + 1 with masses (bead 1's is its impact
+    velocity: it only slows down), nothing without (the bare chain's kernel then tracks none)."""
+    if masses is None:
+        return np.zeros(0)
+    vpeaks = np.full(last + 1, np.nan)
+    vpeaks[0] = velocity
+    st[K.VBEAD] = 2
+    return vpeaks
 
 
 def jit_kernel(method: str):
@@ -165,7 +177,7 @@ def kernel_for(run: _Run, aot: bool = True) -> tuple:
 
 def kernel_args(run: _Run) -> tuple:
     """The kernel's arguments for ``run`` (compiled_kernel.run's order)."""
-    return (run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e, run.total_e,
+    return (run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e, run.total_e, run.vpeaks,
             *run.table.kernel_args, *run.terms)
 
 
@@ -213,6 +225,7 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
         window_shifts=int(st[K.SHIFTS]), window_rule=run.rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),
         energy_initial=float(fs[K.E0]), pulse_energy=run.pulse_e, total_energy=run.total_e,
         engine="compiled", engine_reason=f"{engine_reason or explicit_reason(run.method)}, {run.table.describe}",
+        velocity_peaks=run.vpeaks.copy() if run.vpeaks.size else None,
     )
 
 

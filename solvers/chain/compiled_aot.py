@@ -40,14 +40,14 @@ from pulsemap.solvers.chain import methods
 #: carries their common cache stamp: tests/chain/test_numba_stamp.py).
 SOURCES = ("compiled_ops.py", "compiled_track.py", "compiled_kernel.py", "compiled_stiff.py", "compiled_force.py",
            "compiled_dop853.py", "compiled_layout.py")
-#: ``run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi)``'s types
+#: ``run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi)``'s types
 #: (compiled.kernel_args), per form of ``coef``; (cx, cc, mi) in the bare form (contact_force.kernel_terms):
 #: a contact law's term or masses take numba's JIT kernels.
-SIGNATURE = ("i8(f8[::1], f8[::1], f8[::1], i8[::1], f8[::1], i8[::1], f8[::1], f8[::1], f8[::1], f8[::1], i8[:, ::1], {},"
-             " f8[:, ::1], f8[::1], f8[::1])")
+SIGNATURE = ("i8(f8[::1], f8[::1], f8[::1], i8[::1], f8[::1], i8[::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[::1],"
+             " i8[:, ::1], {}, f8[:, ::1], f8[::1], f8[::1])")
 COEF_TYPES = {"dense": "f8[:, :, ::1]", "table": "f8[:, ::1]"}
 FORM_OF_NDIM = {3: "dense", 2: "table"}  # coef (2, 4, L): the dense cubics; (M, L): the table
-INTEGER_ARGS = (3, 5, 10)  # st, ci, exps: int64; every other argument float64
+INTEGER_ARGS = (3, 5, 11)  # st, ci, exps: int64; every other argument float64
 #: CPU seconds an ahead-of-time build of one kernel takes on one core, rounded (benchmarks/bench_first_run.py).
 BUILD_ESTIMATE_S = 6
 #: C flags of numba's runtime support code in a module (the kernel itself is LLVM's: they change no

@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: bd2c6ddd469c7315
+# numba cache stamp: 8af3100966847c10
 from __future__ import annotations
 
 import numpy as np
@@ -123,17 +123,17 @@ def dense_output(rc, h, y, yn, f, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, 
 
 
 @njit(cache=True)
-def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi):
+def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi):
     """Integrate until a stop rule fires; returns its code (state in y, f, fs, st for a resume), as
     compiled_kernel.run (same bookkeeping after each accepted step: compiled_track). Allocates the
     scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
     cap = ci[CAPACITY]
-    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, np.empty((18, 2 * cap)),
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, np.empty((18, 2 * cap)),
                  np.empty((DENSE_ROWS, 2 * cap)))
 
 
 @njit(**NO_NRT)
-def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, work, rc):
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, work, rc):
     """The steps of ``run`` (``work``: 18 rows of scratch, ``rc``: the dense output's DENSE_ROWS rows,
     each of 2 x ci[CAPACITY])."""
     n = cf[EXP]
@@ -220,11 +220,11 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, 
         t = t + h
         rhs(t, yn, k12, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)  # f at the new point: next step's f
         st[NFEV] += 1
-        if peak_in_step(y, yn, st, ci):
+        if peak_in_step(y, yn, f, k12, st, ci, vpeaks):
             dense_output(rc, h, y, yn, f, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, ys, w, lo,
                          n, has_left, lx, lv, lt, wall, t_old, exps, coef, cx, cc, mi)
             st[NFEV] += 3
-        code = track_step(t_old, t, h, y, yn, rc, scratch, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi)
+        code = track_step(t_old, t, h, y, yn, rc, scratch, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi, f, k12, vpeaks)
         code = finish_step(t, h_new, y, f, yn, k12, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code)
         h = h_new
         if code != 0:

@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: bd2c6ddd469c7315
+# numba cache stamp: 8af3100966847c10
 from __future__ import annotations
 
 import numpy as np

@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: bd2c6ddd469c7315
+# numba cache stamp: 8af3100966847c10
 from __future__ import annotations
 
 import numpy as np
@@ -29,16 +29,16 @@ from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_i
 
 
 @njit(cache=True)
-def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi):
+def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi):
     """Integrate until a stop rule fires; returns its code (state in y, f, fs, st for a resume).
     Allocates the scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
     cap = ci[CAPACITY]
-    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, np.empty((10, 2 * cap)),
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, np.empty((10, 2 * cap)),
                  np.empty((4, 2 * cap)))
 
 
 @njit(**NO_NRT)
-def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, work, rc):
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, work, rc):
     """The steps of ``run`` (``work``: 10 rows of scratch, ``rc``: the dense output's 4 rows, each of
     2 x ci[CAPACITY]).
 
@@ -106,9 +106,9 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, 
         t_old = t
         t = t + h
         # y_old stays in y until the bookkeeping is done (dense output needs y, f = k1, k3..k7)
-        if peak_in_step(y, yn, st, ci):
+        if peak_in_step(y, yn, f, k7, st, ci, vpeaks):
             dopri_dense(rc, y, yn, h, f, k3, k4, k5, k6, k7, w2)
-        code = track_step(t_old, t, h, y, yn, rc, work[6], w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi)
+        code = track_step(t_old, t, h, y, yn, rc, work[6], w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi, f, k7, vpeaks)
         code = finish_step(t, h_new, y, f, yn, k7, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code)  # FSAL: f <- k7
         h = h_new
         if code != 0:

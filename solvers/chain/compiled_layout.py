@@ -5,7 +5,7 @@ fs, st: the kernels' resumable float and int state; cf, ci: their float and int 
 (solvers/chain/compiled.prepare fills them; compiled_track.py and the kernels read them).
 """
 
-# numba cache stamp: bd2c6ddd469c7315
+# numba cache stamp: 8af3100966847c10
 from __future__ import annotations
 
 # --- return codes of a kernel's run (solvers/chain/compiled.py turns them into PeakTracker's messages)
@@ -15,8 +15,8 @@ LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM, PAUSED, NO
 T, H, FACOLD, LEFT_X, LEFT_V, LEFT_T, E0, E_GONE, DRIFT, THRESH, LAST_PEAK_T, STALL, E_LAST = range(13)
 N_FS = 13
 # --- int state st[...]
-LO, HI, NEXT, STEPS, NFEV, HAS_LEFT, REJECTED, DIED_AT, WIDEST, SHIFTS, STARTED, LOST, NJEV = range(13)
-N_ST = 13  # NJEV: Jacobians (the stiff kernel's)
+LO, HI, NEXT, STEPS, NFEV, HAS_LEFT, REJECTED, DIED_AT, WIDEST, SHIFTS, STARTED, LOST, NJEV, VBEAD = range(14)
+N_ST = 14  # NJEV: Jacobians (the stiff kernel's); VBEAD: the next bead whose velocity peak is tracked (1-based)
 # --- float config cf[...]
 EXP, RTOL, ATOL, T_MAXC, SCALE_X, SCALE_V, AHEAD_THR, PEAK_FRAC, DEATH_FRAC, OVERTAKE, STALL_FAC, E_LIMIT, \
     DELAY_FAC = range(13)

@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: bd2c6ddd469c7315
+# numba cache stamp: 8af3100966847c10
 from __future__ import annotations
 
 import numpy as np

@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: bd2c6ddd469c7315
+# numba cache stamp: 8af3100966847c10
 from __future__ import annotations
 
 import numpy as np
@@ -194,18 +194,18 @@ def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, e
 
 
 @njit(cache=True)
-def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi):
+def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi):
     """compiled_kernel.run with Rodas4 steps (same arguments, state and stop codes; st[NJEV] counts
     the Jacobians, one per attempted step). Step control: h_new = h min(6, max(0.2, 0.9 err^(-1/4))),
     no growth right after a rejection. Allocates the scratch arrays, then ``steps`` (compiled without
     reference counting) does the work."""
     cap = ci[CAPACITY]
-    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, np.empty((10, 2 * cap)),
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, np.empty((10, 2 * cap)),
                  np.empty((7, cap + 1)), np.empty((STAGES, 2 * cap)), np.empty((4, 2 * cap)))
 
 
 @njit(**NO_NRT)
-def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, cc, mi, work, band, k, rc):
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, work, band, k, rc):
     """The steps of ``run`` (scratch: ``work`` 10 rows of 2 x ci[CAPACITY], ``band`` the banded
     Jacobian 7 x (ci[CAPACITY] + 1), ``k`` the stages, ``rc`` the dense output's 4 rows)."""
     n = cf[EXP]
@@ -246,9 +246,9 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, exps, coef, cx, 
         t = t + h
         rhs(t, yn, fn, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
         st[NFEV] += 1
-        if peak_in_step(y, yn, st, ci):
+        if peak_in_step(y, yn, f, fn, st, ci, vpeaks):
             hermite_dense(rc, y, yn, f, fn, h, w2)
-        code = track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi)
+        code = track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi, f, fn, vpeaks)
         code = finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code)  # fn = f(t, yn)
         h = h_new
         if code != 0:

@@ -19,7 +19,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci) and return codes: compiled_layout.py.
 """
 
-# numba cache stamp: bd2c6ddd469c7315
+# numba cache stamp: 8af3100966847c10
 from __future__ import annotations
 
 import numpy as np
@@ -28,7 +28,7 @@ from pulsemap.solvers.chain.jit import njit
 from pulsemap.solvers.chain.compiled_layout import (
     LAST_PEAKED, DIED, STALLED, T_MAX, BUDGET, BLOWUP, FAILED, NEED_ROOM, PAUSED, T, H, LEFT_X, LEFT_V, LEFT_T, E0,
     E_GONE, DRIFT, THRESH, LAST_PEAK_T, STALL, E_LAST, LO, HI, NEXT, STEPS, NFEV, HAS_LEFT, DIED_AT, WIDEST, SHIFTS,
-    LOST, EXP, T_MAXC, SCALE_X, SCALE_V, AHEAD_THR, PEAK_FRAC, DEATH_FRAC, OVERTAKE, STALL_FAC, E_LIMIT, DELAY_FAC,
+    LOST, VBEAD, EXP, T_MAXC, SCALE_X, SCALE_V, AHEAD_THR, PEAK_FRAC, DEATH_FRAC, OVERTAKE, STALL_FAC, E_LIMIT, DELAY_FAC,
     BEADS, FIRST, LASTC, BEHIND, MAX_STEPS, COAST, CAPACITY, ENERGY_EVERY, PAUSE_EVERY, RTOL, ATOL, STARTED, FACOLD)
 from pulsemap.solvers.chain.compiled_force import contact_force, inverse_mass
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, PULSE_HALF_WIDTH, pulse_lost, rhs, segment_energy, window_energy
@@ -101,22 +101,98 @@ def next_step(t, h, st, fs, cf, ci):
 
 
 @njit(cache=True, inline="always")
-def peak_in_step(y, yn, st, ci):
-    """True when the next contact's delta' turns from + to - over the step (the dense output is needed)."""
+def peak_in_step(y, yn, f, fn, st, ci, vpeaks):
+    """True when the next contact's delta' turns from + to - over the step, or (bead velocity peaks tracked)
+    the next bead's acceleration does (f, fn: the right-hand side at the step's ends): the dense output is needed."""
     k = st[NEXT]
-    if k > min(ci[LASTC], st[HI] - 1):
-        return False
-    p = k - 1 - st[LO]
-    return y[2 * p + 1] - y[2 * p + 3] > 0.0 and yn[2 * p + 1] - yn[2 * p + 3] <= 0.0
+    if k <= min(ci[LASTC], st[HI] - 1):
+        p = k - 1 - st[LO]
+        if y[2 * p + 1] - y[2 * p + 3] > 0.0 and yn[2 * p + 1] - yn[2 * p + 3] <= 0.0:
+            return True
+    if vpeaks.shape[0] > 0:
+        b = st[VBEAD] - 1 - st[LO]
+        if st[VBEAD] <= vpeaks.shape[0] and 0 <= b < st[HI] - st[LO]:
+            return f[2 * b + 1] > 0.0 and fn[2 * b + 1] <= 0.0
+    return False
+
+
+@njit(**NO_NRT)
+def dense_slope(theta, i, y0, rc):
+    """d/dtheta of component i of the dense output (dense_value's nested form differentiated)."""
+    th1 = 1.0 - theta
+    v = rc[rc.shape[0] - 1, i]
+    dv = 0.0
+    for r in range(rc.shape[0] - 2, -1, -1):
+        even = r % 2 == 0
+        dv = (-v if even else v) + (th1 if even else theta) * dv
+        v = rc[r, i] + (th1 if even else theta) * v
+    return v + theta * dv
+
+
+@njit(**NO_NRT)
+def locate_max(i, y0, rc):
+    """theta in [0, 1] of the maximum of component i on the dense output (root of its slope, Illinois;
+    an end when the slope does not change sign there)."""
+    a, b = 0.0, 1.0
+    fa, fb = dense_slope(a, i, y0, rc), dense_slope(b, i, y0, rc)
+    if fa <= 0.0:
+        return 0.0
+    if fb >= 0.0:
+        return 1.0
+    side = 0
+    c = 1.0
+    for _ in range(200):
+        c = (a * fb - b * fa) / (fb - fa)
+        if not (a < c < b):
+            c = 0.5 * (a + b)
+        fc = dense_slope(c, i, y0, rc)
+        if fc == 0.0:
+            return c
+        if fc > 0.0:
+            a, fa = c, fc
+            if side == -1:
+                fb *= 0.5
+            side = -1
+        else:
+            b, fb = c, fc
+            if side == 1:
+                fa *= 0.5
+            side = 1
+        if b - a < 1e-14:
+            break
+    return c
+
+
+@njit(**NO_NRT)
+def track_velocity(y, yn, f, fn, rc, w, st, cf, vpeaks):
+    """The bead velocity peaks completed in the step (the first maximum in time of v_b, above peak_fraction of
+    the previous bead's): vpeaks[b - 1] for bead b = st[VBEAD], ...; a bead dropped before its peak keeps NaN."""
+    lo = st[LO]
+    while st[VBEAD] <= vpeaks.shape[0]:
+        b = st[VBEAD] - 1 - lo
+        if b < 0:
+            st[VBEAD] += 1
+            continue
+        if b >= w or not (f[2 * b + 1] > 0.0 and fn[2 * b + 1] <= 0.0):
+            return
+        value = dense_value(locate_max(2 * b + 1, y, rc), 2 * b + 1, y, rc)
+        bead = st[VBEAD]
+        if bead > 1 and vpeaks[bead - 2] == vpeaks[bead - 2] and not value > cf[PEAK_FRAC] * vpeaks[bead - 2]:
+            return  # a ripple ahead of the front: the bead's peak is still to come
+        vpeaks[bead - 1] = value
+        st[VBEAD] += 1
 
 
 @njit(cache=True, inline="always")
-def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi):
+def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi, f, fn, vpeaks):
     """After an accepted step t_old -> t (state y -> yn, dense output rc): the blow-up guard (energy
     every ci[ENERGY_EVERY] steps), the leading-edge peaks completed in the step, at each requested
     contact's peak the energies of front.FrontRecorder (``pulse_e``: beads k-8..k+8, ``total_e``:
     the window plus what dropped beads carried; ``pk``: scratch), then the stop rules.
-    Returns the stop code (0: go on)."""
+    ``vpeaks``: the bead velocity peaks (track_velocity; empty: not tracked), f and fn the right-hand side at
+    the step's ends. Returns the stop code (0: go on)."""
+    if vpeaks.shape[0] > 0:
+        track_velocity(y, yn, f, fn, rc, w, st, cf, vpeaks)
     n = cf[EXP]
     lo = st[LO]
     w2 = 2 * w

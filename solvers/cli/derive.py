@@ -18,7 +18,8 @@ def register(sub) -> None:
     p.set_defaults(func=cmd_profile)
 
     p = sub.add_parser("derive", help="derive the map, long-wave law and stationary equation for R(u, v)")
-    p.add_argument("expr", metavar="EXPR", help='on-site perturbation R in u, v, i and parameters, e.g. "-mu*v"')
+    p.add_argument("expr", metavar="EXPR", help='on-site perturbation R in u, v, i and parameters, e.g. "-mu*v" '
+                   '(with --model contact: the contact-law term P in d, w and parameters, e.g. "gamma*d^(1/2)*w")')
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="parameter value: a number, a comma list (per bead) or an expression of i; a parameter "
                         "given none stays a symbol")
@@ -26,7 +27,7 @@ def register(sub) -> None:
     p.add_argument("--n", type=number, default=1.5, help="contact exponent n > 1 (default 1.5)")
     p.add_argument("--profile", default="exact", help="exact (default) or pade")
     p.add_argument("--variant", default=None, help="map variant: paper (default), corrected, 1d")
-    p.add_argument("--model", default="map", choices=("map", "energy", "momentum", "dressed"),
+    p.add_argument("--model", default="map", choices=("map", "energy", "momentum", "dressed", "contact"),
                    help="map (default: the paper's map, long-wave law, Eq. 41), energy or momentum balance, "
                         "dressed (the energy law's second order: k1, k2, cross terms and onset lag derived by the "
                         "expansion about the exact wave)")
@@ -84,6 +85,8 @@ def cmd_derive(args: argparse.Namespace) -> int:
         if name in params:
             raise UsageError(f"--param {name} given twice")
         params[name] = value
+    if args.model == "contact":
+        return _derive_contact(args, params, options)
     pert = check_all_used(make_perturbation(args.expr, args.eps, params, free=True))  # as pulsemap.derive
     if args.coefficients is not None and args.model != "dressed":
         raise UsageError("--coefficients applies to the dressed law only: add --model dressed or drop it")
@@ -131,6 +134,28 @@ def cmd_derive(args: argparse.Namespace) -> int:
     if args.json:
         write_json(args.json, doc)
     printed.store(options, text, doc)  # the JSON only when asked: printing it costs up to seconds
+    return 0
+
+
+def _derive_contact(args: argparse.Namespace, params: dict, options: dict) -> int:
+    """``pulsemap derive P --model contact``: the first-order energy law of a contact-law term P(d, w)
+    (derive/contact.py), parameters without a value left symbolic."""
+    from pulsemap.symbolic import printed
+    from pulsemap.symbolic.contact import contact_to_json, contact_to_text, derive_contact
+    from pulsemap.symbolic.contact_law import make_contact_law
+
+    for option, given in (("--variant", args.variant), ("--fold", args.fold), ("--latex", args.latex)):
+        if given:
+            raise UsageError(f"{option} does not apply to the contact energy law: drop it")
+    law = make_contact_law(args.expr, args.eps, params, free=True)
+    numbers = {name: value for name, value in params.items() if isinstance(value, float)}
+    d = derive_contact(law.monomials, n=args.n, eps=args.eps, params=numbers, profile=args.profile, dps=args.dps,
+                       seconds=args.sympy_seconds)
+    text, doc = contact_to_text(d, args.A0, args.i0), json_safe(contact_to_json(d, args.A0, args.i0))
+    print(text)
+    if args.json:
+        write_json(args.json, doc)
+    printed.store(options, text, doc)
     return 0
 
 

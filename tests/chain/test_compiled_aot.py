@@ -75,7 +75,7 @@ def test_a_run_with_no_force_takes_the_table_kernel_and_equals_the_jit_run():
 def test_form_of_takes_only_what_the_compiled_signatures_accept():
     y = np.zeros(8)
     ints = np.zeros(4, dtype=np.int64)
-    base = (y, y, y, ints, y, ints, y, y, y, y)
+    base = (y, y, y, ints, y, ints, y, y, y, y, y)
     exps = np.zeros((2, 2), dtype=np.int64)
     bare = kernel_terms(None, None)
     assert compiled_aot.form_of(base + (exps, np.zeros((2, 4, 3))) + bare) == "dense"

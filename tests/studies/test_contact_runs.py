@@ -61,9 +61,27 @@ def test_a_taper_keeps_the_strain_peak_and_gives_bead_velocity_peaks():
     ratio = peaks * np.sqrt(m)
     assert peaks[-1] < 0.85 * peaks[0]
     assert np.ptp(ratio[beads > 20]) / ratio[-1] < 0.01
+    measured = result.data["dns"]["velocity_peaks"]  # the DNS's own bead velocity maxima
+    law_at = dict(zip(vel["beads"], vel["peaks"]))
+    pairs = np.array([(law_at[b], p) for b, p in zip(measured["beads"], measured["peaks"]) if b in law_at], float)
+    assert len(pairs) > 100
+    assert np.sqrt(np.mean((pairs[:, 0] / pairs[:, 1] - 1.0) ** 2)) < 0.002
 
 
 def test_models_derived_for_an_onsite_force_refuse_a_contact_term_naming_what_runs_it():
     result = pulsemap.run(scene({"P": "w", "eps": 0.01}, methods=("dns", "map", "longwave")))
     assert result.peaks.get("map") is None and result.data["map"]["refused"]
     assert any("energy-law" in w and "map refused" in w for w in result.warnings)
+
+
+def test_an_elastic_correction_keeps_the_plateau_the_law_transmits():
+    """c d^(n+1) does no work: after the entry jump the DNS peaks settle on the plateau the energy law (with its
+    entry-jump constant) transmits, within 1e-3 in ln P."""
+    result = pulsemap.run(scene({"P": "d^(5/2)", "eps": 0.1}, last=100))
+    dns = np.array(result.peaks["dns"], float)
+    law = np.array(result.peaks["energy-law"], float)
+    plateau = slice(14, None)  # contacts 30..100, past the entry transient
+    assert np.ptp(law[plateau]) == 0.0
+    assert np.sqrt(np.mean(np.log(law[plateau] / dns[plateau]) ** 2)) < 1e-3
+    assert law[0] > dns[0] * 1.005  # a stiffer contact raises the peak (the jump) ...
+    assert abs(law[0] / result.data["seed"]["peak"] - 1) > 0.005  # ... which the law carries

@@ -194,6 +194,10 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
         "live_contacts": [c for c, a in zip(contacts, dns_alive) if a],
     }
     out["dns"].update(front_outputs(res, contacts, dns_alive))
+    if res.velocity_peaks is not None:  # a chain with masses: each bead's first velocity maximum
+        beads = [c for c in contacts if c <= res.velocity_peaks.size]
+        out["dns"]["velocity_peaks"] = {"beads": beads, "peaks": on_contacts(
+            beads, range(1, res.velocity_peaks.size + 1), res.velocity_peaks)}
     if not all(dns_alive):
         dead = [c for c, a in zip(contacts, dns_alive) if not a]
         state.warnings.append(f"DNS: no live primary pulse at contacts {dead[0]}..{dead[-1]} ({res.stop_reason})")
