@@ -11,7 +11,9 @@ The public API (everything else in the package is internal and may change):
 * :func:`pulsemap.scene` ``(name_or_path, **overrides)`` -> a validated :class:`Scene`;
 * :func:`pulsemap.run` ``(scene, methods=...)`` -> a :class:`Result` (peaks as numpy arrays,
   errors against the DNS, timings, provenance);
-* :func:`pulsemap.scenes` ``()`` -> the names of the built-in scenes.
+* :func:`pulsemap.scenes` ``()`` -> the names of the built-in scenes;
+* :class:`pulsemap.PulsemapError`: the base of every error pulsemap raises for what it was asked (a
+  ``ValueError``); any other exception is a bug.
 
 ``import pulsemap`` is cheap: sympy, scipy and numpy load when a function first needs them.
 The symbolic layer (the ``derive/`` folder) installs as :mod:`pulsemap.symbolic`, so that
@@ -19,7 +21,8 @@ The symbolic layer (the ``derive/`` folder) installs as :mod:`pulsemap.symbolic`
 """
 
 from pulsemap.solvers.api import Balance, Derivation, Result, Scene, derive, derive_contact, dressed, run, scene, scenes
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.provenance import __version__
 
-__all__ = ["Balance", "Derivation", "Result", "Scene", "__version__", "derive", "derive_contact", "dressed", "run", "scene",
-           "scenes"]
+__all__ = ["Balance", "Derivation", "PulsemapError", "Result", "Scene", "__version__", "derive", "derive_contact", "dressed",
+           "run", "scene", "scenes"]

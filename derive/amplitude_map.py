@@ -20,6 +20,7 @@ from typing import Mapping
 
 import sympy
 
+from .errors import PulsemapError
 from .expansion import Expansion, Term
 from .sources import VARIANTS
 
@@ -28,7 +29,7 @@ EPS = sympy.Symbol("epsilon", positive=True)
 F_SYMBOLS = {name: sympy.Symbol(name, real=True) for name in ("f1", "f2", "f3", "f4", "f5", "f6", "f7")}
 
 
-class MapError(ValueError):
+class MapError(PulsemapError):
     """A map that cannot be built as asked (unknown variant, ...)."""
 
 

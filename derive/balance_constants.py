@@ -9,6 +9,7 @@ from typing import Callable, Iterable
 
 import mpmath
 
+from .errors import PulsemapError
 from .integrals import Constant, cached_constants, scalar_funcs
 from .profile import check_exponent, exact_profile
 from .sources import BALANCE_METHOD
@@ -20,7 +21,7 @@ __all__ = ["WAVE_NAMES", "BalanceError", "balance_constants", "check_model", "in
 WAVE_NAMES = {"energy": ("K1", "V1"), "momentum": ("p1",)}
 
 
-class BalanceError(ValueError):
+class BalanceError(PulsemapError):
     """A balance model that is undefined or cannot be built for this R (the message says why)."""
 
 

@@ -14,11 +14,13 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
+from pulsemap.symbolic.errors import PulsemapError
+
 #: Largest --max-seconds (a day); None means no bound.
 MAX_SECONDS_LIMIT = 86400.0
 
 
-class DeriveTimeout(ValueError):
+class DeriveTimeout(PulsemapError):
     """The derivation did not finish within its time bound (the message says where it stopped)."""
 
 

@@ -67,11 +67,6 @@ def _entry_path(namespace: str, key: str) -> Path:
     return folder / f"{digest}.json"
 
 
-def entry_path(namespace: str, key: str) -> Path:
-    """The file of the entry ``key`` in ``namespace``."""
-    return _entry_path(namespace, key)
-
-
 def digest(value: Any) -> str:
     """sha256 of the canonical JSON of ``value`` (sorted keys, no spaces): what an entry's value must match."""
     return hashlib.sha256(json.dumps(value, sort_keys=True, separators=(",", ":")).encode()).hexdigest()

@@ -14,8 +14,9 @@ Three kinds of module, each generated only when a scene needs it:
 Every file starts with a header naming its source (expression, n, profile, variant) and two
 hashes: ``source-hash`` (what the file is looked up by; it names everything the content depends
 on) and ``content-hash`` (of the code below the header; a file whose content does not match it
-was edited by hand and is refused). Constants are embedded rounded to 12 significant digits
-(their accuracy is about 1e-10), which keeps regeneration byte-identical across machines. The
+was edited by hand and is refused). A constant computed by quadrature (and S(0)) is embedded rounded
+at the decade of its error bound (derive/codeprint.py ``measured``; about 1e-10, at most 12 significant
+digits), so noise far below its accuracy leaves the file byte-identical on every machine. The
 user's parameters are arguments with a prefix no identifier of the module has (derive/codeprint.py).
 """
 
@@ -32,13 +33,12 @@ from .codegen_map import generate_map
 from .codeprint import SIG_DIGITS, CodegenError
 from .files import WriteError, describe_os_error, write_atomic
 from .profile import check_profile_kind
-from .sources import (BalanceSource, ForceSource, JitForceSource, MapSource, module_name, source_from_dict,
-                      verify_generated)
+from .sources import BalanceSource, ForceSource, JitForceSource, MapSource, module_name
 
 __all__ = [
     "PACKAGE_DIR", "SIG_DIGITS", "BalanceSource", "CodegenError", "ForceSource", "MapSource",
     "balance_source", "force_source", "generate_balance", "generate_force", "generate_map",
-    "map_source", "module_name", "regenerate_text", "write",
+    "map_source", "module_name", "write",
 ]
 
 PACKAGE_DIR = Path(__file__).resolve().parent.parent / "generated"
@@ -85,10 +85,3 @@ def write(source: MapSource | ForceSource | JitForceSource | BalanceSource, dire
     except OSError as exc:
         raise WriteError(describe_os_error(exc, path, "the generated module")) from None
     return path
-
-
-def regenerate_text(path: Path) -> tuple[str, str]:
-    """(current text, freshly generated text) of a generated file, for the regeneration test."""
-    text = Path(path).read_text(encoding="utf-8")
-    source = source_from_dict(verify_generated(text))
-    return text, _generate(source)

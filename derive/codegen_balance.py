@@ -8,9 +8,8 @@ from __future__ import annotations
 
 import sympy
 
-from .codeprint import SIG_DIGITS, code, const, module, param_args, start, title
+from .codeprint import code, const, measured, module, param_args, profile_peak, start, title
 from .expression import parse_expression
-from .profile import get_profile
 from .sources import BalanceSource
 
 _EPS = sympy.Symbol("eps", real=True)
@@ -31,7 +30,7 @@ def generate_balance(source: BalanceSource) -> str:
     ex = balance_expand(R, n, source.model, source.site_dependent)
     names = list(ex.wave_names) + list(ex.integrals())
     consts = balance_constants(names, n=float(n), profile=source.profile, dps=source.dps)
-    values = {k: float(const(c.value)) for k, c in consts.items()}
+    values = {k: measured(c.value, c.error) for k, c in consts.items()}
     args, described, param_names = param_args(source, ex.terms, (0,))
     ren: dict[sympy.Symbol, str] = {SYM_A: "A", SYM_B: "B", **param_names}
     for k in ex.integrals():
@@ -45,7 +44,7 @@ def generate_balance(source: BalanceSource) -> str:
     lines.append(f"Q = {const(float(ex.Q))}  # the balanced quantity is K A^Q")
     lines.append(f"N_EXPONENT = {const(float(n))}")
     lines.append("")
-    lines.append(f"# wave constants and profile integrals ({source.profile} profile, mpmath dps {source.dps}), {SIG_DIGITS} significant digits")
+    lines.append(f"# wave constants and profile integrals ({source.profile} profile, mpmath dps {source.dps}), to the digits they are accurate to")
     if source.model == "energy":
         lines.append(f"K1 = {const(values['K1'])}  # int X'^2/2: kinetic part of E_1")
         lines.append(f"V1 = {const(values['V1'])}  # int S^(n+1)/(n+1): contact part of E_1")
@@ -55,7 +54,7 @@ def generate_balance(source: BalanceSource) -> str:
     lines.append(f"K = {kname}")
     for k in ex.integrals():
         lines.append(f"{k} = {const(values[k])}")
-    lines.append(f"S0 = {const(get_profile(source.profile, float(n)).S0)}  # peak = A S(0), Eq. 32")
+    lines.append(f"S0 = {const(profile_peak(source.profile, float(n)))}  # peak = A S(0), Eq. 32")
     lines.append("")
     rate = ex.rate(SYM_A)
     what = "W(A) = eps int R x' dt" if source.model == "energy" else "J(A) = eps int R dt"

@@ -11,7 +11,7 @@ from __future__ import annotations
 import sympy
 
 from .amplitude_map import A_I, A_NEXT, A_PREV, EPS, F_SYMBOLS, AmplitudeMap, integral_symbol
-from .codeprint import code, const, module, param_args, param_identifier, start, title, SIG_DIGITS
+from .codeprint import code, const, measured, module, param_args, param_identifier, profile_peak, start, title
 from .expansion import expand
 from .expression import parse_expression, symbol
 from .integrals import F_NAMES, constants
@@ -20,7 +20,6 @@ from .longwave import I as SYM_I
 from .longwave import I0 as SYM_I0
 from .longwave import LAW_RATE
 from .longwave import LongwaveError, longwave_law
-from .profile import get_profile
 from .sources import MapSource
 
 #: Internal symbols of the generated formulas (plain sympy Symbols: never equal to a user's).
@@ -54,7 +53,7 @@ def generate_map(source: MapSource) -> str:
     ex = expand(R, n, source.site_dependent)
     names = list(F_NAMES) + list(ex.integrals())
     consts = constants(names, n=float(n), profile=source.profile, dps=source.dps)
-    values = {k: float(const(c.value)) for k, c in consts.items()}
+    values = {k: measured(c.value, c.error) for k, c in consts.items()}
     amap = AmplitudeMap(n, source.variant, ex, values, {})
     args, described, param_names = param_args(source, ex.terms, (0, 1, 2))
     ren: dict[sympy.Symbol, str] = {A_PREV: "a_prev", A_I: "a_i", A_NEXT: "a_next", EPS: "eps"}
@@ -72,12 +71,12 @@ def generate_map(source: MapSource) -> str:
     lines.append(f"P = {const(float((n + 1) / 2))}  # contact power (n + 1)/2")
     lines.append(f"N_EXPONENT = {const(float(n))}")
     lines.append("")
-    lines.append(f"# universal constants ({source.profile} profile, mpmath dps {source.dps}), {SIG_DIGITS} significant digits")
+    lines.append(f"# universal constants ({source.profile} profile, mpmath dps {source.dps}), to the digits they are accurate to")
     lines.extend(f_block(values, source.profile))
     for k in names:
         if k not in F_NAMES:
             lines.append(f"{k} = {const(values[k])}")
-    lines.append(f"S0 = {const(get_profile(source.profile, float(n)).S0)}  # peak = A S(0), Eq. 32")
+    lines.append(f"S0 = {const(profile_peak(source.profile, float(n)))}  # peak = A S(0), Eq. 32")
     lines.append("")
     lines.extend(_residual_lines(source.variant, eqs, ren, sig))
     lines.extend(_power_table_lines(amap, source.variant, args, ren))

@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import json
 import keyword
+import math
 
 import sympy
 from sympy.printing.numpy import NumPyPrinter
@@ -19,8 +20,9 @@ from sympy.printing.pycode import PythonCodePrinter
 
 from .expansion import BeadSymbol, bead_symbol
 from .expression import SYMBOLS, UserSymbol, symbol
+from .profile import get_profile
 
-SIG_DIGITS = 12
+SIG_DIGITS = 12  # most digits printed of a constant: finer than the profile constants' accuracy (~1e-10), so rounding adds no error that matters
 
 
 class CodegenError(RuntimeError):
@@ -90,6 +92,22 @@ def code(expr: sympy.Expr, names: dict[sympy.Symbol, str], scalar: bool = False)
 def const(value: float) -> str:
     """A constant rounded to SIG_DIGITS significant digits, as Python source."""
     return repr(float(f"{value:.{SIG_DIGITS}g}"))
+
+
+def measured(value: float, error: float) -> float:
+    """A computed constant to the digits it is accurate to: rounded at the decade of its error bound
+    (at most SIG_DIGITS significant digits). Digits below the bound move with the machine (a profile
+    from another numpy build differs at 1e-13); rounded there, the printed constant, and so the
+    generated file, is the same on every machine unless the value sits on a rounding boundary."""
+    if error > 0 and math.isfinite(error):
+        value = round(value, -math.floor(math.log10(error)))
+    return float(const(value))
+
+
+def profile_peak(profile: str, n: float) -> float:
+    """S(0) of the profile, to the digits it is accurate to (its accuracy is relative to S(0))."""
+    prof = get_profile(profile, n)
+    return measured(prof.S0, prof.accuracy * prof.S0)
 
 
 def param_args(source, terms, offsets: tuple[int, ...]) -> tuple[list[str], list[tuple[str, int]], dict]:

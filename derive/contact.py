@@ -50,6 +50,7 @@ import numpy as np
 import sympy
 
 from .balance import BalanceDerivation
+from .errors import PulsemapError
 from .balance_constants import balance_constants, window
 from .balance_law import EPS, BalanceLaw, law_from_groups
 from .expansion import exact_exponent
@@ -76,7 +77,7 @@ FORBIDDEN = ("u", "v", "i")
 ELASTIC_NPU = 32
 
 
-class ContactError(ValueError):
+class ContactError(PulsemapError):
     """A contact perturbation P(d, w) or a contact-law request that is not defined (the message says why)."""
 
 

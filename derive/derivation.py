@@ -15,6 +15,7 @@ from typing import Callable
 
 import sympy
 
+from .errors import PulsemapError
 from . import balance
 from .amplitude_map import EPS, F_SYMBOLS, AmplitudeMap, check_variant, integral_symbol, latex_names
 from .expansion import Expansion, expand
@@ -29,7 +30,7 @@ from .sources import DEFAULT_DPS
 from .stationary import Stationary, StationaryError, multiplier_1d, stationary
 
 
-class DerivationError(ValueError):
+class DerivationError(PulsemapError):
     """The derivation cannot proceed as asked."""
 
 

@@ -31,13 +31,15 @@ from dataclasses import dataclass, field
 
 import sympy
 
+from pulsemap.symbolic.errors import PulsemapError
+
 A = sympy.Symbol("A", positive=True)
 A_S = sympy.Symbol("A_s", positive=True)  # the amplitude the law starts from at i0 (seed shifted by the lag)
 I = sympy.Symbol("i", real=True)  # noqa: E741
 I0 = sympy.Symbol("i_0", real=True)
 
 
-class DressedError(ValueError):
+class DressedError(PulsemapError):
     """A dressed law that cannot be formed (the message says why)."""
 
 

@@ -21,6 +21,7 @@ from typing import Iterable
 
 import sympy
 
+from .errors import PulsemapError
 from .expression import NON_SMOOTH, is_polynomial_in_state, symbol
 from .integrals import g1_name, g2_name
 
@@ -28,7 +29,7 @@ from .integrals import g1_name, g2_name
 D0, D1, W0, W1 = sympy.symbols("delta_i delta_ip1 v_i v_ip1", real=True)
 
 
-class ExpansionError(ValueError):
+class ExpansionError(PulsemapError):
     """R cannot be expanded into the monomials of Eq. 23 (and why)."""
 
 

@@ -22,6 +22,7 @@ from typing import Callable, Iterable
 import mpmath
 import numpy as np
 
+from .errors import PulsemapError
 from . import cache
 from .budget import Budget
 from .profile import Profile, get_profile
@@ -31,7 +32,7 @@ from .sources import INTEGRALS_METHOD as METHOD_VERSION
 F_NAMES = ("f1", "f2", "f3", "f4", "f5", "f6", "f7")
 
 
-class IntegralError(ValueError):
+class IntegralError(PulsemapError):
     """Bad request for an integral (negative exponents, a divergent integral)."""
 
 
@@ -314,8 +315,3 @@ def g2(p: int, r: int, **kw) -> Constant:
     _check_exponents((p, r), "g^(2)")
     name = g2_name(p, r)
     return constants([name], **kw)[name]
-
-
-def f_constants(**kw) -> dict[str, Constant]:
-    """f1..f7 of Eqs. 17 and 22 (f5 = f2, f6 = f3 by definition; f7 is the dropped term)."""
-    return constants(F_NAMES, **kw)

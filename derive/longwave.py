@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import mpmath
 import sympy
 
+from .errors import PulsemapError
 from .amplitude_map import EPS, F_SYMBOLS, AmplitudeMap, integral_symbol
 from .expression import UserSymbol, symbol
 from .sympy_cache import bounded_cached
@@ -34,7 +35,7 @@ I0 = sympy.Symbol("i_0", real=True)
 LAW_RATE = sympy.Symbol("lambda_L", real=True)
 
 
-class LongwaveError(ValueError):
+class LongwaveError(PulsemapError):
     """The long-wave law cannot be formed (site-dependent R, no perturbation)."""
 
 

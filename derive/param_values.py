@@ -5,7 +5,6 @@ forms with one-line errors naming the parameter, and evaluated with numpy for be
 
 from __future__ import annotations
 
-import difflib
 import math
 import numbers
 from dataclasses import dataclass
@@ -15,10 +14,11 @@ from typing import Any, Mapping, Union
 import numpy as np
 import sympy
 
+from pulsemap.symbolic.errors import PulsemapError, closest
 from pulsemap.symbolic.expression import ExpressionError, check_parameter_name, parse_expression, symbol
 from pulsemap.symbolic.param_forms import ParamMap, RandomDraw, param_data  # noqa: F401 (their home; names kept here)
 
-class PerturbationError(ValueError):
+class PerturbationError(PulsemapError):
     """A perturbation or one of its parameter values was rejected; the message says why."""
 
 
@@ -188,8 +188,8 @@ def _parse_list(name: str, raw: Any) -> tuple[float, ...]:
 def _parse_draw(name: str, raw: Mapping) -> RandomDraw:
     for key in raw:
         if key not in DRAW_KEYS:
-            close = difflib.get_close_matches(str(key), DRAW_KEYS, n=1)
-            hint = f"did you mean '{close[0]}'? " if close else ""
+            close = closest(str(key), DRAW_KEYS)
+            hint = f"did you mean '{close}'? " if close else ""
             raise PerturbationError(
                 f"parameter '{name}': unknown random-draw key {str(key)!r}: {hint}"
                 f"use {_DRAW_EXAMPLE}"

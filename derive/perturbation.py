@@ -15,7 +15,6 @@ checked against N in :meth:`Perturbation.bead_values`.
 
 from __future__ import annotations
 
-import difflib
 import math
 import numbers
 from dataclasses import dataclass
@@ -24,6 +23,7 @@ from typing import Any, Mapping
 import numpy as np
 import sympy
 
+from pulsemap.symbolic.errors import closest
 from pulsemap.symbolic.expression import (SYMBOLS, ExpressionError, check_parameter_name, formula, parse_expression,
                                           symbol)
 from pulsemap.symbolic.expression.tokens import tokenize
@@ -108,8 +108,8 @@ class Perturbation:
     def bead_values(self, name: str, beads: int) -> np.ndarray:
         """Values of parameter ``name`` for beads 1..beads, shape (beads,), float64."""
         if name not in self.params:
-            close = difflib.get_close_matches(name, list(self.params), n=1)
-            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            close = closest(name, self.params)
+            hint = f" (did you mean '{close}'?)" if close else ""
             raise PerturbationError(f"no parameter named '{name}'{hint}; known: {', '.join(self.params) or 'none'}")
         return values_per_bead(name, self.params[name], check_beads(beads))
 
@@ -287,8 +287,8 @@ def _from_sympy(R: sympy.Basic, parameters: Any, free: bool = False) -> sympy.Ex
 
 
 def _unknown_symbol(name: str, text: str, parameters: Any) -> str:
-    close = difflib.get_close_matches(name, sorted(parameters), n=1)
-    hint = f"did you mean '{close[0]}'? " if close else ""
+    close = closest(name, sorted(parameters))
+    hint = f"did you mean '{close}'? " if close else ""
     return (
         f"unknown symbol '{name}' in \"{text[:60]}\": {hint}declare it as a parameter "
         f"(--param {name}=VALUE) or use u, v, i"
@@ -298,11 +298,11 @@ def _unknown_symbol(name: str, text: str, parameters: Any) -> str:
 def _check_typos(perturbation: Perturbation) -> None:
     used = list(SYMBOLS) + list(perturbation.used_parameters)
     for name in perturbation.unused_parameters:
-        close = difflib.get_close_matches(name, used, n=1, cutoff=0.8)
+        close = closest(name, used, cutoff=0.8)
         if close:
             raise PerturbationError(
                 f"parameter '{name}' is not used in R = {perturbation.text} but looks like a typo "
-                f"of '{close[0]}': rename or remove it"
+                f"of '{close}': rename or remove it"
             )
 
 

@@ -23,6 +23,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .errors import PulsemapError
 from .sources import PROFILE_KINDS
 
 #: Grid points per unit of tau; shifts by one are exact shifts of NPU nodes.
@@ -36,7 +37,7 @@ TAIL = 1e-15
 FLUSH = 1e-250
 
 
-class ProfileError(ValueError):
+class ProfileError(PulsemapError):
     """Bad input to the profile layer (exponent, profile name)."""
 
 
@@ -365,10 +366,3 @@ def get_profile(kind: str = "exact", n: float = 1.5) -> Profile:
     kind = check_profile_kind(kind)
     n = check_exponent(n)
     return exact_profile(n) if kind == "exact" else pade_profile(n)
-
-
-def equation4_residual(profile: Profile, tau: np.ndarray) -> np.ndarray:
-    """S''(tau) - [S(tau-1)^n - 2 S(tau)^n + S(tau+1)^n], relative to S(0), at any tau."""
-    n = profile.n
-    pos = lambda x: np.maximum(profile.S(x), 0.0) ** n  # noqa: E731
-    return (profile.d2S(tau) - (pos(tau - 1) - 2 * pos(tau) + pos(tau + 1))) / profile.S0

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import sympy
 from sympy.core.function import AppliedUndef
 
+from .errors import PulsemapError
 from .expansion import bead_symbol
 from .expression import symbol
 from .longwave import needs_values
@@ -42,7 +43,7 @@ EPS = sympy.Symbol("epsilon", positive=True)
 BEAD_SHIFT = {"energy": sympy.Rational(1, 2), "momentum": sympy.Rational(1, 2), "longwave": sympy.Integer(0)}
 
 
-class SiteLawError(ValueError):
+class SiteLawError(PulsemapError):
     """A site-dependent law that cannot be formed (the message says why)."""
 
 

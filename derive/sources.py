@@ -12,6 +12,8 @@ from dataclasses import dataclass, fields
 from fractions import Fraction
 from typing import ClassVar, Union
 
+from pulsemap.symbolic.errors import PulsemapError
+
 GENERATOR_VERSION = 3  # 2: parameters are arguments p_<name>, b<offset>_<name>; ARGS in map and balance modules
 #: Bump when the force module's layout changes (2: MONOMIALS and monomial_coefficients, for the compiled DNS;
 #: 3: R evaluated only on beads with eps_i != 0).
@@ -165,7 +167,7 @@ def module_name(source: Source) -> str:
     return f"{kind}_{source_hash(source)[:16]}"
 
 
-class GeneratedCodeError(ValueError):
+class GeneratedCodeError(PulsemapError):
     """A generated file that is not ours or does not match its hashes."""
 
 

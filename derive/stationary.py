@@ -19,6 +19,7 @@ import mpmath
 import numpy as np
 import sympy
 
+from .errors import PulsemapError
 from .amplitude_map import AmplitudeMap, integral_symbol
 from .expression import symbol
 from .longwave import needs_values
@@ -27,7 +28,7 @@ from .sympy_cache import bounded_cached
 A = sympy.Symbol("A", positive=True)
 
 
-class StationaryError(ValueError):
+class StationaryError(PulsemapError):
     """The stationary problem cannot be posed as asked."""
 
 

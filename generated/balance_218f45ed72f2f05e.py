@@ -5,7 +5,7 @@
 
 source: {"R": "alpha*u", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "energy", "n": "3/2", "params": ["alpha"], "profile": "exact", "site_dependent": []}
 source-hash: 218f45ed72f2f05ed17374425d50403fe8fdbd84885514becb455ca390a48ac4
-content-hash: 6c7534beae87ce6eec581aa5c572f5d6cebde874fff7d33bb3b9864c7c348a00
+content-hash: 65dcc59a510957018e8d9373631764e7aa70d067f2ad5593b1577f0794baecf4
 """
 import numpy
 
@@ -16,13 +16,13 @@ ARGS = (('alpha', 0),)  # (parameter, bead offset) of each argument after eps; (
 Q = 2.5  # the balanced quantity is K A^Q
 N_EXPONENT = 1.5
 
-# wave constants and profile integrals (exact profile, mpmath dps 16), 12 significant digits
-K1 = 1.56860371579  # int X'^2/2: kinetic part of E_1
-V1 = 1.25488297263  # int S^(n+1)/(n+1): contact part of E_1
+# wave constants and profile integrals (exact profile, mpmath dps 16), to the digits they are accurate to
+K1 = 1.568603716  # int X'^2/2: kinetic part of E_1
+V1 = 1.254882973  # int S^(n+1)/(n+1): contact part of E_1
 E1 = K1 + V1  # E = E1 A^(n+1)
 K = E1
-w_10 = 3.68183948872
-S0 = 1.48735937435  # peak = A S(0), Eq. 32
+w_10 = 3.681839489
+S0 = 1.4873593743  # peak = A S(0), Eq. 32
 
 def balance_rate(A, eps, p_alpha):
     """W(A) = eps int R x' dt for one bead (its parameters). Parameters: eps, p_alpha."""

@@ -5,7 +5,7 @@
 
 source: {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "energy", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
 source-hash: 494a8544dc806759fcb29f6a47f87f2d0d6308f0d2fb022ff7634800ab972ee9
-content-hash: 75d1196fc78200b26ee14ce891a0fa8dc060913264bff12fef51d3a04fe72d9a
+content-hash: 22b7d1a82bb9a8c07829676c95111b67e417612a8e146395f818a5c098d10199
 """
 import numpy
 
@@ -16,13 +16,13 @@ ARGS = (('mu', 0),)  # (parameter, bead offset) of each argument after eps; ('i'
 Q = 2.5  # the balanced quantity is K A^Q
 N_EXPONENT = 1.5
 
-# wave constants and profile integrals (exact profile, mpmath dps 16), 12 significant digits
-K1 = 1.56860371579  # int X'^2/2: kinetic part of E_1
-V1 = 1.25488297263  # int S^(n+1)/(n+1): contact part of E_1
+# wave constants and profile integrals (exact profile, mpmath dps 16), to the digits they are accurate to
+K1 = 1.568603716  # int X'^2/2: kinetic part of E_1
+V1 = 1.254882973  # int S^(n+1)/(n+1): contact part of E_1
 E1 = K1 + V1  # E = E1 A^(n+1)
 K = E1
-w_01 = 3.13720743158
-S0 = 1.48735937435  # peak = A S(0), Eq. 32
+w_01 = 3.137207432
+S0 = 1.4873593743  # peak = A S(0), Eq. 32
 
 def balance_rate(A, eps, p_mu):
     """W(A) = eps int R x' dt for one bead (its parameters). Parameters: eps, p_mu."""

@@ -5,7 +5,7 @@
 
 source: {"R": "-(u-mu*(1-u**2)*v)", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "energy", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
 source-hash: 5d4a4bc08e8e359eca4a0f5c2f3bfcd461e89014248ea178158e494d06850f43
-content-hash: 70c4c6fe71ba4ac442c5016b8ae9fbcd6f3267e6cb2f6d3c83e8f74708d17a53
+content-hash: 6479ab37048c8278a83ffa82f11af1cde44905e19993ffdfa87200f37153aeef
 """
 import numpy
 
@@ -16,15 +16,15 @@ ARGS = (('mu', 0),)  # (parameter, bead offset) of each argument after eps; ('i'
 Q = 2.5  # the balanced quantity is K A^Q
 N_EXPONENT = 1.5
 
-# wave constants and profile integrals (exact profile, mpmath dps 16), 12 significant digits
-K1 = 1.56860371579  # int X'^2/2: kinetic part of E_1
-V1 = 1.25488297263  # int S^(n+1)/(n+1): contact part of E_1
+# wave constants and profile integrals (exact profile, mpmath dps 16), to the digits they are accurate to
+K1 = 1.568603716  # int X'^2/2: kinetic part of E_1
+V1 = 1.254882973  # int S^(n+1)/(n+1): contact part of E_1
 E1 = K1 + V1  # E = E1 A^(n+1)
 K = E1
-w_10 = 3.68183948872
-w_01 = 3.13720743158
-w_21 = 7.03534349857
-S0 = 1.48735937435  # peak = A S(0), Eq. 32
+w_10 = 3.681839489
+w_01 = 3.137207432
+w_21 = 7.0353435
+S0 = 1.4873593743  # peak = A S(0), Eq. 32
 
 def balance_rate(A, eps, p_mu):
     """W(A) = eps int R x' dt for one bead (its parameters). Parameters: eps, p_mu."""

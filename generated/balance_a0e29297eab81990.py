@@ -5,7 +5,7 @@
 
 source: {"R": "-mu*v", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "momentum", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": []}
 source-hash: a0e29297eab819904655725d22e74cfb812c8766e5239846eba1868a42f6e2d2
-content-hash: 1fe47a56a25df09ca53213baef696e0e86fe330442c7a3db73dc68be6df0f966
+content-hash: a7f53e84c3f021fbd8c38603ecb31e47071188aee4024fcd093d5ef2989dc38f
 """
 import numpy
 
@@ -16,11 +16,11 @@ ARGS = (('mu', 0),)  # (parameter, bead offset) of each argument after eps; ('i'
 Q = 1.25  # the balanced quantity is K A^Q
 N_EXPONENT = 1.5
 
-# wave constants and profile integrals (exact profile, mpmath dps 16), 12 significant digits
-p1 = 2.71360995308  # p = p1 A^(1+s)
+# wave constants and profile integrals (exact profile, mpmath dps 16), to the digits they are accurate to
+p1 = 2.713609953  # p = p1 A^(1+s)
 K = p1
-j_01 = 2.71360995308
-S0 = 1.48735937435  # peak = A S(0), Eq. 32
+j_01 = 2.713609953
+S0 = 1.4873593743  # peak = A S(0), Eq. 32
 
 def balance_rate(A, eps, p_mu):
     """J(A) = eps int R dt for one bead (its parameters). Parameters: eps, p_mu."""

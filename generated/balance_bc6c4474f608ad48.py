@@ -5,7 +5,7 @@
 
 source: {"R": "-k*u", "balance_method": 1, "dps": 16, "generator": 3, "kind": "balance", "model": "energy", "n": "3/2", "params": ["k"], "profile": "exact", "site_dependent": ["k"]}
 source-hash: bc6c4474f608ad48678446b3ab87af5414f739a886afa342a6305a57cef443a8
-content-hash: 8bacf1dea05876b5019752e493afee076a68738da0b2de20fd5ecc386a22293b
+content-hash: f2eae690e19de1c4c4b02a2b9117fb709eb10db0eda6197b86dba28b7a93c203
 """
 import numpy
 
@@ -16,13 +16,13 @@ ARGS = (('k', 0),)  # (parameter, bead offset) of each argument after eps; ('i',
 Q = 2.5  # the balanced quantity is K A^Q
 N_EXPONENT = 1.5
 
-# wave constants and profile integrals (exact profile, mpmath dps 16), 12 significant digits
-K1 = 1.56860371579  # int X'^2/2: kinetic part of E_1
-V1 = 1.25488297263  # int S^(n+1)/(n+1): contact part of E_1
+# wave constants and profile integrals (exact profile, mpmath dps 16), to the digits they are accurate to
+K1 = 1.568603716  # int X'^2/2: kinetic part of E_1
+V1 = 1.254882973  # int S^(n+1)/(n+1): contact part of E_1
 E1 = K1 + V1  # E = E1 A^(n+1)
 K = E1
-w_10 = 3.68183948872
-S0 = 1.48735937435  # peak = A S(0), Eq. 32
+w_10 = 3.681839489
+S0 = 1.4873593743  # peak = A S(0), Eq. 32
 
 def balance_rate(A, eps, b0_k):
     """W(A) = eps int R x' dt for one bead (its parameters). Parameters: eps, b0_k."""

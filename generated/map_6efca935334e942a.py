@@ -5,7 +5,7 @@
 
 source: {"R": "-(u-mu*(1-u**2)*v)", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["mu"], "profile": "exact", "site_dependent": [], "variant": "paper"}
 source-hash: 6efca935334e942aba6b9affa6252a4480a6980330c35436a9f73c25ea4a8dc2
-content-hash: 4f89621a3e4f526251c17537511f5d68ca5bbfa1a37b682222644c1c1f89a4dd
+content-hash: 962c90b711f1a1fe0f4b82a95a822aad2a902f30adf4a47e43ae41321397e8e9
 """
 import numpy
 
@@ -16,25 +16,25 @@ ARGS = (('mu', 0),)  # (parameter, bead offset) of each argument after eps; ('i'
 P = 1.25  # contact power (n + 1)/2
 N_EXPONENT = 1.5
 
-# universal constants (exact profile, mpmath dps 16), 12 significant digits
-f1 = 2.58993711704
-f2 = 1.35680497654
-f3 = 2 * f2 - f1  # f1 - 2 f2 + f3 = S'(0) = 0 for an even profile; quadrature: 0.123672836042
+# universal constants (exact profile, mpmath dps 16), to the digits they are accurate to
+f1 = 2.589937117
+f2 = 1.3568049765
+f3 = 2 * f2 - f1  # f1 - 2 f2 + f3 = S'(0) = 0 for an even profile; quadrature: 0.123672836
 f5 = f2  # Eq. 22: same integral as f2
 f6 = f3  # Eq. 22: same integral as f3
-f7 = 0.00072315913994
-f4 = f5 - 2 * f6 + f7  # Eq. 4 integrated over (-inf, -1]; quadrature: 1.11018246359
-g1_1000 = 1.35680497654
-g1_0010 = 1.48735937435
-g1_0210 = 0.0337777039865
-g1_1101 = 0.236686042831
-g1_1110 = 0.172252913337
-g1_2001 = 0.947284408637
-g1_2010 = 1.09679759715
-g2_10 = 0.22525493869
-g2_01 = 0.583929165289
-g2_21 = 0.0663680789935
-S0 = 1.48735937435  # peak = A S(0), Eq. 32
+f7 = 0.0007231591
+f4 = f5 - 2 * f6 + f7  # Eq. 4 integrated over (-inf, -1]; quadrature: 1.1101824636
+g1_1000 = 1.3568049765
+g1_0010 = 1.4873593743
+g1_0210 = 0.033777704
+g1_1101 = 0.2366860428
+g1_1110 = 0.1722529133
+g1_2001 = 0.9472844086
+g1_2010 = 1.0967975971
+g2_10 = 0.2252549387
+g2_01 = 0.5839291653
+g2_21 = 0.066368079
+S0 = 1.4873593743  # peak = A S(0), Eq. 32
 
 def map_residual(a_prev, a_i, a_next, eps, p_mu):
     """Residuals of Eq. 23 (paper variant). State: a_prev, a_i, a_next; parameters: eps, p_mu."""

@@ -5,7 +5,7 @@
 
 source: {"R": "-k*u", "dps": 16, "generator": 3, "integrals_method": 1, "kind": "map", "n": "3/2", "params": ["k"], "profile": "exact", "site_dependent": ["k"], "variant": "paper"}
 source-hash: 886186ec59d2f607aa3f65b963e01dfc6cea9c6d0d4cd8c0ed2560a7ca00a2de
-content-hash: 0cd0c758ab5cb079026cc59368e6fbe72441b76745659f67572dbfae8b00526f
+content-hash: 5584bde8cd6cf2c1a1bc0ef5b16f4e31bea3231830e2fc14d83332c2a49326fc
 """
 import numpy
 
@@ -16,18 +16,18 @@ ARGS = (('k', 0), ('k', 1))  # (parameter, bead offset) of each argument after e
 P = 1.25  # contact power (n + 1)/2
 N_EXPONENT = 1.5
 
-# universal constants (exact profile, mpmath dps 16), 12 significant digits
-f1 = 2.58993711704
-f2 = 1.35680497654
-f3 = 2 * f2 - f1  # f1 - 2 f2 + f3 = S'(0) = 0 for an even profile; quadrature: 0.123672836042
+# universal constants (exact profile, mpmath dps 16), to the digits they are accurate to
+f1 = 2.589937117
+f2 = 1.3568049765
+f3 = 2 * f2 - f1  # f1 - 2 f2 + f3 = S'(0) = 0 for an even profile; quadrature: 0.123672836
 f5 = f2  # Eq. 22: same integral as f2
 f6 = f3  # Eq. 22: same integral as f3
-f7 = 0.00072315913994
-f4 = f5 - 2 * f6 + f7  # Eq. 4 integrated over (-inf, -1]; quadrature: 1.11018246359
-g1_0100 = 0.22525493869
-g1_1000 = 1.35680497654
-g2_10 = 0.22525493869
-S0 = 1.48735937435  # peak = A S(0), Eq. 32
+f7 = 0.0007231591
+f4 = f5 - 2 * f6 + f7  # Eq. 4 integrated over (-inf, -1]; quadrature: 1.1101824636
+g1_0100 = 0.2252549387
+g1_1000 = 1.3568049765
+g2_10 = 0.2252549387
+S0 = 1.4873593743  # peak = A S(0), Eq. 32
 
 def map_residual(a_prev, a_i, a_next, eps, b0_k, b1_k):
     """Residuals of Eq. 23 (paper variant). State: a_prev, a_i, a_next; parameters: eps, b0_k, b1_k."""

@@ -8,6 +8,8 @@ from typing import Mapping
 
 import sympy
 
+from ..errors import PulsemapError
+
 SYMBOLS = ("u", "v", "i")
 """State symbols: displacement u = x_i, velocity v = x_i', bead index i (1-based)."""
 
@@ -48,7 +50,7 @@ MAX_POWER_BITS = 20000  # bound on the size of an exact number raised to a power
 MAX_DECIMAL_EXPONENT = 400
 
 
-class ExpressionError(ValueError):
+class ExpressionError(PulsemapError):
     """A perturbation expression (or a parameter name) was rejected; the message says why."""
 
 

@@ -3,10 +3,9 @@ sympy objects itself from tokens; user text never reaches eval, sympify or parse
 
 from __future__ import annotations
 
-import difflib
-
 import sympy
 
+from ..errors import closest
 from .names import CONTACT_SYMBOLS, FUNCTIONS, MAX_DEPTH, MAX_EXPONENT, MAX_POWER_BITS, SYMBOLS, ExpressionError, symbol
 from .tokens import Token, context, number, printable, show
 
@@ -177,8 +176,8 @@ class Parser:
                 f"unknown symbol {show(name)} in {context(self.text)}: only {allowed} "
                 "may appear here (a number or an expression of the bead index i)"
             )
-        close = difflib.get_close_matches(name, sorted(self.params), n=1)
-        hint = f"did you mean {show(close[0])}? " if close else ""
+        close = closest(name, sorted(self.params))
+        hint = f"did you mean {show(close)}? " if close else ""
         raise ExpressionError(
             f"unknown symbol {show(name)} in {context(self.text)}: {hint}declare it as a "
             f"parameter (--param {printable(name)}=VALUE) or use u, v, i"
@@ -192,8 +191,8 @@ class Parser:
                     f"{show(name)} is not a function (position {token.pos} in "
                     f"{context(self.text)}): use '*' for multiplication"
                 )
-            close = difflib.get_close_matches(name, list(FUNCTIONS), n=1)
-            hint = f"did you mean {show(close[0])}?" if close else "allowed: " + ", ".join(FUNCTIONS)
+            close = closest(name, FUNCTIONS)
+            hint = f"did you mean {show(close)}?" if close else "allowed: " + ", ".join(FUNCTIONS)
             raise ExpressionError(f"unknown function {show(name)} ({hint})")
         open_token = self.advance()
         self.enter()

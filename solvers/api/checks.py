@@ -1,9 +1,8 @@
-"""Argument checks of the public API: TypeError for a wrong type, ValueError for a wrong value,
+"""Argument checks of the public API: TypeError for a wrong type, PulsemapError (a ValueError) for a wrong value,
 each naming the argument and, for a choice, the closest allowed value."""
 
 from __future__ import annotations
 
-import difflib
 import math
 import numbers
 import re
@@ -12,11 +11,14 @@ from typing import TYPE_CHECKING, Any, Iterable, Mapping, Sequence
 if TYPE_CHECKING:  # pragma: no cover
     from pulsemap.solvers.data.scene import Scene
 
+from pulsemap.symbolic.errors import PulsemapError
+from pulsemap.symbolic.errors import closest as closest_name
+
 
 def closest(word: str, known: Iterable[str]) -> str:
     """' (did you mean 'x'?)' for the closest of ``known``, or ''."""
-    match = difflib.get_close_matches(str(word), list(known), n=1)
-    return f" (did you mean '{match[0]}'?)" if match else ""
+    match = closest_name(str(word), known)
+    return f" (did you mean '{match}'?)" if match else ""
 
 
 def number(value: Any, name: str) -> float:
@@ -25,7 +27,7 @@ def number(value: Any, name: str) -> float:
         raise TypeError(f"{name} must be a number, got {type(value).__name__} {value!r}")
     out = float(value)
     if not math.isfinite(out):
-        raise ValueError(f"{name} = {out} is not finite: give a finite number")
+        raise PulsemapError(f"{name} = {out} is not finite: give a finite number")
     return out
 
 
@@ -35,7 +37,7 @@ def choice(value: Any, name: str, choices: Iterable[str]) -> str:
     if not isinstance(value, str):
         raise TypeError(f"{name} must be a string, one of {', '.join(choices)}; got {type(value).__name__} {value!r}")
     if value not in choices:
-        raise ValueError(f"unknown {name} {value!r}{closest(value, choices)}: choose one of {', '.join(choices)}")
+        raise PulsemapError(f"unknown {name} {value!r}{closest(value, choices)}: choose one of {', '.join(choices)}")
     return value
 
 
@@ -46,7 +48,7 @@ def merged_params(params: Any, keywords: Mapping[str, Any]) -> dict:
     values = dict(params or {})
     for name, value in keywords.items():
         if name in values:
-            raise ValueError(f"parameter {name!r} given twice (as a keyword and in params)")
+            raise PulsemapError(f"parameter {name!r} given twice (as a keyword and in params)")
         values[name] = value
     return values
 

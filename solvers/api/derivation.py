@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any, Mapping
 if TYPE_CHECKING:  # pragma: no cover - sympy loads when a derivation is made, not on import
     import sympy
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.api.checks import api_hint, choice, merged_params, number
 
 __all__ = ["Balance", "Derivation", "derive"]
@@ -102,7 +103,7 @@ class Derivation:
         if st is None:
             return ()
         if st.missing:
-            raise ValueError(needs_values("the roots of Eq. 41", st.missing))
+            raise PulsemapError(needs_values("the roots of Eq. 41", st.missing))
         return tuple(float(r) for r in st.roots)
 
     @property
@@ -150,7 +151,7 @@ class Derivation:
         try:
             b = derive_balance(self.details.perturbation, model, n=self.n, profile=self.profile)
         except BalanceError as exc:
-            raise ValueError(api_hint(str(exc))) from None
+            raise PulsemapError(api_hint(str(exc))) from None
         law, pert = b.law, self.details.perturbation
         equations = {"map": map_equation(b), "ode": None if law is None else law.ode(),
                      "law": _law_equation(law, K_SYMBOLS[model])}
@@ -327,7 +328,7 @@ def derive(
         pert = check_all_used(make_perturbation(R, eps, values, free=True))
         d = derive_all(pert, n=n, profile=profile, variant=variant)
     except (PerturbationError, ExpressionError, ProfileError, MapError, DerivationError, StationaryError) as exc:
-        raise ValueError(api_hint(str(exc))) from None
+        raise PulsemapError(api_hint(str(exc))) from None
     return _public(d, {} if isinstance(R, str) else {s.name: s for s in R.atoms(Symbol)})
 
 
@@ -396,11 +397,11 @@ def quadrature_energy_law(pert: Any, n: float = 1.5) -> dict:
     from pulsemap.solvers.models.energy_quadrature import bead_force, rate_table
 
     if not pert.is_uniform:
-        raise ValueError(f"R = {pert.text} varies along the chain: the tabulated energy law needs a uniform R; "
+        raise PulsemapError(f"R = {pert.text} varies along the chain: the tabulated energy law needs a uniform R; "
                          "pulsemap run --methods energy-law evaluates it bead by bead")
     if pert.free_parameters:  # W(A) is a table of numbers
         names = pert.free_parameters
-        raise ValueError(f"the energy law of R = {pert.text} by quadrature needs a value for {', '.join(names)}: give "
+        raise PulsemapError(f"the energy law of R = {pert.text} by quadrature needs a value for {', '.join(names)}: give "
                          + " ".join(f"--param {name}=VALUE" for name in names))
     n = float(check_exponent(n))
     values = {name: float(value) for name, value in pert.params.items()}

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, Mapping
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.api.checks import api_hint, merged_params, number
 
 if TYPE_CHECKING:  # pragma: no cover - the dressed law loads sympy and scipy when it is derived
@@ -50,10 +51,10 @@ def dressed(
     A0 = None if A0 is None else number(A0, "A0")
     i0 = number(i0, "i0")
     if coefficients not in ("derived", "calibrated"):
-        raise ValueError(f"coefficients must be 'derived' or 'calibrated', got {coefficients!r}")
+        raise PulsemapError(f"coefficients must be 'derived' or 'calibrated', got {coefficients!r}")
     values = merged_params(params, parameters)
     try:
         pert = check_all_used(make_perturbation(R, eps, values))
         return derive_dressed(pert, n=n, A0_value=A0, i0=i0, source=coefficients)
     except (PerturbationError, ExpressionError, ProfileError, DressedError) as exc:
-        raise ValueError(api_hint(str(exc))) from None
+        raise PulsemapError(api_hint(str(exc))) from None

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Sequence
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.api.checks import run_choices
 from pulsemap.solvers.api.result import Result
 from pulsemap.solvers.data.scene import Scene
@@ -46,7 +47,7 @@ def run(
         if not isinstance(methods, (list, tuple)) or not all(isinstance(m, str) for m in methods):
             raise TypeError(f"methods must be a list of method names (e.g. ['dns', 'map']), got {methods!r}")
         if not methods:
-            raise ValueError("methods is empty: give at least one of dns, map, longwave, ...")
+            raise PulsemapError("methods is empty: give at least one of dns, map, longwave, ...")
     for name, value in (("profile", profile), ("variant", variant)):
         if value is not None and not isinstance(value, str):
             raise TypeError(f"{name} must be a string, got {type(value).__name__} {value!r}")
@@ -54,7 +55,7 @@ def run(
         if not isinstance(flag, bool):
             raise TypeError(f"{name} must be True or False, got {flag!r}")
     if rank and "dns" not in [m.strip() for m in (methods or scene.methods)]:
-        raise ValueError("rank=True ranks every model against the DNS: add 'dns' to the methods")
+        raise PulsemapError("rank=True ranks every model against the DNS: add 'dns' to the methods")
     methods, profile, variant, _ = run_choices(scene, methods, profile, variant)
     out = run_scene(scene, methods=methods, profile=profile, variant=variant, progress=progress)
     if rank:

@@ -14,6 +14,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, TextIO
 
+from pulsemap.symbolic.errors import PulsemapError
+
 EVERY_S = 5.0
 
 PROGRESS_ENV = "PULSEMAP_PROGRESS"
@@ -28,7 +30,7 @@ def progress_setting() -> str:
     """PULSEMAP_PROGRESS, checked: "auto", "lines" or "off"."""
     value = os.environ.get(PROGRESS_ENV, "auto").strip().lower() or "auto"
     if value not in ("auto", "lines", "off"):
-        raise ValueError(f"{PROGRESS_ENV}={value!r}: give auto, lines or off")
+        raise PulsemapError(f"{PROGRESS_ENV}={value!r}: give auto, lines or off")
     return value
 
 

@@ -18,6 +18,7 @@ if TYPE_CHECKING:  # scipy loads only when a scipy engine runs (~0.3 s per proce
     import scipy.integrate as _integrate
     from scipy import sparse
 
+from pulsemap.symbolic.errors import PulsemapError
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
 from pulsemap.solvers.chain import methods
 from pulsemap.solvers.chain.front import pulse_speed
@@ -33,7 +34,7 @@ ENERGY_BLOWUP = 1e6  # blow-up guard: energy (kinetic + contact) beyond this x i
 STEPS_PER_CONTACT = 2000  # step budget per contact (default_max_steps)
 
 
-class ForceNotFinite(ArithmeticError):
+class ForceNotFinite(PulsemapError, ArithmeticError):
     """The on-site force F_i = eps_i R_i of Eq. 1 (or its slope ``what``) is not finite at bead ``bead``
     (1-based; None: not located) at displacement ``x`` and velocity ``v``, at time ``t`` (None: not known
     where it was found; the engine adds it). ``state``: the compiled engine's (lo, y, f, h) of the failed

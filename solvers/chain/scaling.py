@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.chain.equations import DNSResult, OnSiteForce
 
 VELOCITY_RANGE = (1e-150, 1e150)
@@ -36,7 +37,7 @@ FORCE_LIMIT = 1e8
 _PROBE = (-1.5, -0.5, 0.0, 0.5, 1.5)  # unit-frame displacements and velocities the force is probed at
 
 
-class ScalingError(ValueError):
+class ScalingError(PulsemapError):
     """An impact velocity outside the range where the scaling laws and the integrator hold."""
 
 

@@ -13,10 +13,11 @@ import stat
 import sys
 from typing import Callable, Sequence, TextIO
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.numba_cache import remove_damaged_numba_cache
 
 
-class UsageError(ValueError):
+class UsageError(PulsemapError):
     """A command-line argument that cannot be used as given."""
 
 

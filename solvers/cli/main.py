@@ -1,23 +1,27 @@
 """The ``pulsemap`` command line: the parser, the dispatch to a sub-command and the exit status.
 
 The sub-commands live in the modules of COMMAND_MODULES and import what they need lazily, so
-``pulsemap profile`` never loads sympy or scipy. Every error a user can cause is a one-line message
-on stderr and exit status 2.
+``pulsemap profile`` never loads sympy or scipy. Every error a user can cause (a PulsemapError) is a
+one-line message on stderr and exit status 2; any other exception is a bug and says so (exit status 1).
 """
 
 from __future__ import annotations
 
 import argparse
-import difflib
 import importlib
+import os
 import re
 import sys
+import traceback
 from pathlib import Path
 from typing import Callable, NoReturn, Sequence
 
+from pulsemap.symbolic.errors import PulsemapError, closest
 from pulsemap.solvers.cli.common import UsageError, call_recovering_numba_cache, stdout_document, text_to_stderr
 
-EXIT_USAGE = 2
+EXIT_USAGE = 2  # a PulsemapError or an OSError: what was asked cannot be done as asked
+EXIT_BUG = 1  # any other exception: a bug in pulsemap (exit status 1, as Python gives an uncaught one)
+TRACEBACK_ENV = "PULSEMAP_TRACEBACK"  # set to 1: a bug's message comes with its traceback
 
 # The sub-command modules, in --help's order: each defines ``register(subparsers)`` and imports what its
 # commands need inside the command functions (so building the parser stays cheap).
@@ -41,9 +45,9 @@ def _usage_message(prog: str, message: str) -> str:
     match = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
     if match:
         choices = [c.strip().strip("'\"") for c in match.group(2).split(",")]
-        close = difflib.get_close_matches(match.group(1), choices, n=1)
+        close = closest(match.group(1), choices)
         if close:
-            message += f"; did you mean '{close[0]}'?"
+            message += f"; did you mean '{close}'?"
     return f"{message} (see '{prog} --help')"
 
 
@@ -134,7 +138,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("pulsemap: interrupted", file=sys.stderr)
         return 130
-    except (ValueError, OSError) as exc:  # our errors subclass ValueError
+    except (PulsemapError, OSError) as exc:  # what was asked, or the machine (a file, the disk): the user's to fix
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         if isinstance(exc, OSError):
             from pulsemap.symbolic.files import explain_os_error
@@ -142,6 +146,21 @@ def main(argv: Sequence[str] | None = None) -> int:
             message = explain_os_error(exc)  # "[Errno 28] ..." -> the file, the reason, what to do
         print(f"pulsemap: error: {message}", file=sys.stderr)
         return EXIT_USAGE
+    except Exception as exc:  # noqa: BLE001 - anything else is a bug in pulsemap, and says so
+        return _internal_error(exc)
+
+
+def _internal_error(exc: Exception) -> int:
+    """A bug (an exception that is no PulsemapError): one line saying so, the traceback with
+    TRACEBACK_ENV=1; exit status EXIT_BUG."""
+    if os.environ.get(TRACEBACK_ENV, "") not in ("", "0"):
+        traceback.print_exception(type(exc), exc, exc.__traceback__, file=sys.stderr)
+    where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+    at = f" at {Path(where.filename).name}:{where.lineno}" if where else ""
+    message = str(exc).splitlines()[0] if str(exc) else ""
+    print(f"pulsemap: internal error, please report: {type(exc).__name__}{at}: {message} "
+          f"(set {TRACEBACK_ENV}=1 for the traceback)", file=sys.stderr)
+    return EXIT_BUG
 
 
 if __name__ == "__main__":  # pragma: no cover

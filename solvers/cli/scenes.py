@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.cli.common import (UsageError, add_set_option, int_at_least, load_scene_with_sets, number, write_json,
                                          write_text)
 
@@ -41,6 +42,9 @@ def register(sub) -> None:
                         "generated/ is read-only: maintainers regenerate it with --into generated)")
     p.add_argument("--profile", help="exact or pade (default: the scene's)")
     p.add_argument("--variant", help="paper, corrected or 1d (default: the scene's)")
+    p.add_argument("--dressed-tables", action="store_true",
+                   help="also recompute the dressed law's shipped tables from scratch (solvers/data/dressed_derived.json "
+                        "and dressed_calibration.json, for the paper's monomials; maintainers, tens of minutes)")
     p.set_defaults(func=cmd_generate)
 
     p = sub.add_parser("table", help="ranking: every model's errors against the DNS for the paper's scenes")
@@ -163,10 +167,16 @@ def cmd_generate(args: argparse.Namespace) -> int:
             written.add(key)
             try:  # write() builds the text before it touches the disk: a refused model writes no file
                 path = codegen.write(src, args.into)  # default: the user cache, never the installed package
-            except ValueError as exc:
+            except PulsemapError as exc:
                 if not isinstance(src, codegen.BalanceSource):
                     raise
                 print(f"no {src.model}-balance module for {name}: {exc}")  # the model is undefined for this R
                 continue
             print(f"{path}  <- {name}")
+    if args.dressed_tables:
+        from pulsemap.solvers.models import dressed as derived
+        from pulsemap.solvers.studies import dressed as calibrated
+
+        for module, what in ((derived, "derived"), (calibrated, "calibrated")):  # no cache: every one recomputed
+            print(f"{module.write_shipped()}  <- the dressed law's {what} coefficients")
     return 0

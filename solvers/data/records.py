@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable, Iterator, TextIO
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.files import FileKindError, bounded_lines, open_regular
 
 MAX_LINE_BYTES = 64 * 1024 * 1024
@@ -26,7 +27,7 @@ DIGEST = "sha256"
 """The field of a record line holding the digest of the rest of the record."""
 
 
-class RecordFileError(ValueError):
+class RecordFileError(PulsemapError):
     """A record file that cannot be read as one (not a regular file); names the file and the fix."""
 
 

@@ -16,11 +16,12 @@ from typing import Mapping
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.models.longwave_eval import integrate_law, law_values
 from pulsemap.solvers.models.map_iteration import check_seed, contact_params
 
 
-class BalanceEvalError(ValueError):
+class BalanceEvalError(PulsemapError):
     """A balance model that cannot be evaluated as asked."""
 
 
@@ -33,7 +34,7 @@ class BalanceRun:
     contacts: np.ndarray
     A: list  # float, or None past the model's end
     peaks: list
-    status: str  # "ok", "died" (map), "extinction", "blow-up" (law)
+    status: str  # "ok", "died", "blow-up" (map), "extinction", "blow-up" (law)
     message: str
     ended_at: float | None  # contact (index) where the model ended
     law_kind: str  # "map", "power law", "exponential", "quadrature"
@@ -57,16 +58,21 @@ def iterate_balance_map(
     status, message, ended = "ok", f"reached contact {last_contact}", None
     for i in contacts:
         args = contact_params(module, params, int(i))
-        with np.errstate(all="ignore"):
-            new, base = module.balance_step(a, eps, *args)
-        new, base = float(new), float(base)
-        if not math.isfinite(base) or base <= 0:
+        try:
+            with np.errstate(all="ignore"):
+                new, base = module.balance_step(a, eps, *args)
+            new, base = float(new), float(base)
+        except OverflowError:  # a power of a Python float past float64 (numpy's give inf instead)
+            new = base = math.inf
+        if base == math.inf or new == math.inf:
+            status, ended = "blow-up", int(i)
+            message = (f"the {module.MODEL} map blows up at contact {i}: from A_{i - 1} = {a:.4g} the wave's "
+                       f"{module.MODEL} K A^Q plus bead {i}'s {'work' if module.MODEL == 'energy' else 'impulse'} "
+                       "is past float64's range")
+            break
+        if not math.isfinite(base) or not math.isfinite(new) or base <= 0:
             status, ended = "died", int(i)
             message = f"pulse died at contact {i}: the work/impulse of bead {i} exceeds what the wave carries"
-            break
-        if not math.isfinite(new):
-            status, ended = "died", int(i)
-            message = f"the {module.MODEL} map blew up at contact {i}"
             break
         if new < death_fraction * seed_A:
             status, ended = "died", int(i)

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.cache import cache_dir
 from pulsemap.symbolic.sources import (BALANCE_MODELS, PROFILE_KINDS, VARIANTS, BalanceSource, ForceSource, GeneratedCodeError,
                             JitForceSource, MapSource, module_name, source_from_dict, verify_generated)
@@ -19,7 +20,7 @@ from pulsemap.symbolic.sources import (BALANCE_MODELS, PROFILE_KINDS, VARIANTS, 
 PACKAGE_DIR = Path(__file__).resolve().parents[2] / "generated"
 
 
-class GeneratedModuleError(ValueError):
+class GeneratedModuleError(PulsemapError):
     """A generated module that fails its checks where it cannot be regenerated (the package's generated/)."""
 
 
@@ -115,14 +116,14 @@ def _ensure(source) -> ModuleType:
 
 def _check_profile(profile: str) -> None:
     if profile not in PROFILE_KINDS:
-        raise ValueError(f"unknown profile {profile!r}: choose one of {', '.join(PROFILE_KINDS)}")
+        raise PulsemapError(f"unknown profile {profile!r}: choose one of {', '.join(PROFILE_KINDS)}")
 
 
 def map_module(R_text: str, params, n: float, profile: str = "exact", variant: str = "paper",
                site_dependent=()) -> ModuleType:
     """The generated map module (Eq. 23, one variant) for this source, generating it if missing."""
     if variant not in VARIANTS:
-        raise ValueError(f"unknown map variant {variant!r}: choose one of {', '.join(VARIANTS)}")
+        raise PulsemapError(f"unknown map variant {variant!r}: choose one of {', '.join(VARIANTS)}")
     _check_profile(profile)
     return _ensure(MapSource.of(R_text, params, n, profile, variant, site_dependent))
 
@@ -154,6 +155,6 @@ def balance_module(R_text: str, params, n: float, profile: str = "exact", model:
     Raises pulsemap.symbolic.balance.BalanceError (a ValueError) when the model is undefined for R.
     """
     if model not in BALANCE_MODELS:
-        raise ValueError(f"unknown balance model {model!r}: choose one of {', '.join(BALANCE_MODELS)}")
+        raise PulsemapError(f"unknown balance model {model!r}: choose one of {', '.join(BALANCE_MODELS)}")
     _check_profile(profile)
     return _ensure(BalanceSource.of(R_text, params, n, profile, model, site_dependent))

@@ -22,8 +22,10 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 
-class ContactLawError(ValueError):
+
+class ContactLawError(PulsemapError):
     """A contact law that cannot be evaluated as asked (the message names the fix)."""
 
 

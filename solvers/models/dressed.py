@@ -92,13 +92,14 @@ from typing import Sequence
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic import cache
 from pulsemap.symbolic.profile import NPU, exact_profile
 from pulsemap.symbolic.scaling import scaling_exponent
 from pulsemap.solvers.models.balance_eval import BalanceRun
 
 # ----------------------------------------------------------------------- part 1: the expansion
-class ExpansionError(ValueError):
+class ExpansionError(PulsemapError):
     """A monomial whose dressed coefficients cannot be derived (the message says why)."""
 
 
@@ -402,7 +403,7 @@ ACCURACY = 0.05  # the law gives no value where its estimated error passes 5 %
 ONSET_RATIO = 0.8  # the onset transient's error relaxes by this factor per contact (docs/models.rst)
 
 
-class DressedEvalError(ValueError):
+class DressedEvalError(PulsemapError):
     """The dressed law cannot be evaluated as asked."""
 
 

@@ -24,6 +24,7 @@ from typing import Callable
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.models.amplitude_ode import integrate_amplitude_law
 from pulsemap.solvers.models.balance_eval import BalanceRun
@@ -31,7 +32,7 @@ from pulsemap.solvers.models.balance_eval import BalanceRun
 NODES = 24  # Gauss-Legendre points per unit interval of tau
 
 
-class EnergyQuadratureError(ValueError):
+class EnergyQuadratureError(PulsemapError):
     """The quadrature energy balance cannot be evaluated as asked."""
 
 
@@ -81,7 +82,10 @@ def work(force: Callable[[np.ndarray, np.ndarray], np.ndarray], A: float, table:
     v = A ** (1 + table.s) * table.dX
     with np.errstate(all="ignore"):
         f = np.broadcast_to(np.asarray(force(x, v), dtype=float), x.shape)
-    value = A * float(np.dot(table.weights, f * table.dX))
+    with np.errstate(over="ignore"):
+        value = A * float(np.dot(table.weights, f * table.dX))
+    if not math.isfinite(value) and (np.isinf(f).any() or not np.isnan(f).any()):  # R's values past float64
+        raise OverflowError(f"the work of R on the wave at A = {A:.6g} is past float64's range")
     if not math.isfinite(value):
         raise EnergyQuadratureError(f"the work of R on the wave is not finite at A = {A:.6g}: R is undefined "
                                     "somewhere on the bead's path (x, x')")
@@ -107,8 +111,16 @@ def iterate_energy_map(F: Callable, n: float, seed_A: float, seed_contact: int, 
     a = float(seed_A)
     status, message, ended = "ok", f"reached contact {last_contact}", None
     for i in contacts:
-        base = a**Q + work(lambda x, v: F(x, v, float(i)), a, table) / table.E1
-        if base <= 0 or base ** (1 / Q) < death_fraction * seed_A:
+        try:
+            base = a**Q + work(lambda x, v: F(x, v, float(i)), a, table) / table.E1
+        except OverflowError:  # a power of a Python float past float64
+            base = math.inf
+        if base == math.inf:
+            status, ended = "blow-up", int(i)
+            message = (f"the energy map blows up at contact {i}: from A_{i - 1} = {a:.4g} the wave's energy plus "
+                       f"bead {i}'s work is past float64's range")
+            break
+        if not base > 0 or base ** (1 / Q) < death_fraction * seed_A:
             status, ended = "died", int(i)
             message = f"pulse died at contact {i}: the work of bead {i} exceeds what the wave carries"
             break

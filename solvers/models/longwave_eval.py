@@ -14,10 +14,11 @@ from typing import Callable
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.models.map_iteration import contact_params
 
 
-class LongwaveEvalError(ValueError):
+class LongwaveEvalError(PulsemapError):
     """The long-wave law cannot be evaluated for this scene."""
 
 

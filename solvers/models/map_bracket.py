@@ -8,9 +8,7 @@ A_{i-1} 1e-9 to A_{i-1} 1e2 (OUTER points); a root is refined by brentq in the f
 whose ends are finite and of opposite sign (variant 1d: F1 in A_i alone). Each grid is evaluated in
 one numpy call of the generated residual, the inner one for every outer point at once, its roots
 refined by vectorised bisection to round-off for the outer scan; the outer root found is then
-refined point by point as before. Same brackets and roots as scanning point by point, which
-evaluated the residual up to 120,000 times per contact (0.08-0.12 s each on fig13's random
-foundation, where a third of the realisations need it).
+refined point by point with brentq. The brackets and roots are those of a scan point by point.
 """
 
 from __future__ import annotations

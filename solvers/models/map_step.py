@@ -17,12 +17,13 @@ from typing import Mapping
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.models.map_bracket import fallback
 
 Array = np.ndarray
 
 
-class MapIterationError(ValueError):
+class MapIterationError(PulsemapError):
     """Bad arguments to the map iteration."""
 
 

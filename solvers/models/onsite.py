@@ -19,13 +19,14 @@ from typing import Mapping
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.chain.equations import OnSiteForce, check_finite
 from pulsemap.solvers.chain.force_table import jit_force, table_from_module
 
 __all__ = ["ForceError", "distinct_beads", "numba_force", "onsite_force"]
 
 
-class ForceError(ValueError):
+class ForceError(PulsemapError):
     """An on-site force that cannot be evaluated at rest (or is not finite there)."""
 
 

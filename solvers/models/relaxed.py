@@ -42,15 +42,15 @@ from typing import Mapping
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.models.onsite import onsite_force
 from pulsemap.solvers.models.relaxed_kernel import J_MAX, J_MIN, ONSET_BEADS, KernelTable
 from pulsemap.solvers.models.relaxed_table import ONSET, SegmentSpec, SegmentTable, leave_one_out
 
 X_SMALL = 1e-3  # |x| below which a monomial's log-ratios are continued linearly in x
-TITLE = "relaxed transfer map (canonical segment runs) with the tabulated onset"
 
 
-class RelaxedError(ValueError):
+class RelaxedError(PulsemapError):
     """A perturbation or argument the relaxed map cannot take (and why)."""
 
 
@@ -271,6 +271,14 @@ class RelaxedModel:
         e = self._departures(window, mean)
         return base + float(self.kernel(key).kernel(at) @ e)
 
+    def ending(self, contact: int, peak: float) -> str:
+        """How the segment runs of the step onto ``contact`` at ``peak`` end where no relaxed pulse exists:
+        "blow up" or "die" (SegmentTable.ending, on the table of the contact's own coefficient)."""
+        own = None if self.coefficients is None else self._coef(contact)
+        for _, tab, log_p, bound in self._where(own, peak):
+            return tab.ending(log_p if bound is None else bound)
+        return "die"
+
     def accuracy(self) -> float:
         """Stated accuracy of the bulk map: the worst leave-one-run-out error in log r."""
         return max((leave_one_out(t) for t in self.tables.values() if len(t.runs) > 2), default=float("nan"))
@@ -286,7 +294,7 @@ class RelaxedModel:
 
 @dataclass(frozen=True)
 class RelaxedRun:
-    """Peaks the relaxed map predicts on contacts seed+1.. (status "ok" or "died")."""
+    """Peaks the relaxed map predicts on contacts seed+1.. (status "ok", "died" or "blow-up")."""
 
     contacts: np.ndarray
     peaks: np.ndarray
@@ -294,6 +302,9 @@ class RelaxedRun:
     message: str
     seed_peak: float
     seed_contact: int
+
+
+_ENDS = {"die": ("died", "dies"), "blow up": ("blow-up", "blows up")}  # (status, verb) by how segment runs end
 
 
 def iterate_relaxed(model: RelaxedModel, seed_peak: float, seed_contact: int, last_contact: int,
@@ -308,14 +319,16 @@ def iterate_relaxed(model: RelaxedModel, seed_peak: float, seed_contact: int, la
     p = float(seed_peak)
     onset = model.onset_ratios(p, seed_contact)
     if onset is None:
-        return RelaxedRun(np.zeros(0, int), np.zeros(0), "died", f"the pulse dies within the onset "
-                          f"(segment runs entering at peak {p:.4g} die within {ONSET} contacts)", p, seed_contact)
+        end = model.ending(seed_contact + 1, p)
+        return RelaxedRun(np.zeros(0, int), np.zeros(0), _ENDS[end][0], f"the pulse {_ENDS[end][1]} within the onset "
+                          f"(segment runs entering at peak {p:.4g} {end} within {ONSET} contacts)", p, seed_contact)
     for c in range(seed_contact + 1, last_contact + 1):
         k = c - seed_contact
         r = onset[k - 1] if k <= ONSET else model.bulk_ratio(p, c)
         if r is None:
-            status, message = "died", (f"no relaxed pulse at peak {p:.4g} (segment runs there die before they "
-                                       f"relax): the pulse dies after contact {c - 1}")
+            end = model.ending(c, p)
+            status, message = _ENDS[end][0], (f"no relaxed pulse at peak {p:.4g} (segment runs there {end} before "
+                                              f"they relax): the pulse {_ENDS[end][1]} after contact {c - 1}")
             break
         p *= r
         if p < death_fraction * seed_peak:

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pulsemap.symbolic import cache
+from pulsemap.symbolic.errors import PulsemapError
 
 NAMESPACE = "relaxed"
 VERSION = 2
@@ -87,7 +88,7 @@ def lattice_amplitude(j: int) -> float:
     return 2.0 ** (j / LATTICE)
 
 
-class SegmentRunError(RuntimeError):
+class SegmentRunError(PulsemapError, RuntimeError):
     """A segment run that ended for a reason other than its pulse (an integrator failure, a spent step
     budget or t_max): the table cannot read it as a pulse that died. A blow-up (the chain's energy
     growing without bound: an unstable R) ends the pulse's record like a death, as before."""
@@ -164,6 +165,15 @@ class SegmentTable:
 
     def span(self) -> tuple[int, int]:
         return min(self.runs), max(self.runs)
+
+    def ending(self, log_p: float) -> str:
+        """How the runs entering nearest exp(log_p) end: "blow up" when their peaks grow to the end of
+        their record (the chain's energy runs away, a blow-up stops the run), else "die"."""
+        records = [p for p in self.runs.values() if p]
+        if not records:
+            return "die"
+        peaks = min(records, key=lambda p: abs(math.log(p[0]) - log_p))
+        return "blow up" if len(peaks) > 1 and peaks[-1] > peaks[0] else "die"
 
     def ensure_entry(self, log_p0: float, margin: int = 3) -> None:
         """Runs whose entry peaks bracket exp(log_p0) with ``margin`` lattice points each side."""

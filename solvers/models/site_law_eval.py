@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.models.amplitude_ode import integrate_amplitude_law
 from pulsemap.solvers.models.longwave_eval import LawRun
 
@@ -29,7 +30,7 @@ if TYPE_CHECKING:  # pragma: no cover  (sympy-free at import time)
 BALANCE_SHIFT = 0.5
 
 
-class SiteLawError(ValueError):
+class SiteLawError(PulsemapError):
     """A site-dependent law that cannot be evaluated as asked."""
 
 

@@ -16,16 +16,8 @@ from types import ModuleType
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.models.map_iteration import contact_params, step
-
-
-@dataclass(frozen=True)
-class StationaryRoot:
-    A: float
-    peak: float
-    fixed_point: float | None  # fixed point of the map variant near the root (None if none)
-    multiplier: float | None
-    stable: bool | None
 
 
 def _args(module: ModuleType, params: dict) -> tuple:
@@ -96,11 +88,6 @@ def stability(module: ModuleType, root: float, eps: float, params: dict) -> tupl
     return fp, float(lam), bool(abs(lam) < 1)
 
 
-def analyse(module: ModuleType, eps: float, params: dict) -> list[StationaryRoot]:
-    """Roots of Eq. 41 with the map's fixed point and multiplier near each."""
-    return [StationaryRoot(r, r * module.S0, *stability(module, r, eps, params)) for r in roots(module, params)]
-
-
 def is_fold(count_before: int, count_after: int) -> bool:
     """Two stationary roots appear or disappear between two parameter values."""
     return abs(count_before - count_after) == 2
@@ -117,7 +104,7 @@ class Continuation:
 def continue_roots(module: ModuleType, params: dict, name: str, start: float, stop: float, points: int = 121) -> Continuation:
     """Roots of Eq. 41 as ``name`` runs from start to stop; folds refined by Newton."""
     if name not in module.PARAMS:
-        raise ValueError(f"'{name}' is not a parameter of this map (parameters: {', '.join(module.PARAMS)})")
+        raise PulsemapError(f"'{name}' is not a parameter of this map (parameters: {', '.join(module.PARAMS)})")
     values = np.linspace(start, stop, points)
     branches = []
     for p in values:

@@ -56,6 +56,7 @@ import numpy as np
 import sympy
 from scipy.integrate import solve_ivp
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic import cache
 from pulsemap.symbolic.balance import BalanceError, balance_expand, json_header
 from pulsemap.symbolic.dressed import I as DRESSED_I
@@ -342,7 +343,7 @@ SMOOTH_LADDER = (0.001, 0.002, 0.005, 0.01)  # |x0| for b >= 1: both signs, the 
 FOUNDATION_LADDER = (0.001, 0.002, 0.004, 0.008, 0.016)  # |x0| for b = 0, restoring sign only
 
 
-class CalibrationError(ValueError):
+class CalibrationError(PulsemapError):
     """A monomial that cannot be calibrated (the message says why)."""
 
 

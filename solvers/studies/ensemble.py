@@ -23,13 +23,14 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.sweep import run_sweep
 
 MAX_REALISATIONS = 100_000
 
 
-class EnsembleError(ValueError):
+class EnsembleError(PulsemapError):
     """An ensemble that cannot be run as asked."""
 
 

@@ -16,7 +16,7 @@ from typing import Sequence
 
 __all__ = ["LIVE_FRACTION", "UNIT", "counted", "live_contacts", "model_error"]
 
-LIVE_FRACTION = 0.02
+LIVE_FRACTION = 0.02  # below 2 % of the seed the pulse has all but died: a relative error there measures noise
 UNIT = "percent"
 #: What an error means, in one line (text reports and docs).
 DEFINITION = (f"|model peak - DNS peak| / DNS peak in percent over the live range (contacts first_perturbed up to "

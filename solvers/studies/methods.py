@@ -1,12 +1,14 @@
-"""The methods of a run: names, titles, the thresholds of its warnings, and RunError."""
+"""The methods of a run: names, the thresholds of its warnings, and RunError (the models' titles and runners:
+the model table, studies/run/models.py RUNNERS)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.scene import METHODS
 
-__all__ = ["BALANCE_METHODS", "MODELS", "MODEL_TITLES", "Choice", "RunError"]
+__all__ = ["BALANCE_METHODS", "MODELS", "Choice", "RunError"]
 
 EPS_WARN = 0.3  # eps above this is outside the map's asymptotic assumption (eps << 1)
 FORCING_WARN = 0.3  # eps term of Eq. 23 above this fraction of the contact term: same assumption, per contact
@@ -22,20 +24,9 @@ BALANCE_METHODS = {
     "momentum-map": ("momentum", "map"),
     "momentum-law": ("momentum", "law"),
 }
-#: What each model is, for outputs that name it.
-MODEL_TITLES = {
-    "map": "amplitude map (paper Eq. 23)",
-    "longwave": "long-wave law (paper Eq. 30)",
-    "energy-map": "energy-balance map: E_1 A_i^(n+1) = E_1 A_(i-1)^(n+1) + W(A_(i-1))",
-    "energy-law": "energy-balance law: E_1 dA^(n+1)/di = W(A)",
-    "momentum-map": "momentum-balance map: p_1 A_i^(1+s) = p_1 A_(i-1)^(1+s) + J(A_(i-1))",
-    "momentum-law": "momentum-balance law: p_1 dA^(1+s)/di = J(A)",
-    "relaxed": "relaxed transfer map P_(k+1) = F(P_k), built from short DNS runs of the same R, with the tabulated onset",
-    "dressed-law": "dressed law: d ln A/di = -sum k1 x/(1 - (k2/k1) x) - sum k2_jl x_j x_l (k1, k2/k1, onset lag, cross terms derived)",
-}
 
 
-class RunError(ValueError):
+class RunError(PulsemapError):
     """A scene that cannot be run as asked."""
 
 

@@ -9,8 +9,9 @@ range, a model that has ended there counting 100 %). The best model joins the ru
 
 from __future__ import annotations
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.scene import VARIANTS, Scene
-from pulsemap.solvers.studies.methods import MODEL_TITLES, MODELS
+from pulsemap.solvers.studies.methods import MODELS
 
 #: The map in every variant, then the laws and balances (the table's exact-profile columns).
 OTHER_MODELS = tuple(m for m in MODELS if m != "map")
@@ -22,15 +23,16 @@ def label(method: str, variant: str | None = None) -> str:
 
 def title(model: str) -> str:
     """What a ranked model is, in one line ('map/1d': the map's title with its variant)."""
+    from pulsemap.solvers.studies.run.models import RUNNERS  # the model table (loads the models' modules)
+
     method, _, variant = model.partition("/")
-    return MODEL_TITLES[method] + (f", variant {variant}" if variant else "")
+    return RUNNERS[method].title + (f", variant {variant}" if variant else "")
 
 
 def rank_models(scene: Scene, result: dict) -> list[dict]:
     """[{model, title, the error (studies/errors.py), peaks, info}] for every model defined for this R,
     least RMS first; [] without a DNS. Models refused for this R (e.g. momentum with a foundation
     term) are left out."""
-    from pulsemap.solvers.studies.methods import RunError
     from pulsemap.solvers.studies.run import run_scene
 
     if (result.get("peaks") or {}).get("dns") is None or not result.get("dns"):
@@ -45,7 +47,7 @@ def rank_models(scene: Scene, result: dict) -> list[dict]:
         try:
             res = run_scene(scene, methods=methods, profile=profile, variant=variant or result["choices"]["variant"],
                             reuse_dns=result)
-        except (RunError, ValueError):  # a model this R cannot have: it is not ranked
+        except PulsemapError:  # a model this R cannot have: it is not ranked
             continue
         for method, err in res["errors"].items():
             if err["rms_pct"] is None:

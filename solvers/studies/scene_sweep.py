@@ -17,6 +17,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.scene.overrides import check_key, parse_assignment, with_sets
 from pulsemap.solvers.data.scene import Scene, SceneError, parse_scene
 
@@ -25,7 +26,7 @@ MAX_POINTS = 10_000
 ERRORS = "percent over the live range"
 
 
-class SceneSweepError(ValueError):
+class SceneSweepError(PulsemapError):
     """A sweep that cannot be run as asked."""
 
 

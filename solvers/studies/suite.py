@@ -22,18 +22,19 @@ from importlib import resources
 from pathlib import Path
 from typing import Callable, Sequence
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.progress import Progress
 
 STIFF_SCENE, YARDSTICK = "damp-100", "nonstiff"
-STIFF_RATIO_TARGET = 5.0
+STIFF_RATIO_TARGET = 5.0  # stiff damping's DNS may cost this x the non-stiff yardstick's: stiffness must not price it out
 RATIO_REPEATS = 3  # the stiff ratio's two DNS times: best of at least this many (a process's first call of
 #                    a kernel loads it from numba's cache, which can take longer than the run itself)
 SILENT_ERROR = 0.5  # a model this far off the DNS (max relative error) must have been warned about
 CHECK_CONTACTS = 200  # contacts the check run covers at most (from the scene's first)
 
 
-class SuiteError(ValueError):
+class SuiteError(PulsemapError):
     """A suite that cannot be run as asked."""
 
 
@@ -56,8 +57,7 @@ def resolve(name: str) -> str:
 def check_names(names: Sequence[str]) -> None:
     """Every name must be a suite scene, a built-in scene or an existing file: else a SuiteError
     naming it (with the closest known name), before anything runs."""
-    import difflib
-
+    from pulsemap.symbolic.errors import closest
     from pulsemap.solvers.data.scene import ALIASES, builtin_scenes
 
     known = suite_scenes() + builtin_scenes() + list(ALIASES)
@@ -66,8 +66,8 @@ def check_names(names: Sequence[str]) -> None:
             raise SuiteError(f"suite scene names must be strings, got {type(name).__name__}")
         if name in known or Path(resolve(name)).expanduser().is_file():
             continue
-        close = difflib.get_close_matches(Path(name).stem, known, n=1)
-        hint = f" (did you mean '{close[0]}'?)" if close else ""
+        close = closest(Path(name).stem, known)
+        hint = f" (did you mean '{close}'?)" if close else ""
         raise SuiteError(f"unknown scene {name!r}{hint}: give a suite scene (pulsemap suite --list), "
                          "a built-in name (pulsemap scenes) or the path of a .toml file")
 
@@ -129,7 +129,7 @@ def run_case(ref: str, *, check: bool = True, repeats: int = 1) -> dict:
     wall0 = time.perf_counter()
     try:
         scene = load_scene(resolve(ref))
-    except ValueError as exc:  # a refused scene is a clear message, not a crash
+    except PulsemapError as exc:  # a refused scene is a clear message, not a crash
         return {"scene": Path(ref).stem, "status": "refused", "message": str(exc), "wall_s": 0.0}
     row: dict = {"scene": scene.name, "R": scene.perturbation.text, "eps": scene.perturbation.eps,
                  "v0": scene.velocity, "n": scene.exponent, "contacts": list(scene.contacts),
@@ -139,7 +139,7 @@ def run_case(ref: str, *, check: bool = True, repeats: int = 1) -> dict:
         times = [result["timings_s"].get("dns", math.nan)]
         for _ in range(max(0, repeats - 1)):
             times.append(run_scene(scene, methods=["dns"], dns_window="auto")["timings_s"]["dns"])
-    except ValueError as exc:  # a refused scene is a clear message, not a crash
+    except PulsemapError as exc:  # a refused scene is a clear message, not a crash
         row.update(status="refused", message=str(exc), wall_s=time.perf_counter() - wall0)
         return row
     dns = result.get("dns", {})

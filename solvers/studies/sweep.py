@@ -35,6 +35,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any, Callable, Iterable, Mapping, TextIO
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.numba_cache import remove_damaged_numba_cache
 from pulsemap.solvers.data.records import open_for_append, read_keyed, write_record
 from pulsemap.solvers.studies.progress import Progress, StatusLine, describe
@@ -54,7 +55,7 @@ FORMAT = 1  # record layout version, part of every record
 LOST = "lost"  # status of a point the executor lost (a worker died): retried by every rerun
 
 
-class SweepError(ValueError):
+class SweepError(PulsemapError):
     """A sweep that cannot run as asked (bad points, bad output file, missing generated code)."""
 
 

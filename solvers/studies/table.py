@@ -22,6 +22,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.scene.overrides import with_sets
 from pulsemap.solvers.data.records import append_record, read_keyed
 from pulsemap.solvers.studies.progress import Progress
@@ -65,7 +66,7 @@ COLUMNS = (
 )
 
 
-class TableError(ValueError):
+class TableError(PulsemapError):
     """A rows file that cannot be used."""
 
 

@@ -16,9 +16,10 @@ import numpy as np
 from pulsemap.solvers.chain.contact_force import kernel_terms
 import pytest
 
+from conftest import regenerated
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.symbolic.cache import cache_dir
-from pulsemap.symbolic.codegen import PACKAGE_DIR, regenerate_text
+from pulsemap.symbolic.codegen import PACKAGE_DIR
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.equations import make_rhs
 from pulsemap.solvers.data.scene import load_scene, with_overrides
@@ -94,13 +95,12 @@ def test_the_compiled_right_hand_side_is_eq1_with_the_numpy_force():
     np.testing.assert_allclose(got, make_rhs(beads, 1.5, force)(0.0, y), rtol=1e-13, atol=1e-15)
 
 
-def test_numba_force_module_is_hash_headed_in_the_cache_and_matches_the_numpy_module():
+def test_numba_force_module_is_hash_headed_in_the_cache_and_matches_the_numpy_module(tmp_path):
     R, params = "-mu*v/(1+v^2) - sin(u)*exp(-i/50)", ("mu",)
     jit, plain = jit_force_module(R, params), force_module(R, params)
     path = cache_dir() / "generated" / f"{jit.__name__.removeprefix('pulsemap_generated_')}.py"
     assert path.is_file() and not (PACKAGE_DIR / path.name).exists()
-    text, again = regenerate_text(path)
-    assert text == again
+    assert regenerated(path, tmp_path) == path.read_text(encoding="utf-8")
     rng = np.random.default_rng(2)
     for name in ("force", "force_dx", "force_dv"):
         call = getattr(jit, name).ctypes

@@ -85,3 +85,24 @@ def test_bad_input_is_one_line_exit_2(argv, fragment, capsys):
 def test_console_script_module_runs():
     out = subprocess.run([sys.executable, "-m", "pulsemap.solvers.cli.main", "scenes"], capture_output=True, text=True)
     assert out.returncode == 0 and "fig8-eps0.3" in out.stdout
+
+
+def test_generate_writes_the_scene_modules_and_is_the_door_to_the_dressed_tables(tmp_path, capsys, monkeypatch):
+    """`pulsemap generate --into DIR` writes the shipped modules of a scene byte for byte; --dressed-tables
+    recomputes both shipped tables of the dressed law (here replaced by recorders: they take minutes)."""
+    from pulsemap.symbolic.codegen import PACKAGE_DIR
+    from pulsemap.solvers.models import dressed as derived
+    from pulsemap.solvers.studies import dressed as calibrated
+
+    calls = []
+    for module in (derived, calibrated):
+        monkeypatch.setattr(module, "write_shipped", lambda module=module: calls.append(module) or module.SHIPPED)
+    assert main(["generate", "fig8-eps0.1", "--into", str(tmp_path)]) == 0 and calls == []
+    written = sorted(tmp_path.glob("*.py"))
+    assert len(written) == 4  # force, map, energy and momentum balance of R = -mu*v
+    assert all(p.read_bytes() == (PACKAGE_DIR / p.name).read_bytes() for p in written)
+    assert main(["generate", "fig8-eps0.1", "--into", str(tmp_path), "--dressed-tables"]) == 0
+    assert calls == [derived, calibrated]
+    out = capsys.readouterr().out
+    assert f"{derived.SHIPPED}  <- the dressed law's derived coefficients" in out
+    assert f"{calibrated.SHIPPED}  <- the dressed law's calibrated coefficients" in out

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pulsemap.symbolic import integrals
-from pulsemap.symbolic.integrals import constants, f_constants, g1, g2
+from pulsemap.symbolic.integrals import F_NAMES, constants, g1, g2
 from pulsemap.symbolic.profile import exact_profile
 
 
@@ -20,7 +20,7 @@ def _simpson(profile, func, lo, hi=0.0, m=20000):
 
 @pytest.mark.parametrize("profile", ["exact", "pade"])
 def test_contact_sum_vanishes(profile):
-    f = f_constants(profile=profile)
+    f = constants(F_NAMES, profile=profile)
     # f1 - 2 f2 + f3 = S'(0) = 0 (Eq. 41's cancellation)
     assert abs(f["f1"].value - 2 * f["f2"].value + f["f3"].value) < 1e-10
     assert f["f5"].value == f["f2"].value and f["f6"].value == f["f3"].value
@@ -28,7 +28,7 @@ def test_contact_sum_vanishes(profile):
 
 def test_f4_is_a_point_value_and_eq4_integrated():
     p = exact_profile(1.5)
-    f = f_constants()
+    f = constants(F_NAMES)
     # f4 = int S''(t-1) dt = S'(-1)
     assert f["f4"].value == pytest.approx(float(p.dS(-1.0)), abs=1e-9)
     # Integrating Eq. 4 over (-inf, -1]: S'(-1) = f7 - 2 f6 + f5 (erratum 5, docs/errata.rst)
@@ -49,7 +49,7 @@ def test_exact_derivative_integrals_reduce_to_point_values(n):
 
 def test_mass_identity_of_the_fixed_point():
     """S = Lambda * S^n implies int_-inf^0 S = int_-inf^0 S^n, i.e. g1_1000 = f2."""
-    assert g1(1, 0, 0, 0).value == pytest.approx(f_constants()["f2"].value, rel=1e-10)
+    assert g1(1, 0, 0, 0).value == pytest.approx(constants(F_NAMES)["f2"].value, rel=1e-10)
 
 
 @pytest.mark.parametrize(

@@ -5,11 +5,17 @@ import pytest
 
 from pulsemap.symbolic.profile import (
     ProfileError,
-    equation4_residual,
     exact_profile,
     get_profile,
     pade_profile,
 )
+
+
+def equation4_residual(profile, tau: np.ndarray) -> np.ndarray:
+    """S''(tau) - [S(tau-1)^n - 2 S(tau)^n + S(tau+1)^n], relative to S(0), at any tau (Eq. 4)."""
+    n = profile.n
+    pos = lambda x: np.maximum(profile.S(x), 0.0) ** n  # noqa: E731
+    return (profile.d2S(tau) - (pos(tau - 1) - 2 * pos(tau) + pos(tau + 1))) / profile.S0
 
 
 @pytest.mark.parametrize("n", [1.5, 2.5, 1.2])

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pulsemap.solvers.studies.bench.baselines import baseline_script, grid_peaks, script_rhs
+from pulsemap.solvers.studies.bench.baselines import baseline_script, first_maximum, script_rhs
 from pulsemap.solvers.chain.dns import Chain, make_rhs, simulate
 
 
@@ -40,13 +40,14 @@ def test_baseline_damped_chain():
     assert np.max(np.abs(res.peaks / ref.peaks - 1)) < 1e-3
 
 
-def test_grid_peaks_takes_first_maximum_above_threshold():
+def test_first_maximum_takes_the_first_maximum_above_threshold_after_the_floor():
     t = np.linspace(0, 10, 1001)
-    delta = np.vstack([np.exp(-(t - 2) ** 2) + 1e-6 * np.sin(40 * t),
-                       0.5 * np.exp(-(t - 4) ** 2)])
-    peaks, when = grid_peaks(delta, t, first_threshold=1e-2)
-    assert when[0] == pytest.approx(2.0, abs=0.02) and when[1] == pytest.approx(4.0, abs=0.01)
-    assert peaks[1] == pytest.approx(0.5, rel=1e-4)
+    d = np.exp(-(t - 2) ** 2) + 1e-6 * np.sin(40 * t) + 0.5 * np.exp(-(t - 6) ** 2)
+    j = first_maximum(d, t, 1e-2, -np.inf)  # the ripple's maxima before t = 2 lie below the threshold
+    assert t[j] == pytest.approx(2.0, abs=0.02)
+    later = first_maximum(d, t, 1e-2, t[j] + 1.0)
+    assert t[later] == pytest.approx(6.0, abs=0.02) and d[later] == pytest.approx(0.5, rel=1e-3)
+    assert first_maximum(d, t, 2.0, -np.inf) is None
 
 
 def test_segmented_script_reads_the_same_grid_peaks():

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 import os
 import re
 from importlib import resources
@@ -18,6 +17,7 @@ from pulsemap.solvers.data.scene.record import load_record, save_record
 from pulsemap.solvers.data.scene.schema import ALIASES, SceneError
 from pulsemap.solvers.data.scene.spec import Scene
 from pulsemap.solvers.data.scene.toml_bounds import MAX_SCENE_BYTES, TomlBoundsError, check_size, check_toml_bounds
+from pulsemap.symbolic.errors import closest
 from pulsemap.symbolic.files import FileKindError, TooLargeError, read_bounded
 
 
@@ -76,9 +76,9 @@ def load_scene(ref: str | Path) -> Scene:
     if not path.exists():
         names = named_scenes()
         stem = path.name[: -len(".toml")] if path.name.endswith(".toml") else path.name
-        close = difflib.get_close_matches(stem, names, n=1)
-        kind = "suite scene" if close and close[0] in suite_scene_names() else "built-in scene"
-        hint = f" (did you mean the {kind} '{close[0]}'?)" if close else ""
+        close = closest(stem, names)
+        kind = "suite scene" if close in suite_scene_names() else "built-in scene"
+        hint = f" (did you mean the {kind} '{close}'?)" if close else ""
         raise SceneError(
             f"scene file {text!r} not found{hint}: give the path of a .toml file or a built-in "
             "name (pulsemap scenes lists them)"

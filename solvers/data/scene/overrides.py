@@ -10,16 +10,16 @@ value in a file. An unknown key is refused with the closest known key.
 
 from __future__ import annotations
 
-import difflib
 import re
 import sys
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
 
+from pulsemap.symbolic.errors import closest
 from pulsemap.solvers.data.scene.parse import override_changes, parse_scene
 from pulsemap.solvers.data.scene.schema import SceneError
 from pulsemap.solvers.data.scene.spec import Scene
@@ -75,8 +75,8 @@ def check_key(key: str, scene: Scene) -> None:
     name = key[len(prefix):] if prefix else ""
     if name and "." not in name and name.isidentifier():
         return  # a new parameter (for a new R); parse_scene says if R does not use it
-    close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
-    hint = f" (did you mean '{close[0]}'?)" if close else ""
+    close = closest(key, known)
+    hint = f" (did you mean '{close}'?)" if close else ""
     tables = sorted({k.split(".")[0] for k in known if "." in k})
     raise SceneError(f"unknown scene key {key!r}{hint}; keys are dotted paths of the scene file "
                      f"({', '.join(tables)}), e.g. perturbation.eps, excitation.velocity, perturbation.params.mu")
@@ -149,8 +149,3 @@ def with_sets(scene: Scene, assignments: Iterable[str | tuple[str, Any]]) -> Sce
 
 def _text(value: float | int) -> str:
     return str(value) if isinstance(value, int) else repr(value)
-
-
-def describe_sets(assignments: Sequence[str]) -> str:
-    """'perturbation.eps=0.2, excitation.velocity=2' for reports."""
-    return ", ".join(f"{k}={v}" for k, v in (parse_assignment(a) for a in assignments))

@@ -9,7 +9,6 @@ fields. Every problem is a one-line :class:`SceneError` naming the scene, the pr
 
 from __future__ import annotations
 
-import difflib
 import math
 import numbers
 import os
@@ -18,6 +17,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping
 
+from pulsemap.symbolic.errors import closest
 from pulsemap.symbolic.frozenmap import FrozenMap
 from pulsemap.symbolic.param_forms import param_data
 from pulsemap.solvers.data.scene.schema import (
@@ -91,10 +91,8 @@ def _unknown(key: str, known: tuple[str, ...] | list[str], where: str) -> str:
 
 
 def suggest(word: object, known: tuple[str, ...] | list[str], left: str = "'", right: str = "'") -> str:
-    word = str(word)
-    lower = {k.lower(): k for k in known}
-    close = [lower[word.lower()]] if word.lower() in lower else difflib.get_close_matches(word, list(known), n=1)
-    return f" (did you mean {left}{close[0]}{right}?)" if close else ""
+    close = closest(str(word), known)
+    return f" (did you mean {left}{close}{right}?)" if close else ""
 
 
 def _type_name(value: object) -> str:
@@ -451,12 +449,9 @@ def _check_chain_terms(scene: Scene) -> None:
             raise _Problem(f"[contact] {exc}") from None
 
 
-def _build_perturbation(table: Mapping[str, Any], name: str, drop_unused: bool = False) -> "Perturbation":
-    """make_perturbation(R, eps, params), its errors as one-line problems.
-
-    Every parameter given must occur in R (check_all_used); ``drop_unused`` instead drops the
-    ones R does not use (with_overrides(R=...) keeping the old parameters).
-    """
+def _build_perturbation(table: Mapping[str, Any], name: str) -> "Perturbation":
+    """make_perturbation(R, eps, params), its errors as one-line problems; every parameter given must
+    occur in R (check_all_used)."""
     from pulsemap.symbolic.expression import ExpressionError
     from pulsemap.symbolic.perturbation import PerturbationError, check_all_used, make_perturbation
 
@@ -468,11 +463,7 @@ def _build_perturbation(table: Mapping[str, Any], name: str, drop_unused: bool =
     if not isinstance(params, Mapping):
         raise _Problem(f"[perturbation] params must be a table of NAME = VALUE, got {_type_name(params)}")
     try:
-        pert = make_perturbation(R, eps, dict(params))
-        if drop_unused and pert.unused_parameters:
-            used = {key: value for key, value in params.items() if key not in pert.unused_parameters}
-            pert = make_perturbation(R, eps, used)
-        return check_all_used(pert)
+        return check_all_used(make_perturbation(R, eps, dict(params)))
     except (PerturbationError, ExpressionError) as exc:
         raise _Problem("[perturbation] " + _scene_hint(str(exc))) from None
 

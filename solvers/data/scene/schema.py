@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.chain.methods import selectable
 
 
@@ -68,5 +69,5 @@ FIELD_KEYS = {"beads": "chain.beads", "exponent": "chain.exponent", "first_pertu
 TABLE_FIELDS = {"contact": "contact", "masses": "masses"}
 
 
-class SceneError(ValueError):
+class SceneError(PulsemapError):
     """A scene file or scene value was rejected; the one-line message says why and what to do."""

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import re
 
+from pulsemap.symbolic.errors import PulsemapError
+
 MAX_SCENE_BYTES = 64 * 1024 * 1024
 """Largest scene file read: room for per-bead lists of a few parameters at 1,000,000 beads."""
 MAX_DEPTH = 16
@@ -27,7 +29,7 @@ MAX_KEY_CHARS = 200
 _VALUE_STOP = re.compile(r"[\n#\"'\[\]{},]")
 
 
-class TomlBoundsError(ValueError):
+class TomlBoundsError(PulsemapError):
     """A scene file beyond the bounds above (the message says which, where, and the bound)."""
 
 

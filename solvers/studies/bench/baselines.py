@@ -67,26 +67,6 @@ def script_rhs(beads: int, exponent: float, force_py: Callable[[int, float, floa
     return rhs
 
 
-def grid_peaks(delta: np.ndarray, times: np.ndarray, first_threshold: float,
-               fraction: float = 1e-2) -> tuple[np.ndarray, np.ndarray]:
-    """First local maximum on the grid of each row of delta (contacts 1..M), in order.
-
-    Contact k's maximum must exceed ``fraction`` x contact k-1's peak (contact 1:
-    ``first_threshold``) and come after contact k-1's; NaN once a contact has none.
-    """
-    m = delta.shape[0]
-    peaks = np.full(m, np.nan)
-    when = np.full(m, np.nan)
-    threshold, t_floor = first_threshold, -np.inf
-    for k in range(m):
-        j = first_maximum(delta[k], times, threshold, t_floor)
-        if j is None:
-            break
-        peaks[k], when[k] = delta[k, j], times[j]
-        threshold, t_floor = fraction * delta[k, j], times[j]
-    return peaks, when
-
-
 def first_maximum(d: np.ndarray, times: np.ndarray, threshold: float, t_floor: float) -> int | None:
     """Index of the first interior local maximum of d above ``threshold`` at or after ``t_floor``."""
     inner = (d[1:-1] > d[:-2]) & (d[1:-1] >= d[2:]) & (d[1:-1] > threshold) & (times[1:-1] >= t_floor)

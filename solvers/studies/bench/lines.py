@@ -8,6 +8,7 @@ from typing import Callable
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.bench.measure import Ladder, Point, best_of, fmt, peak_error, tolerances
 from pulsemap.solvers.studies.errors import counted
@@ -122,7 +123,7 @@ def model_points(scene, reference: dict, ref: list, ladder: Ladder, log: Callabl
 
                 try:
                     res, best = best_of(run, ladder.repeats)
-                except ValueError as exc:
+                except PulsemapError as exc:
                     log(f"  model      {model}: refused ({exc})")
                     continue
                 peaks = res["peaks"].get(model)

@@ -7,6 +7,8 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
+from pulsemap.symbolic.errors import PulsemapError
+
 __all__ = ["BenchError", "Ladder", "Point", "best_line", "best_of", "cost_at", "fmt", "peak_error", "quick_ladder", "tolerances"]
 
 TARGET = 1e-6
@@ -14,7 +16,7 @@ DNS_METHODS = ("DOP853", "RK45", "Radau", "BDF", "LSODA")
 QUICK_METHODS = ("DOP853", "RK45", "LSODA")
 
 
-class BenchError(ValueError):
+class BenchError(PulsemapError):
     """A benchmark that cannot be run as asked."""
 
 

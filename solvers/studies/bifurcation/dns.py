@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.points import dns_task
 from pulsemap.solvers.studies.sweep import run_sweep
@@ -13,7 +14,7 @@ from pulsemap.solvers.studies.sweep import run_sweep
 __all__ = ["BifurcationError", "Outcome", "ProbeRunner", "bisect", "bracket", "check_param", "classify", "entry_peak", "probe"]
 
 
-class BifurcationError(ValueError):
+class BifurcationError(PulsemapError):
     """A bifurcation sweep that cannot be run as asked."""
 
 

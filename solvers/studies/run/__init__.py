@@ -28,7 +28,7 @@ from pulsemap.solvers.chain.dns import Chain, Integrator, compiled_kernel_of, si
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import force_failure, make_force
-from pulsemap.solvers.studies.methods import EPS_WARN, MODEL_TITLES, MODELS, Choice, RunError
+from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
 from pulsemap.solvers.studies.run import chain_terms
 from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
 from pulsemap.solvers.studies.run.state import RunState
@@ -70,9 +70,12 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
                                "or 1d keeps A constant")
     assert all(isinstance(c, int) and c0 <= c <= c1 for c in snapshots) and (not snapshots or "dns" in methods), snapshots
     refused = chain_terms.refusals(scene, methods)
-    for m, why in refused.items():
-        out[m] = {"model": MODEL_TITLES[m], "refused": why}
-        out["warnings"].append(f"{m} refused: {why}")
+    if refused:
+        from pulsemap.solvers.studies.run.models import title  # the model table (loads the models' modules)
+
+        for m, why in refused.items():
+            out[m] = {"model": title(m), "refused": why}
+            out["warnings"].append(f"{m} refused: {why}")
     methods = tuple(m for m in methods if m not in refused)
     return RunState(scene, methods, choice, out, given_seed=seed_peak, contacts=contacts,
                     snapshots=tuple(sorted(set(snapshots))))
@@ -119,7 +122,7 @@ def derive_models(scene: Scene, methods: Sequence[str], profile: str | None = No
     state = start_run(scene, methods, profile, variant, None)
     models.derive_models(state)
     if "dressed-law" in state.methods:
-        models.prepare_dressed(state)
+        models.prepare_dressed(state)  # forms the law into the caches (a refusal is the run's to report)
 
 
 def _ahead(step, *args):

@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.studies.methods import MODELS
 from pulsemap.solvers.studies.points import dns_span, on_contacts
 
@@ -78,7 +79,7 @@ def _onsite_terms(scene) -> tuple:
 
     parsed = getattr(pert, "parsed", pert)
     if not parsed.is_uniform:
-        raise ValueError(f"R = {pert.text} varies along the chain: the combined energy law takes a uniform R")
+        raise PulsemapError(f"R = {pert.text} varies along the chain: the combined energy law takes a uniform R")
     return amplitude_terms(derive_balance(parsed, "energy", n=scene.exponent).law)
 
 
@@ -110,7 +111,7 @@ def run_chain_term_models(state, seed_A_peak: float | None) -> None:
             run = contact_law_peaks(monomials, scene.exponent, 1.0, seed_A_peak, seed_contact, scene.contacts[1],
                                     params=params, masses=masses, extra_terms=_onsite_terms(scene),
                                     form=CHAIN_TERM_MODELS[m])
-        except ValueError as exc:
+        except PulsemapError as exc:
             out[m] = {"model": TITLES[m], "refused": str(exc)}
             state.warnings.append(f"{m} refused: {exc}")
             continue

@@ -5,22 +5,18 @@ from __future__ import annotations
 import time
 from dataclasses import replace
 
-from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.models.dressed import evaluate_dressed_law
-from pulsemap.solvers.studies.methods import MODEL_TITLES
 from pulsemap.solvers.studies.points import on_contacts
 from pulsemap.solvers.studies.run.state import RunState
 
-METHOD = "dressed-law"
 
-
-def prepare_dressed(state: "RunState"):
-    """The dressed law for the scene's R, or None (refused, with the reason in the result and a warning)."""
+def prepare_dressed(state: "RunState") -> tuple[object | None, str | None]:
+    """(the dressed law for the scene's R, None), or (None, why it is refused)."""
     from pulsemap.symbolic.dressed import DressedError  # sympy: only when the dressed law is asked for
     from pulsemap.solvers.studies.dressed import dressed_law
 
-    scene, out = state.scene, state.out
-    why = None
+    scene = state.scene
+    why, law = None, None
     if state.choice.profile != "exact":
         why = "the dressed law uses the exact profile (its coefficients come from launched exact solitons)"
     else:
@@ -30,11 +26,7 @@ def prepare_dressed(state: "RunState"):
         except DressedError as exc:
             why = str(exc)
         state.timings["derive_dressed"] = time.perf_counter() - t0
-    if why is not None:
-        state.warnings.append(f"{METHOD} refused: {why}")
-        out[METHOD] = {"model": MODEL_TITLES[METHOD], "refused": why}
-        return None
-    return law
+    return law, why
 
 
 def provenance(law, kind: str) -> list[str]:
@@ -47,12 +39,12 @@ def provenance(law, kind: str) -> list[str]:
     return out + [f"cross:{ct.first} x {ct.second}" for ct in law.cross if ct.method.startswith(kind)]
 
 
-def run_dressed(state: "RunState", law, seed_A: float) -> None:
-    """Evaluate the dressed law from the seed (contact first_perturbed - 1) over the scene's contacts."""
+def run_dressed(state: "RunState", name: str, law, seed_A: float, S0: float) -> dict:
+    """Evaluate the dressed law from the seed A (contact first_perturbed - 1, converted with S0: peak = A S0)
+    over the scene's contacts; its entry of the result."""
     from pulsemap.solvers.studies.dressed import coefficients, site_coefficient_functions
 
     scene, out = state.scene, state.out
-    S0 = float(exact_profile(scene.exponent).S0)
     t0 = time.perf_counter()
     coef = coefficients(law)
     i0 = float(scene.first_perturbed - 1)
@@ -60,19 +52,20 @@ def run_dressed(state: "RunState", law, seed_A: float) -> None:
         coef = replace(coef, c_of_i=site_coefficient_functions(scene.perturbation, law, i0, float(scene.contacts[1])))
     ev = evaluate_dressed_law(coef, S0, seed_A, i0, state.contacts)
     run, beyond = ev.run, ev.beyond
-    state.timings[METHOD] = time.perf_counter() - t0
-    out["peaks"][METHOD] = on_contacts(state.contacts, run.contacts, run.peaks)
+    state.timings[name] = time.perf_counter() - t0
+    out["peaks"][name] = on_contacts(state.contacts, run.contacts, run.peaks)
     given = [a for a in ev.accuracy if a is not None]
-    out[METHOD] = {"model": MODEL_TITLES[METHOD], "profile": "exact", "status": run.status, "message": run.message,
-                   "ended_at": run.ended_at, "law_kind": run.law_kind, "beyond_validity_at": beyond,
-                   "accuracy": on_contacts(state.contacts, run.contacts, ev.accuracy),
-                   "note": (f"estimated accuracy +-{100 * max(given):.2g} % (largest over the values given)" if given
-                            else f"no value: {run.message}"),
-                   "coefficients": {t.monomial: {"k1": t.k1, "k2_over_k1": t.rho, "onset_lag": t.lag}
-                                    for t in law.terms},
-                   "derived": provenance(law, "derived"), "calibrated": provenance(law, "calibrated")}
+    info = {"profile": "exact", "status": run.status, "message": run.message,
+            "ended_at": run.ended_at, "law_kind": run.law_kind, "beyond_validity_at": beyond,
+            "accuracy": on_contacts(state.contacts, run.contacts, ev.accuracy),
+            "note": (f"estimated accuracy +-{100 * max(given):.2g} % (largest over the values given)" if given
+                     else f"no value: {run.message}"),
+            "coefficients": {t.monomial: {"k1": t.k1, "k2_over_k1": t.rho, "onset_lag": t.lag}
+                             for t in law.terms},
+            "derived": provenance(law, "derived"), "calibrated": provenance(law, "calibrated")}
     if run.status != "ok":
-        state.warnings.append(f"{METHOD}: {run.message}")
+        state.warnings.append(f"{name}: {run.message}")
     if beyond is not None and beyond <= state.contacts[-1] and run.status != "beyond its validity bound":
-        state.warnings.append(f"{METHOD}: from contact index {beyond:.4g} some |x_j| exceeds the two-term law's "
+        state.warnings.append(f"{name}: from contact index {beyond:.4g} some |x_j| exceeds the two-term law's "
                               "validity bound (derive --model dressed prints it): its error grows there")
+    return info

@@ -169,7 +169,8 @@ def to_text(result: dict, every: int | None = None) -> str:
     for name in dict.fromkeys([*MODELS, *_columns(result)]):
         if name != "dns" and isinstance(result.get(name), dict):
             info = result[name]
-            status = f" [{info.get('refused') or info.get('note')}]" if "refused" in info or "note" in info else ""
+            why = next((f"{k}: {info[k]}" if k == "failed" else info[k] for k in ("refused", "failed", "note") if k in info), None)
+            status = f" [{why}]" if why is not None else ""
             lines.append(f"  {name}: {info.get('model', '')}{status}")
     for name, err in result["errors"].items():
         lines.append(_error_line(name, err))
@@ -188,8 +189,8 @@ def nothing_ran(result: dict) -> str:
     """Why no method produced a single peak ("" when something ran): the run is then an error."""
     if any(v is not None and any(x is not None for x in v) for v in result["peaks"].values()):
         return ""
-    refused = [f"{m}: {result[m]['refused']}" for m in result["choices"]["methods"]
-               if isinstance(result.get(m), dict) and "refused" in result[m]]
+    refused = [f"{m}: {result[m].get('refused') or 'failed: ' + result[m]['failed']}" for m in result["choices"]["methods"]
+               if isinstance(result.get(m), dict) and ("refused" in result[m] or "failed" in result[m])]
     if refused:
         return "nothing ran: " + "; ".join(refused)
     why = [w for w in result.get("warnings", []) if not w.startswith("eps = ")]  # what stopped each method
