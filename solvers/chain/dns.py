@@ -23,6 +23,7 @@ from pulsemap.solvers.chain import scaling as _scaling
 from pulsemap.solvers.chain import window as _window
 from pulsemap.solvers.chain.contact_force import ContactTable, check_masses
 from pulsemap.solvers.chain.methods import selectable
+from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
     ENERGY_BLOWUP, ENGINES, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
@@ -286,8 +287,9 @@ def simulate(
         return _window_energies(force, res)
     terms = (contact, masses)
     if how.rule is not None and (contact is not None or masses is not None):
-        raise ValueError("the scipy engine's moving window does not take a contact law's term or masses: run the "
-                         "compiled engine (engine='compiled', a smooth R) or the full chain (window=None, mode full)")
+        raise PulsemapError("the scipy engine's moving window does not take a contact law's term or masses: run the "
+                            "compiled engine (engine='compiled', a smooth R) or the full chain (window=None, [dns] mode "
+                            "= \"full\")")
     if how.rule is not None:
         with np.errstate(all="ignore"):  # a non-finite force raises ForceNotFinite (models/onsite.py), unprinted
             res = _window.simulate_windowed(
