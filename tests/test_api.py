@@ -25,7 +25,8 @@ def test_import_is_cheap_and_the_surface_is_small():
             "print(heavy); print(sorted(pulsemap.__all__))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.splitlines()
     assert out[0] == "[]"
-    assert out[1] == str(sorted(["Balance", "Derivation", "Result", "Scene", "__version__", "derive", "dressed", "run",
+    assert out[1] == str(sorted(["Balance", "Derivation", "PulsemapError", "Result", "Scene", "__version__", "derive",
+                                 "derive_contact", "dressed", "run",
                                  "scene", "scenes"]))
     for name in pulsemap.__all__:
         assert getattr(pulsemap, name) is not None
