@@ -372,7 +372,7 @@ def test_a_full_cache_disk_is_noted_and_leaves_no_temporary(full_disk, monkeypat
 
 
 NUMBA_CALLERS = {
-    "command": ("from pulsemap.solvers.cli.common import call_recovering_numba_cache\n"
+    "command": ("from pulsemap.solvers.data.numba_cache import call_recovering_numba_cache\n"
                 "print(call_recovering_numba_cache(lambda a: int(kern.twice(21.0)), argparse.Namespace()))\n"),
     "sweep worker": ("from pulsemap.solvers.studies.sweep import _call\n"
                      "print(int(_call(lambda p: {'y': kern.twice(p['x'])}, {'x': 21.0})['result']['y']))\n"),
@@ -407,6 +407,51 @@ def test_damaged_numba_cache_files_are_removed_and_the_kernel_compiled_again(cal
     assert "is damaged (" in damaged.stderr and "compiling the kernels again" in damaged.stderr
     again = run()
     assert again.returncode == 0 and again.stdout == "42\n" and again.stderr == ""  # rewritten whole
+
+
+NUMBA_DAMAGE = {
+    "random bytes": lambda p: p.write_bytes(os.urandom(64)),
+    "emptied .nbc": lambda p: p.write_bytes(b"") if p.suffix == ".nbc" else None,
+    "truncated": lambda p: p.write_bytes(p.read_bytes()[: p.stat().st_size // 2]),
+}
+
+
+@pytest.mark.process
+@pytest.mark.parametrize("place", ["NUMBA_CACHE_DIR", "default"])
+def test_a_run_past_damaged_kernel_caches_gives_the_same_peaks(place, tmp_path):
+    """pulsemap's real kernels (the JIT chain kernel and a generated numba force), their cache files damaged
+    every way in turn, at numba's default place in the pulsemap cache or under NUMBA_CACHE_DIR: exit 0,
+    one note per damaged folder, the peaks of the undamaged run (--csv -: the report goes to stderr)."""
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["PULSEMAP_CACHE_DIR"] = str(tmp_path / "cache")
+    folder = tmp_path / "cache" / "numba"
+    if place == "NUMBA_CACHE_DIR":
+        env["NUMBA_CACHE_DIR"] = str(folder := tmp_path / "numba")
+    argv = [sys.executable, "-m", "pulsemap.solvers.cli.main", "run", "default", "--methods", "dns", "--set",
+            "perturbation.R=-mu*sin(v)", "--quiet", "--csv", "-"]
+
+    def run():
+        return subprocess.run(argv, capture_output=True, text=True, env=env, timeout=600)
+
+    first = run()
+    assert first.returncode == 0, first.stderr
+    entries = sorted(folder.rglob("*.nbi"))
+    assert len({p.parent for p in entries}) == 2  # the chain kernels and the generated force
+    for how, damage in NUMBA_DAMAGE.items():
+        for path in folder.rglob("*.nb?"):
+            damage(path)
+        damaged = run()
+        assert damaged.returncode == 0, (how, damaged.stderr)
+        assert damaged.stdout == first.stdout, how
+        notes = [line for line in damaged.stderr.splitlines() if line.startswith("pulsemap:")]
+        assert len(notes) == 2 and all("numba's compiled-code cache in " in n and "is damaged (" in n
+                                       for n in notes), (how, notes)
+        assert "Traceback" not in damaged.stderr
+    clean = run()
+    assert clean.returncode == 0 and clean.stdout == first.stdout and "pulsemap:" not in clean.stderr
 
 
 def test_a_file_where_the_generated_folder_goes_is_named_with_the_fix(own_cache, capsys):

@@ -15,7 +15,8 @@ import sys
 from pathlib import Path
 from typing import Callable, NoReturn, Sequence
 
-from pulsemap.solvers.cli.common import UsageError, call_recovering_numba_cache, stdout_document, text_to_stderr
+from pulsemap.solvers.cli.common import UsageError, stdout_document, text_to_stderr
+from pulsemap.solvers.data.numba_cache import call_recovering_numba_cache
 
 EXIT_USAGE = 2
 
