@@ -9,7 +9,7 @@ unreadable entry is treated as missing; a damaged one (not JSON, no or a wrong d
 reader's check refuses: wrong shape, NaN) too, with a one-line note on stderr. A cache path that is
 not a regular file (a folder, a FIFO, a device) is noted and bypassed; reads stop at
 :data:`MAX_ENTRY_BYTES` bytes. Generated code the shipped ``generated/`` folder lacks is written to
-its ``generated/`` subfolder.
+its ``generated/`` subfolder (generated_path), or, when that place is taken, to a private temporary folder.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ import math
 import os
 import stat
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
@@ -175,3 +176,23 @@ def store(namespace: str, key: str, value: Any) -> None:
         write_atomic(path, json.dumps({"key": key, "value": plain, "sha256": digest(plain)}))
     except OSError as exc:
         _note_bypassed(path, f"cannot be written ({exc.strerror or exc})")
+
+
+def generated_path(filename: str) -> Path:
+    """Where the generated module ``filename`` is written: the cache's ``generated/`` folder, or, when that
+    folder or the module's place in it is taken by something else (a file where the folder goes, a folder
+    where the module goes), a fresh private temporary folder (noted once; the caller removes it after use)."""
+    folder = cache_dir() / "generated"
+    path = folder / filename
+    try:
+        folder.mkdir(exist_ok=True)
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        return path
+    except OSError as exc:
+        _note_bypassed(folder, f"cannot be used ({exc.strerror or exc})")
+        return Path(tempfile.mkdtemp(prefix="pulsemap-generated-")) / filename
+    if stat.S_ISREG(mode):
+        return path
+    _note_bypassed(path, f"is {kind_of(mode)}, not a regular file")
+    return Path(tempfile.mkdtemp(prefix="pulsemap-generated-")) / filename

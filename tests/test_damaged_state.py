@@ -454,14 +454,48 @@ def test_a_run_past_damaged_kernel_caches_gives_the_same_peaks(place, tmp_path):
     assert clean.returncode == 0 and clean.stdout == first.stdout and "pulsemap:" not in clean.stderr
 
 
-def test_a_file_where_the_generated_folder_goes_is_named_with_the_fix(own_cache, capsys):
-    """[Errno 17] File exists named neither the file nor what to do."""
-    own_cache.mkdir(parents=True)
-    (own_cache / "generated").write_text("not a folder")
-    code = main(["run", "default", "--methods", "map", "--set", "perturbation.R=-mu*v-0.1234*u^3", "--quiet"])
-    err = capsys.readouterr().err
-    assert code == 2 and err.count("\n") == 1 and "[Errno" not in err, err
-    assert f"pulsemap: error: {own_cache / 'generated'}: File exists: remove or rename it" in err
+def _temporary_generated() -> set:
+    import tempfile
+    from pathlib import Path
+
+    return set(Path(tempfile.gettempdir()).glob("pulsemap-generated-*"))
+
+
+GENERATED_RUNS = {  # each makes the module kinds named: the map and balance (Eq. 23, energy), the numpy force
+    "map": ["--methods", "map,energy-map", "--set", "perturbation.R=-mu*v-0.1234*u^3"],
+    "force": ["--methods", "energy-map", "--set", "perturbation.R=-mu*sin(0.987*v)"],
+}
+
+
+@pytest.mark.parametrize("kind", GENERATED_RUNS)
+@pytest.mark.parametrize("blocked", ["a folder where each module goes", "a file where generated/ goes"])
+def test_a_generated_module_whose_place_is_taken_is_built_in_a_private_temporary_folder(kind, blocked, own_cache,
+                                                                                          capsys):
+    """As the cache's data files are: the run goes on with a note per blocked path, the same peaks, and no
+    temporary folder left behind."""
+    argv = ["run", "default", *GENERATED_RUNS[kind], "--quiet", "--csv", "-"]
+    assert main(argv) == 0
+    good = capsys.readouterr().out
+    modules = sorted((own_cache / "generated").glob("*.py"))
+    assert any(p.name.startswith(kind) for p in modules)
+    if blocked.startswith("a folder"):
+        for path in modules:
+            path.unlink()
+            path.mkdir()
+        expected = [f"cache path {p} is a directory, not a regular file: working without it" for p in modules]
+    else:
+        for path in modules:
+            path.unlink()
+        (own_cache / "generated").rmdir()
+        (own_cache / "generated").write_text("not a folder")
+        expected = [f"cache path {own_cache / 'generated'} cannot be used"]
+    before = _temporary_generated()
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    assert captured.out == good
+    notes = [line for line in captured.err.splitlines() if line.startswith("pulsemap:")]  # --csv -: report on stderr
+    assert len(notes) == len(expected) and all(any(e in n for n in notes) for e in expected), notes
+    assert _temporary_generated() <= before
 
 
 def test_a_file_where_a_cache_namespace_goes_is_bypassed(own_cache, capsys):
