@@ -2,8 +2,9 @@
 (names.py), its tokens and their one-line messages (tokens.py), the recursive-descent parser (parser.py)
 and the entry points (expression.py). User text never reaches eval, exec, sympify or parse_expr."""
 
-from .expression import check_parameter_name, failing_term, is_polynomial_in_state, parse_expression, singular_terms
-from .names import (FUNCTIONS, MAX_DECIMAL_EXPONENT, MAX_DEPTH, MAX_EXPONENT, MAX_LENGTH, MAX_POWER_BITS, NON_SMOOTH,
+from .expression import bound_size, check_parameter_name, failing_term, is_polynomial_in_state, parse_expression, singular_terms
+from .names import (FUNCTIONS, MAX_DECIMAL_EXPONENT, MAX_DEPTH, MAX_EXPONENT, MAX_LENGTH, MAX_NODES, MAX_POWER_BITS, MAX_TERMS,
+                    NON_SMOOTH,
                     RESERVED, SYMBOLS, ExpressionError, UserSymbol, symbol)
 
 __all__ = [
@@ -13,11 +14,14 @@ __all__ = [
     "MAX_DEPTH",
     "MAX_EXPONENT",
     "MAX_LENGTH",
+    "MAX_NODES",
     "MAX_POWER_BITS",
+    "MAX_TERMS",
     "NON_SMOOTH",
     "RESERVED",
     "SYMBOLS",
     "UserSymbol",
+    "bound_size",
     "check_parameter_name",
     "failing_term",
     "is_polynomial_in_state",

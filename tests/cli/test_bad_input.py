@@ -340,6 +340,14 @@ def _pert(R="-mu*v", eps=0.1, params=None):
     return make_perturbation(R, eps, {"mu": 1.0} if params is None else params)
 
 
+def _sympy():
+    return importlib.import_module("sympy")
+
+
+def _sym(name: str):
+    return _sympy().Symbol(name)
+
+
 def _expression_error():
     from pulsemap.symbolic.expression import ExpressionError
 
@@ -424,6 +432,21 @@ API: list[tuple[str, Callable[[], object], Callable[[], type], list[str]]] = [
      _perturbation_error, ["'normal'", "uniform"]),
     ("perturbation: unknown symbol", lambda: _pert("-mu*w"), _perturbation_error, ["unknown symbol 'w'"]),
     ("perturbation: R a list", lambda: _pert(["-mu*v"]), _perturbation_error, ["R must be a string", "list"]),
+    # symbolic input bounded the same from every door (expression.bound_size): terms, nodes, degree, float64
+    ("perturbation: sympy R of 5000 terms", lambda: _pert(sum(_sym(f"a{j}") * _sym("v") ** (1 + j % 3) for j in range(5000))),
+     _perturbation_error, ["R has 5000 terms", "more than 500"]),
+    ("perturbation: sympy R of 4200 nodes", lambda: _pert(_sym("v") * _sympy().Mul(*(_sympy().sin(_sym(f"a{j}"))
+                                                                                      for j in range(2100)))),
+     _perturbation_error, ["R has more than 4000 nodes"]),
+    ("perturbation: sympy R of degree 65", lambda: _pert(_sym("u") ** 65), _perturbation_error,
+     ["R has total degree 65", "more than 64"]),
+    ("perturbation: text R of degree 65", lambda: _pert("u^64*u"), _perturbation_error, ["total degree 65", "more than 64"]),
+    ("perturbation: sympy Float 1e400 in R", lambda: _pert(_sympy().Float("1e400") * _sym("u")), _perturbation_error,
+     ["R contains the number 1.00000e+400", "beyond float64"]),
+    ("perturbation: a 401-digit integer in R", lambda: _pert(_sympy().Integer(10) ** 400 * _sym("u")),
+     _perturbation_error, ["(401 digits), beyond float64"]),
+    ("perturbation: a number float64 rounds to 0 in R", lambda: _pert(_sympy().Rational(1, 10**400) * _sym("u")),
+     _perturbation_error, ["rounds to 0.0"]),
     ("bead values: zero beads", lambda: _pert().bead_values("mu", 0), _perturbation_error, ["beads", "positive"]),
     ("bead values: wrong length", lambda: _pert(params={"mu": [1.0, 2.0]}).bead_values("mu", 5),
      _perturbation_error, ["'mu'", "2 per-bead values", "5 beads"]),
