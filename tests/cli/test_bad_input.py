@@ -490,6 +490,36 @@ def test_api(call, error, needles):
         assert needle in message, (needle, message)
 
 
+def _dns():
+    return importlib.import_module("pulsemap.solvers.chain.dns")
+
+
+OPTIONS = [  # option objects refuse at construction what no run can use, naming the field and its range
+    ("Integrator rtol 1e300", lambda: _dns().Integrator(rtol=1e300), ["rtol = 1e+300", "2.2e-14 <= rtol < 1"]),
+    ("Integrator rtol 1", lambda: _dns().Integrator(rtol=1.0), ["rtol = 1 ", "rtol < 1"]),
+    ("Integrator atol 1e300", lambda: _dns().Integrator(atol=1e300), ["atol = 1e+300", "1e-150 <= atol < 0.01"]),
+    ("Integrator atol 1e-300", lambda: _dns().Integrator(atol=1e-300), ["atol = 1e-300", "1e-150 <= atol < 0.01"]),
+    ("Chain exponent 50", lambda: _dns().Chain(40, 50, 1.0), ["exponent n = 50", "1.01 <= n <= 20"]),
+    ("Snapshots span of floats", lambda: _dns().Snapshots(span=(1.5, 2.7)), ["snapshot span", "integers in 0..", "(1.5, 2.7)"]),
+    ("Snapshots span 1e9", lambda: _dns().Snapshots(span=(10**9, 1)), ["snapshot span", "integers in 0..1000000"]),
+    ("Snapshots contacts a string", lambda: _dns().Snapshots(contacts="abc"),
+     ["snapshot contacts must be a sequence of integers", "'abc'"]),
+    ("Snapshots contact a float", lambda: _dns().Snapshots(contacts=[20, 1.5]), ["snapshot contact 1.5", "integer >= 1"]),
+    ("StopRules peak_fraction 2", lambda: _dns().StopRules(peak_fraction=2.0), ["peak_fraction", "(0, 1)"]),
+    ("StopRules t_max nan", lambda: _dns().StopRules(t_max=math.nan), ["t_max", "finite number > 0"]),
+]
+
+
+@pytest.mark.parametrize("call, needles", [c[1:] for c in OPTIONS], ids=[c[0] for c in OPTIONS])
+def test_option_objects_refuse_what_no_run_can_use(call, needles):
+    with pytest.raises(ValueError) as info:
+        call()
+    message = str(info.value)
+    assert "\n" not in message, message
+    for needle in needles:
+        assert needle in message, (needle, message)
+
+
 def test_catalogue_size():
     """The catalogue's size: >= 30 cases across the three surfaces."""
     total = len(CLI) + len(SUBPROCESS) + len(SCENES) + len(API)
