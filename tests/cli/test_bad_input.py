@@ -497,8 +497,6 @@ def _dns():
 OPTIONS = [  # option objects refuse at construction what no run can use, naming the field and its range
     ("Integrator rtol 1e300", lambda: _dns().Integrator(rtol=1e300), ["rtol = 1e+300", "2.2e-14 <= rtol < 1"]),
     ("Integrator rtol 1", lambda: _dns().Integrator(rtol=1.0), ["rtol = 1 ", "rtol < 1"]),
-    ("Integrator atol 1e300", lambda: _dns().Integrator(atol=1e300), ["atol = 1e+300", "1e-150 <= atol < 0.01"]),
-    ("Integrator atol 1e-300", lambda: _dns().Integrator(atol=1e-300), ["atol = 1e-300", "1e-150 <= atol < 0.01"]),
     ("Chain exponent 50", lambda: _dns().Chain(40, 50, 1.0), ["exponent n = 50", "1.01 <= n <= 20"]),
     ("Snapshots span of floats", lambda: _dns().Snapshots(span=(1.5, 2.7)), ["snapshot span", "integers in 0..", "(1.5, 2.7)"]),
     ("Snapshots span 1e9", lambda: _dns().Snapshots(span=(10**9, 1)), ["snapshot span", "integers in 0..1000000"]),
