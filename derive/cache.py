@@ -196,3 +196,48 @@ def generated_path(filename: str) -> Path:
         return path
     _note_bypassed(path, f"is {kind_of(mode)}, not a regular file")
     return Path(tempfile.mkdtemp(prefix="pulsemap-generated-")) / filename
+
+
+STALE_AFTER_S = 24 * 3600
+"""Age after which a temporary file or folder of an interrupted write (a killed process) is removed."""
+
+
+def _is_temporary(name: str) -> bool:
+    """A name pulsemap's writers give their temporaries: files.write_atomic's '.NAME.XXXX.tmp', numba's
+    'NAME.tmp.XXXX', compiled_aot's build folder '.pulsemap_...-XXXX', generated_path's 'pulsemap-generated-XXXX'."""
+    return ((name.startswith(".") and name.endswith(".tmp")) or ".tmp." in name
+            or name.startswith((".pulsemap_", "pulsemap-generated-")))
+
+
+def remove_stale_temporaries(now: float, age_s: float = STALE_AFTER_S) -> int:
+    """Remove temporaries (``_is_temporary``) older than ``age_s`` at time ``now`` from the cache and, for the
+    generated modules' bypass folders, the system's temporary folder; the number removed. Errors are ignored:
+    what cannot be removed now is tried again by the next run."""
+    import shutil
+
+    removed = 0
+    places = [(cache_root(), True), (Path(tempfile.gettempdir()), False)]
+    for top, deep in places:
+        try:
+            walk = os.walk(top) if deep else [(str(top), [], [])]
+            for folder, dirs, files in walk:
+                here = Path(folder)
+                names = files + dirs if deep else [p.name for p in here.glob("pulsemap-generated-*")]
+                for name in names:
+                    path = here / name
+                    if not _is_temporary(name):
+                        continue
+                    try:
+                        if now - os.lstat(path).st_mtime < age_s:
+                            continue
+                        if path.is_dir() and not path.is_symlink():
+                            shutil.rmtree(path)
+                        else:
+                            path.unlink()
+                        removed += 1
+                    except OSError:
+                        continue
+                dirs[:] = [d for d in dirs if not _is_temporary(d)]
+        except OSError:
+            continue
+    return removed

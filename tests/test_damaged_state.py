@@ -507,3 +507,39 @@ def test_a_file_where_a_cache_namespace_goes_is_bypassed(own_cache, capsys):
     assert constants(["f1"])["f1"].value == first
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"cache path {own_cache / 'integrals'} cannot be used" in err
+
+
+def test_temporaries_a_killed_run_left_are_removed_by_the_next_run_a_day_on(own_cache, tmp_path, monkeypatch, capsys):
+    """A process killed (SIGKILL) between writing a cache entry's temporary and renaming it leaves the
+    temporary; the next command removes it once it is a day old, and nothing younger or not ours."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    script = ("import os, signal\nfrom pulsemap.symbolic import cache\n"
+              "os.replace = lambda *a: os.kill(os.getpid(), signal.SIGKILL)\n"
+              "cache.store('kappa', 'killed', {'values': [1.5]})\n")
+    killed = subprocess.run([sys.executable, "-c", script], env={**os.environ, "PULSEMAP_CACHE_DIR": str(own_cache)},
+                            capture_output=True, timeout=120)
+    assert killed.returncode == -signal.SIGKILL
+    (left,) = [p for p in own_cache.rglob("*") if p.is_file()]
+    young = left.with_name(left.name.replace(".tmp", "x.tmp"))
+    young.write_text("{}")
+    numba_tmp = own_cache / "numba" / "chain_x" / "k.run-77.py311.nbi.tmp.0123456789abcdef"
+    build = own_cache / "numba" / "aot" / ".pulsemap_rk45_dense_0123-abc"
+    bypass = tmp_path / "tmp" / "pulsemap-generated-abc"
+    keep = own_cache / "kappa" / "kept.json"
+    for path in (numba_tmp.parent, build, bypass):
+        path.mkdir(parents=True)
+    numba_tmp.write_bytes(b"x")
+    keep.write_text("{}")
+    day_ago = time.time() - 25 * 3600
+    for path in (left, numba_tmp, build, bypass, keep):
+        os.utime(path, (day_ago, day_ago))
+    assert main(["scenes"]) == 0
+    capsys.readouterr()
+    assert not left.exists() and not numba_tmp.exists() and not build.exists() and not bypass.exists()
+    assert young.exists() and keep.exists()

@@ -21,7 +21,7 @@ from pulsemap.solvers.studies.run.dressed import prepare_dressed, run_dressed
 from pulsemap.solvers.models.longwave_eval import evaluate_law
 from pulsemap.solvers.models.map_iteration import contact_params, eps0_ratio, iterate_map
 from pulsemap.solvers.chain.equations import ForceNotFinite
-from pulsemap.solvers.studies.forcing import force_failure, parameter_values
+from pulsemap.solvers.studies.forcing import force_failure, out_of_range, parameter_values
 from pulsemap.solvers.studies.methods import (
     BALANCE_METHODS,
     DRIFT_WARN,
@@ -239,6 +239,12 @@ def _float64_guard(what: str, state: "RunState"):
         yield
     except ForceNotFinite as exc:  # R itself, in a segment run of the DNS (the relaxed map)
         raise ModelNumberError(force_failure(state.scene, state.scene.beads, exc, f"{what}'s segment DNS")) from None
+    except ValueError as exc:
+        if type(exc) is not ValueError:  # the project's own errors say what they mean
+            raise
+        strong = out_of_range(state.scene)  # a numerical library's words ("f(a) and f(b) must have different signs")
+        raise ModelNumberError(f"{what} stopped: " + (strong or f"the numerical library refused its input ({exc}): "
+                                                      "please report this scene")) from None
     except ArithmeticError as exc:
         seed = state.out.get("seed", {})
         raise ModelNumberError(
