@@ -279,6 +279,8 @@ def edit(old: str, new: str) -> str:
 SCENES = [
     ("toml syntax error", edit("eps = 0.1", "eps = = 0.1"), ["TOML syntax error", "line 10"]),
     ("misspelt key", edit("velocity = 1.0", "velocty = 1.0"), ["'velocty'", "did you mean 'velocity'"]),
+    ("a name of a million characters", edit('name = "catalogue"', 'name = "' + "n" * 1_000_000 + '"'),
+     ["name is 1000000 characters long, more than 1000"]),
     ("misspelt table", edit("[output]", "[ouptut]"), ["[ouptut]", "did you mean [output]"]),
     ("beads zero", edit("beads = 60", "beads = 0"), ["beads = 0", ">= 3"]),
     ("beads negative", edit("beads = 60", "beads = -40"), ["beads = -40", ">= 3"]),

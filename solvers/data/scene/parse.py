@@ -69,6 +69,9 @@ def override_changes(scene: Scene, kw: Mapping[str, Any]) -> list[tuple[str, Any
     return changes
 
 
+MAX_NAME = 1000  # characters of a scene's name: a label in reports (--set adds each change to it, shortened)
+
+
 class _Problem(Exception):
     """A problem found by a field check; turned into a SceneError with the scene's name."""
 
@@ -247,8 +250,10 @@ def _check_fields(raw: Mapping[str, Any]) -> dict[str, Any]:
 def _check_name(value: Any) -> str:
     if not isinstance(value, str) or not value.strip():
         raise _Problem(f"name must be a non-empty string, got {_type_name(value)}: e.g. name = \"damping-eps0.3\"")
+    if len(value) > MAX_NAME:
+        raise _Problem(f"name is {len(value)} characters long, more than {MAX_NAME}: use a short one-line name")
     if any(not c.isprintable() for c in value):
-        raise _Problem(f"name {value!r} contains control characters: use a short one-line name")
+        raise _Problem(f"name {value[:40]!r} contains control characters: use a short one-line name")
     return value.strip()
 
 
