@@ -226,6 +226,8 @@ CLI = [
      ["eps = 999999999999... (401 digits) is beyond float64", "(401 characters)"]),
     ("R complex at rest", ["run", "default", "--set", "perturbation.R=(-1)^(i/2)*u", "--methods", "dns"],
      ["R is complex at rest on bead 17", "its term (-1)**(i/2) is complex there"]),
+    ("R complex at rest, the map", ["run", "default", "--set", "perturbation.R=(-1)^(i/2)*u", "--methods", "map"],
+     ["R is complex at rest on bead 17", "its term (-1)**(i/2) is complex there"]),
     ("60 leading minus signs", ["derive", "-" * 60 + "u"], ["nesting too deep", "signs"]),
     # argparse's own usage errors
     ("no command", [], ["required", "COMMAND"]),

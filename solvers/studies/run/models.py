@@ -20,8 +20,8 @@ from pulsemap.solvers.models.site_law_eval import evaluate_site_law
 from pulsemap.solvers.studies.run.dressed import prepare_dressed, run_dressed
 from pulsemap.solvers.models.longwave_eval import evaluate_law
 from pulsemap.solvers.models.map_iteration import contact_params, eps0_ratio, iterate_map
-from pulsemap.solvers.chain.equations import ForceNotFinite
-from pulsemap.solvers.studies.forcing import force_failure, out_of_range, parameter_values
+from pulsemap.solvers.chain.equations import ForceNotFinite, chain_length_for
+from pulsemap.solvers.studies.forcing import force_failure, make_force, out_of_range, parameter_values
 from pulsemap.solvers.studies.methods import (
     BALANCE_METHODS,
     DRIFT_WARN,
@@ -260,6 +260,8 @@ def run_models(state: "RunState") -> None:
     dressed = prepare_dressed(state) if "dressed-law" in state.methods else None
     if mod is None and not balance and "relaxed" not in state.methods and dressed is None:
         return
+    if not state.scene.perturbation.is_uniform:  # R or a parameter varies along the chain: real and finite at
+        make_force(state.scene, state.scene.beads or chain_length_for(state.scene.contacts[1]))  # rest on each bead
     modules = [m for m in (mod, *balance.values()) if m is not None and m is not QUADRATURE]
     S0 = float(modules[0].S0 if modules else exact_profile(state.scene.exponent).S0)
     seed_A = seed_models(state, S0)
