@@ -186,3 +186,18 @@ def test_every_damaged_entry_is_compiled_again_however_many(tmp_path, monkeypatc
     assert fresh.b(1.0) == 4.0 and fresh.a(1.0) == 2.0
     assert capsys.readouterr().err.count("is damaged (") == 1
     assert all(p.stat().st_size > 0 for p in (tmp_path / "numba").rglob("*.nb?"))
+
+
+def test_a_folder_where_a_cache_entry_goes_is_bypassed_with_a_note(tmp_path, monkeypatch, capsys):
+    """An index file's place taken by a folder: the function is compiled in memory each time, one note."""
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "numba"))
+    assert _tiny_kernel(tmp_path)(1.5) == 2.5
+    (index,) = (tmp_path / "numba").rglob("*.nbi")
+    index.unlink()
+    index.mkdir()
+    capsys.readouterr()
+    again = _tiny_kernel(tmp_path)
+    assert again(1.5) == 2.5 and again.stats.cache_misses
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"numba's compiled-code cache in {index.parent}" in err, err
+    assert index.is_dir()  # not ours to remove
