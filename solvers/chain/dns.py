@@ -12,7 +12,6 @@ stops as soon as the last requested contact has peaked or the pulse has died.
 from __future__ import annotations
 
 import math
-import numbers
 import time as _time
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING

@@ -22,7 +22,6 @@ from typing import TYPE_CHECKING, Any
 
 from pulsemap.symbolic import __version__
 from pulsemap.symbolic.cache import load, note_damaged, store
-from pulsemap.symbolic.frozenmap import FrozenMap
 from pulsemap.symbolic.param_forms import ParamMap, RandomDraw, param_data
 from pulsemap.solvers.data.scene.parse import check_recorded_scene
 from pulsemap.solvers.data.scene.schema import SceneError
