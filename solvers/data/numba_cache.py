@@ -1,8 +1,10 @@
 """numba's on-disk cache of compiled kernels: recognising and removing damaged files.
 
 numba unpickles its index (``.nbi``) and data (``.nbc``) files and lets an error from a damaged one
-through to the caller, on every run until the files are deleted. They are only a cache: removing
-them costs one compilation (20-30 s for the DNS kernels).
+through to the caller, on every run until the files are deleted. Functions decorated through
+chain/jit.py mend their own entries (MendingCache); this is the net for any other cached numba
+function (a generated module written by an older pulsemap): the command or sweep point runs again
+after each damaged folder is cleared. They are only a cache: removing them costs one compilation.
 """
 
 from __future__ import annotations
