@@ -18,6 +18,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import stat
 import sys
 import tempfile
@@ -202,42 +203,42 @@ STALE_AFTER_S = 24 * 3600
 """Age after which a temporary file or folder of an interrupted write (a killed process) is removed."""
 
 
-def _is_temporary(name: str) -> bool:
-    """A name pulsemap's writers give their temporaries: files.write_atomic's '.NAME.XXXX.tmp', numba's
-    'NAME.tmp.XXXX', compiled_aot's build folder '.pulsemap_...-XXXX', generated_path's 'pulsemap-generated-XXXX'."""
-    return ((name.startswith(".") and name.endswith(".tmp")) or ".tmp." in name
-            or name.startswith((".pulsemap_", "pulsemap-generated-")))
+_TEMPORARY = re.compile(r"\..+\.[A-Za-z0-9_]{8}\.tmp"  # files.write_atomic (tempfile.mkstemp)
+                        r"|.+\.nb[ic]\.tmp\.[0-9a-f]{16}"  # numba's index and data files being written
+                        r"|\.pulsemap_.+-[A-Za-z0-9_]{8}"  # compiled_aot's build folder (tempfile.mkdtemp)
+                        r"|pulsemap-generated-[A-Za-z0-9_]{8}")  # generated_path's bypass folder
+_TEMPORARY_DEPTH = 3  # <root>/<namespace>/<file>, <root>/numba/<folder>/<file>: nothing of ours lies deeper
 
 
 def remove_stale_temporaries(now: float, age_s: float = STALE_AFTER_S) -> int:
-    """Remove temporaries (``_is_temporary``) older than ``age_s`` at time ``now`` from the cache and, for the
-    generated modules' bypass folders, the system's temporary folder; the number removed. Errors are ignored:
-    what cannot be removed now is tried again by the next run."""
+    """Remove the temporaries of pulsemap's writers (``_TEMPORARY``) older than ``age_s`` at time ``now``:
+    in the cache, down to the depth its own files lie, and the generated modules' bypass folders in the
+    system's temporary folder; the number removed. Errors are ignored: the next run tries again."""
     import shutil
 
-    removed = 0
-    places = [(cache_root(), True), (Path(tempfile.gettempdir()), False)]
-    for top, deep in places:
+    def stale(path: Path) -> bool:
         try:
-            walk = os.walk(top) if deep else [(str(top), [], [])]
-            for folder, dirs, files in walk:
-                here = Path(folder)
-                names = files + dirs if deep else [p.name for p in here.glob("pulsemap-generated-*")]
-                for name in names:
-                    path = here / name
-                    if not _is_temporary(name):
-                        continue
-                    try:
-                        if now - os.lstat(path).st_mtime < age_s:
-                            continue
-                        if path.is_dir() and not path.is_symlink():
-                            shutil.rmtree(path)
-                        else:
-                            path.unlink()
-                        removed += 1
-                    except OSError:
-                        continue
-                dirs[:] = [d for d in dirs if not _is_temporary(d)]
+            return now - os.lstat(path).st_mtime >= age_s
+        except OSError:
+            return False
+
+    found = [p for p in Path(tempfile.gettempdir()).glob("pulsemap-generated-*") if _TEMPORARY.fullmatch(p.name)]
+    root = cache_root()
+    for folder, dirs, files in os.walk(root):
+        here = Path(folder)
+        found += [here / name for name in files + dirs if _TEMPORARY.fullmatch(name)]
+        depth = len(here.relative_to(root).parts)
+        dirs[:] = [] if depth + 1 >= _TEMPORARY_DEPTH else [d for d in dirs if not _TEMPORARY.fullmatch(d)]
+    removed = 0
+    for path in found:
+        if not stale(path):
+            continue
+        try:
+            if path.is_dir() and not path.is_symlink():
+                shutil.rmtree(path)
+            else:
+                path.unlink()
+            removed += 1
         except OSError:
             continue
     return removed

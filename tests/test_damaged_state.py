@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from pathlib import Path
 
 import pytest
 
@@ -526,14 +527,15 @@ def test_temporaries_a_killed_run_left_are_removed_by_the_next_run_a_day_on(own_
                             capture_output=True, timeout=120)
     assert killed.returncode == -signal.SIGKILL
     (left,) = [p for p in own_cache.rglob("*") if p.is_file()]
-    young = left.with_name(left.name.replace(".tmp", "x.tmp"))
-    young.write_text("{}")
-    numba_tmp = own_cache / "numba" / "chain_x" / "k.run-77.py311.nbi.tmp.0123456789abcdef"
-    build = own_cache / "numba" / "aot" / ".pulsemap_rk45_dense_0123-abc"
-    bypass = tmp_path / "tmp" / "pulsemap-generated-abc"
+    import tempfile
+
+    young = Path(tempfile.mkstemp(dir=left.parent, prefix=left.name.split(".tmp")[0][:-8], suffix=".tmp")[1])
+    numba_tmp = own_cache / "numba" / "chain_x" / "k.run-77.py311.nbi.tmp.0123456789abcdef"  # numba's own naming
+    (own_cache / "numba" / "aot").mkdir(parents=True)
+    build = Path(tempfile.mkdtemp(prefix=".pulsemap_rk45_dense_0123-", dir=own_cache / "numba" / "aot"))
+    bypass = Path(tempfile.mkdtemp(prefix="pulsemap-generated-"))
     keep = own_cache / "kappa" / "kept.json"
-    for path in (numba_tmp.parent, build, bypass):
-        path.mkdir(parents=True)
+    numba_tmp.parent.mkdir(parents=True)
     numba_tmp.write_bytes(b"x")
     keep.write_text("{}")
     day_ago = time.time() - 25 * 3600
