@@ -9,7 +9,7 @@ unreadable entry is treated as missing; a damaged one (not JSON, no or a wrong d
 reader's check refuses: wrong shape, NaN) too, with a one-line note on stderr. A cache path that is
 not a regular file (a folder, a FIFO, a device) is noted and bypassed; reads stop at
 :data:`MAX_ENTRY_BYTES` bytes. Generated code the shipped ``generated/`` folder lacks is written to
-its ``generated/`` subfolder.
+its ``generated/`` subfolder (generated_path), or, when that place is taken, to a private temporary folder.
 """
 
 from __future__ import annotations
@@ -18,8 +18,10 @@ import hashlib
 import json
 import math
 import os
+import re
 import stat
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
@@ -170,3 +172,68 @@ def store(namespace: str, key: str, value: Any) -> None:
         write_atomic(path, json.dumps({"key": key, "value": plain, "sha256": digest(plain)}))
     except OSError as exc:
         _note_bypassed(path, f"cannot be written ({exc.strerror or exc})")
+
+
+def generated_path(filename: str) -> Path:
+    """Where the generated module ``filename`` is written: the cache's ``generated/`` folder, or, when that
+    folder or the module's place in it is taken by something else (a file where the folder goes, a folder
+    where the module goes), a fresh private temporary folder (noted once; the caller removes it after use)."""
+    folder = cache_dir() / "generated"
+    path = folder / filename
+    try:
+        folder.mkdir(exist_ok=True)
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        return path
+    except OSError as exc:
+        _note_bypassed(folder, f"cannot be used ({exc.strerror or exc})")
+        return Path(tempfile.mkdtemp(prefix="pulsemap-generated-")) / filename
+    if stat.S_ISREG(mode):
+        return path
+    _note_bypassed(path, f"is {kind_of(mode)}, not a regular file")
+    return Path(tempfile.mkdtemp(prefix="pulsemap-generated-")) / filename
+
+
+STALE_AFTER_S = 24 * 3600
+"""Age after which a temporary file or folder of an interrupted write (a killed process) is removed."""
+
+
+_TEMPORARY = re.compile(r"\..+\.[A-Za-z0-9_]{8}\.tmp"  # files.write_atomic (tempfile.mkstemp)
+                        r"|.+\.nb[ic]\.tmp\.[0-9a-f]{16}"  # numba's index and data files being written
+                        r"|\.pulsemap_.+-[A-Za-z0-9_]{8}"  # compiled_aot's build folder (tempfile.mkdtemp)
+                        r"|pulsemap-generated-[A-Za-z0-9_]{8}")  # generated_path's bypass folder
+_TEMPORARY_DEPTH = 3  # <root>/<namespace>/<file>, <root>/numba/<folder>/<file>: nothing of ours lies deeper
+
+
+def remove_stale_temporaries(now: float, age_s: float = STALE_AFTER_S) -> int:
+    """Remove the temporaries of pulsemap's writers (``_TEMPORARY``) older than ``age_s`` at time ``now``:
+    in the cache, down to the depth its own files lie, and the generated modules' bypass folders in the
+    system's temporary folder; the number removed. Errors are ignored: the next run tries again."""
+    import shutil
+
+    def stale(path: Path) -> bool:
+        try:
+            return now - os.lstat(path).st_mtime >= age_s
+        except OSError:
+            return False
+
+    found = [p for p in Path(tempfile.gettempdir()).glob("pulsemap-generated-*") if _TEMPORARY.fullmatch(p.name)]
+    root = cache_root()
+    for folder, dirs, files in os.walk(root):
+        here = Path(folder)
+        found += [here / name for name in files + dirs if _TEMPORARY.fullmatch(name)]
+        depth = len(here.relative_to(root).parts)
+        dirs[:] = [] if depth + 1 >= _TEMPORARY_DEPTH else [d for d in dirs if not _TEMPORARY.fullmatch(d)]
+    removed = 0
+    for path in found:
+        if not stale(path):
+            continue
+        try:
+            if path.is_dir() and not path.is_symlink():
+                shutil.rmtree(path)
+            else:
+                path.unlink()
+            removed += 1
+        except OSError:
+            continue
+    return removed

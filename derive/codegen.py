@@ -75,11 +75,14 @@ def _generate(source) -> str:
 
 
 def write(source: MapSource | ForceSource | JitForceSource | BalanceSource, directory: Path | None = None) -> Path:
-    """Generate the module for ``source`` into ``directory`` (default: the cache)."""
+    """Generate the module for ``source`` into ``directory`` (default: the cache, or a private temporary
+    folder when its place there is taken: cache.generated_path)."""
     text = _generate(source)
-    folder = Path(directory) if directory is not None else cache.cache_dir() / "generated"
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / (module_name(source) + ".py")
+    if directory is None:
+        path = cache.generated_path(module_name(source) + ".py")
+    else:
+        Path(directory).mkdir(parents=True, exist_ok=True)
+        path = Path(directory) / (module_name(source) + ".py")
     try:
         write_atomic(path, text)
     except OSError as exc:

@@ -3,7 +3,7 @@ with dF/dx and dF/dv, for an R that is not a polynomial (sin(u), exp(-v^2) u, v/
 
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + eps_i R_i(x_i, x_i')          (paper Eq. 1)
 
-Three C-callable functions (numba ``cfunc``, compiled once and cached on disk next to the module),
+Three C-callable functions (numba ``cfunc`` as chain/jit.py makes it, compiled once and cached on disk),
 each ``f(x, v, i, p) -> float`` with x, v the bead's displacement and velocity, i its index (1-based)
 and p a pointer to [eps_i, then the parameters in PARAMS order at that bead]. R is evaluated only where
 eps_i != 0 (0.0 is returned at an unperturbed bead: an R singular where only unperturbed beads go
@@ -39,7 +39,7 @@ def generate_jit_force(source: JitForceSource) -> str:
     ren = {u: "x", v: "v", symbol("i"): "i", **{symbol(p): param_identifier(p) for p in source.params}}
     unpack = ["    eps = p[0]", "    if eps == 0.0:", "        return 0.0  # R is not evaluated at an unperturbed bead"]
     unpack += [f"    {param_identifier(name)} = p[{k + 1}]" for k, name in enumerate(source.params)]
-    lines = ["import math", "", "from numba import cfunc, types", "",
+    lines = ["import math", "", "from pulsemap.solvers.chain.jit import cfunc, types", "",
              f"SOURCE = {json.dumps(source.as_dict(), sort_keys=True)}", f"PARAMS = {tuple(source.params)!r}",
              f"SIGNATURE = {SIGNATURE}", ""]
     for fname, expr, doc in (("force", R, "eps_i R_i(x, v)"), ("force_dx", sympy.diff(R, u), "d(eps_i R_i)/dx"),

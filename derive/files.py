@@ -112,7 +112,8 @@ _FIXES = {errno.ENOSPC: "free some space on that disk or write elsewhere",
           errno.EROFS: "the file system is read-only: write elsewhere",
           errno.ENOENT: "check the path (create its folder first)",
           errno.EISDIR: "give a file name, not a folder",
-          errno.ENOTDIR: "a part of the path is a file, not a folder: fix the path"}
+          errno.ENOTDIR: "a part of the path is a file, not a folder: fix the path",
+          errno.EINVAL: "its file system refuses the write (a /proc or /sys file?): write elsewhere"}
 
 
 def describe_os_error(exc: OSError, path: str | os.PathLike, what: str) -> str:

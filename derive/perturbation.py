@@ -24,8 +24,8 @@ import numpy as np
 import sympy
 
 from pulsemap.symbolic.errors import closest
-from pulsemap.symbolic.expression import (SYMBOLS, ExpressionError, check_parameter_name, formula, parse_expression,
-                                          symbol)
+from pulsemap.symbolic.expression import (SYMBOLS, ExpressionError, bound_size, check_parameter_name, formula,
+                                          parse_expression, symbol)
 from pulsemap.symbolic.expression.tokens import tokenize
 from pulsemap.symbolic.param_values import (DRAW_KEYS, IndexExpression, ParamMap, ParamValue, PerturbationError,
                                           RandomDraw, check_beads, check_name, evaluate_per_bead, exact, finite_float,
@@ -258,6 +258,12 @@ def _from_sympy(R: sympy.Basic, parameters: Any, free: bool = False) -> sympy.Ex
     """Check a sympy R from Python and rebuild it with the parser's (real) symbols."""
     if not isinstance(R, sympy.Expr):
         raise PerturbationError(f"R must be a sympy expression, got {type(R).__name__}")
+    try:
+        bound_size(R, "R")
+    except ExpressionError as exc:
+        raise PerturbationError(str(exc)) from None
+    for number in R.atoms(sympy.Number):
+        _check_float64(number)
     known = set(SYMBOLS) | set(parameters)
     undefined = R.atoms(sympy.core.function.AppliedUndef)
     if undefined:
@@ -284,6 +290,24 @@ def _from_sympy(R: sympy.Basic, parameters: Any, free: bool = False) -> sympy.Ex
     if expr.has(sympy.I):
         raise PerturbationError(f"R = {expr} is complex: R must be real")
     return expr
+
+
+def _check_float64(number: sympy.Number) -> None:
+    """A number in a sympy R must be a float64 as the text's numbers are (tokens.number): not beyond
+    about 1.8e308 and, unless 0, not rounded to 0."""
+    if not number.is_finite:
+        return  # oo, zoo, nan: refused as "not finite" below
+    try:
+        value = float(number)
+    except OverflowError:
+        value = math.inf
+    shown = sympy.sstr(number.evalf(6)) if not number.is_Integer else f"{str(number)[:12]}... ({len(str(number))} digits)"
+    if not math.isfinite(value):
+        raise PerturbationError(f"R contains the number {shown}, beyond float64 (about 1.8e308): give a smaller "
+                                "number, or make it a parameter")
+    if value == 0.0 and number != 0:
+        raise PerturbationError(f"R contains the number {shown}, which float64 rounds to 0.0: use 0 or a value above "
+                                "1e-308")
 
 
 def _unknown_symbol(name: str, text: str, parameters: Any) -> str:

@@ -38,7 +38,10 @@ def key(options: dict) -> str:
 def _check(value: Any) -> str | None:
     ok = (isinstance(value, dict) and isinstance(value.get("printed"), str)
           and (value.get("json") is None or isinstance(value.get("json"), dict)))
-    return None if ok else "not a {'printed': text, 'json': document or null} entry"
+    if not ok:
+        return "not a {'printed': text, 'json': document or null} entry"
+    control = next((c for c in value["printed"] if not c.isprintable() and c != "\n"), None)
+    return None if control is None else f"its text holds the control character {control!r}, which this code never prints"
 
 
 def load(options: dict) -> tuple[str, dict | None] | None:

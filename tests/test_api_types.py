@@ -32,10 +32,10 @@ SIMULATE = [
     ("rtol", {"rtol": "1e-8"}, TypeError),
     ("atol", {"atol": True}, TypeError),
     ("method", {"method": 3}, TypeError),
-    ("t_max", {"stop": StopRules(t_max="10")}, TypeError),
+    ("t_max", {"stop": lambda: StopRules(t_max="10")}, TypeError),  # refused when made
     ("stop", {"stop": {"t_max": 10.0}}, TypeError),
     ("progress", {"progress": "yes"}, TypeError),
-    ("max_steps", {"stop": StopRules(max_steps=1.5)}, ValueError),
+    ("max_steps", {"stop": lambda: StopRules(max_steps=1.5)}, ValueError),
 ]
 
 
@@ -43,6 +43,8 @@ SIMULATE = [
 def test_simulate_names_the_bad_argument(name, bad, error):
     kw = {**OK, **bad}
     with pytest.raises(error) as info:
+        if callable(kw.get("stop")):
+            kw["stop"] = kw["stop"]()
         chain = Chain(kw.pop("beads"), kw.pop("exponent"), kw.pop("velocity"), kw.pop("force", None))
         integrator = Integrator(**{k: kw.pop(k) for k in ("method", "rtol", "atol", "engine") if k in kw})
         simulate(chain, kw.pop("contacts"), integrator=integrator, **kw)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from pathlib import Path
 
 import pytest
 
@@ -378,7 +379,7 @@ def test_a_full_cache_disk_is_noted_and_leaves_no_temporary(full_disk, monkeypat
 
 
 NUMBA_CALLERS = {
-    "command": ("from pulsemap.solvers.cli.common import call_recovering_numba_cache\n"
+    "command": ("from pulsemap.solvers.data.numba_cache import call_recovering_numba_cache\n"
                 "print(call_recovering_numba_cache(lambda a: int(kern.twice(21.0)), argparse.Namespace()))\n"),
     "sweep worker": ("from pulsemap.solvers.studies.sweep import _call\n"
                      "print(int(_call(lambda p: {'y': kern.twice(p['x'])}, {'x': 21.0})['result']['y']))\n"),
@@ -415,14 +416,93 @@ def test_damaged_numba_cache_files_are_removed_and_the_kernel_compiled_again(cal
     assert again.returncode == 0 and again.stdout == "42\n" and again.stderr == ""  # rewritten whole
 
 
-def test_a_file_where_the_generated_folder_goes_is_named_with_the_fix(own_cache, capsys):
-    """[Errno 17] File exists named neither the file nor what to do."""
-    own_cache.mkdir(parents=True)
-    (own_cache / "generated").write_text("not a folder")
-    code = main(["run", "default", "--methods", "map", "--set", "perturbation.R=-mu*v-0.1234*u^3", "--quiet"])
-    err = capsys.readouterr().err
-    assert code == 2 and err.count("\n") == 1 and "[Errno" not in err, err
-    assert f"pulsemap: error: {own_cache / 'generated'}: File exists: remove or rename it" in err
+NUMBA_DAMAGE = {
+    "random bytes": lambda p: p.write_bytes(os.urandom(64)),
+    "emptied .nbc": lambda p: p.write_bytes(b"") if p.suffix == ".nbc" else None,
+    "truncated": lambda p: p.write_bytes(p.read_bytes()[: p.stat().st_size // 2]),
+}
+
+
+@pytest.mark.process
+@pytest.mark.parametrize("place", ["NUMBA_CACHE_DIR", "default"])
+def test_a_run_past_damaged_kernel_caches_gives_the_same_peaks(place, tmp_path):
+    """pulsemap's real kernels (the JIT chain kernel and a generated numba force), their cache files damaged
+    every way in turn, at numba's default place in the pulsemap cache or under NUMBA_CACHE_DIR: exit 0,
+    one note per damaged folder, the peaks of the undamaged run (--csv -: the report goes to stderr)."""
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["PULSEMAP_CACHE_DIR"] = str(tmp_path / "cache")
+    folder = tmp_path / "cache" / "numba"
+    if place == "NUMBA_CACHE_DIR":
+        env["NUMBA_CACHE_DIR"] = str(folder := tmp_path / "numba")
+    argv = [sys.executable, "-m", "pulsemap.solvers.cli.main", "run", "default", "--methods", "dns", "--set",
+            "perturbation.R=-mu*sin(v)", "--quiet", "--csv", "-"]
+
+    def run():
+        return subprocess.run(argv, capture_output=True, text=True, env=env, timeout=600)
+
+    first = run()
+    assert first.returncode == 0, first.stderr
+    entries = sorted(folder.rglob("*.nbi"))
+    assert len({p.parent for p in entries}) == 2  # the chain kernels and the generated force
+    for how, damage in NUMBA_DAMAGE.items():
+        for path in folder.rglob("*.nb?"):
+            damage(path)
+        damaged = run()
+        assert damaged.returncode == 0, (how, damaged.stderr)
+        assert damaged.stdout == first.stdout, how
+        notes = [line for line in damaged.stderr.splitlines() if line.startswith("pulsemap:")]
+        assert len(notes) == 2 and all("numba's compiled-code cache in " in n and "is damaged (" in n
+                                       for n in notes), (how, notes)
+        assert "Traceback" not in damaged.stderr
+    clean = run()
+    assert clean.returncode == 0 and clean.stdout == first.stdout and "pulsemap:" not in clean.stderr
+
+
+def _temporary_generated() -> set:
+    import tempfile
+    from pathlib import Path
+
+    return set(Path(tempfile.gettempdir()).glob("pulsemap-generated-*"))
+
+
+GENERATED_RUNS = {  # each makes the module kinds named: the map and balance (Eq. 23, energy), the numpy force
+    "map": ["--methods", "map,energy-map", "--set", "perturbation.R=-mu*v-0.1234*u^3"],
+    "force": ["--methods", "energy-map", "--set", "perturbation.R=-mu*sin(0.987*v)"],
+}
+
+
+@pytest.mark.parametrize("kind", GENERATED_RUNS)
+@pytest.mark.parametrize("blocked", ["a folder where each module goes", "a file where generated/ goes"])
+def test_a_generated_module_whose_place_is_taken_is_built_in_a_private_temporary_folder(kind, blocked, own_cache,
+                                                                                          capsys):
+    """As the cache's data files are: the run goes on with a note per blocked path, the same peaks, and no
+    temporary folder left behind."""
+    argv = ["run", "default", *GENERATED_RUNS[kind], "--quiet", "--csv", "-"]
+    assert main(argv) == 0
+    good = capsys.readouterr().out
+    modules = sorted((own_cache / "generated").glob("*.py"))
+    assert any(p.name.startswith(kind) for p in modules)
+    if blocked.startswith("a folder"):
+        for path in modules:
+            path.unlink()
+            path.mkdir()
+        expected = [f"cache path {p} is a directory, not a regular file: working without it" for p in modules]
+    else:
+        for path in modules:
+            path.unlink()
+        (own_cache / "generated").rmdir()
+        (own_cache / "generated").write_text("not a folder")
+        expected = [f"cache path {own_cache / 'generated'} cannot be used"]
+    before = _temporary_generated()
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    assert captured.out == good
+    notes = [line for line in captured.err.splitlines() if line.startswith("pulsemap:")]  # --csv -: report on stderr
+    assert len(notes) == len(expected) and all(any(e in n for n in notes) for e in expected), notes
+    assert _temporary_generated() <= before
 
 
 def test_a_file_where_a_cache_namespace_goes_is_bypassed(own_cache, capsys):
@@ -434,3 +514,40 @@ def test_a_file_where_a_cache_namespace_goes_is_bypassed(own_cache, capsys):
     assert constants(["f1"])["f1"].value == first
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"cache path {own_cache / 'integrals'} cannot be used" in err
+
+
+def test_temporaries_a_killed_run_left_are_removed_by_the_next_run_a_day_on(own_cache, tmp_path, monkeypatch, capsys):
+    """A process killed (SIGKILL) between writing a cache entry's temporary and renaming it leaves the
+    temporary; the next command removes it once it is a day old, and nothing younger or not ours."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    monkeypatch.setattr("tempfile.tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    script = ("import os, signal\nfrom pulsemap.symbolic import cache\n"
+              "os.replace = lambda *a: os.kill(os.getpid(), signal.SIGKILL)\n"
+              "cache.store('kappa', 'killed', {'values': [1.5]})\n")
+    killed = subprocess.run([sys.executable, "-c", script], env={**os.environ, "PULSEMAP_CACHE_DIR": str(own_cache)},
+                            capture_output=True, timeout=120)
+    assert killed.returncode == -signal.SIGKILL
+    (left,) = [p for p in own_cache.rglob("*") if p.is_file()]
+    import tempfile
+
+    young = Path(tempfile.mkstemp(dir=left.parent, prefix=left.name.split(".tmp")[0][:-8], suffix=".tmp")[1])
+    numba_tmp = own_cache / "numba" / "chain_x" / "k.run-77.py311.nbi.tmp.0123456789abcdef"  # numba's own naming
+    (own_cache / "numba" / "aot").mkdir(parents=True)
+    build = Path(tempfile.mkdtemp(prefix=".pulsemap_rk45_dense_0123-", dir=own_cache / "numba" / "aot"))
+    bypass = Path(tempfile.mkdtemp(prefix="pulsemap-generated-"))
+    keep = own_cache / "kappa" / "kept.json"
+    numba_tmp.parent.mkdir(parents=True)
+    numba_tmp.write_bytes(b"x")
+    keep.write_text("{}")
+    day_ago = time.time() - 25 * 3600
+    for path in (left, numba_tmp, build, bypass, keep):
+        os.utime(path, (day_ago, day_ago))
+    assert main(["scenes"]) == 0
+    capsys.readouterr()
+    assert not left.exists() and not numba_tmp.exists() and not build.exists() and not bypass.exists()
+    assert young.exists() and keep.exists()

@@ -42,3 +42,16 @@ def test_the_step_budget_advice_does_not_suggest_the_method_in_use():
         res = simulate(Chain(60, 1.5, 1.0), (10, 50),
                        integrator=Integrator(method=method), stop=StopRules(max_steps=40))
         assert res.stop_reason.startswith("step budget of 40 steps") and expect in res.stop_reason
+
+
+def test_closed_form_laws_past_float64_are_a_blow_up_without_a_warning(tmp_path):
+    """A parameter of -1e300 (anti-damping): the closed-form law's power overflows at once; no warning,
+    no infinite peak, every contact past the seed without a value."""
+    scene = load_scene(write_scene(tmp_path, scene_toml("blowup", beads=60, contacts=(16, 50), eps=0.3)))
+    scene = with_overrides(scene, params={"mu": -1e300})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        result = run_scene(scene, methods=["longwave", "energy-law", "momentum-law"])
+    for method in ("longwave", "energy-law", "momentum-law"):
+        peaks = result["peaks"][method]
+        assert all(p is None for p in peaks), (method, peaks)

@@ -2,10 +2,10 @@
 (names.py), its tokens and their one-line messages (tokens.py), the recursive-descent parser (parser.py)
 and the entry points (expression.py). User text never reaches eval, exec, sympify or parse_expr."""
 
-from .expression import (check_parameter_name, failing_term, formula, is_polynomial_in_state, parse_expression,
-                         singular_terms)
-from .names import (CONTACT_SYMBOLS, FUNCTIONS, MAX_DECIMAL_EXPONENT, MAX_DEPTH, MAX_EXPONENT, MAX_LENGTH,
-                    MAX_POWER_BITS, NON_SMOOTH,
+from .expression import (bound_size, check_parameter_name, failing_term, formula, is_polynomial_in_state,
+                         parse_expression, singular_terms)
+from .names import (CONTACT_SYMBOLS, FUNCTIONS, MAX_DECIMAL_EXPONENT, MAX_DEPTH, MAX_EXPONENT, MAX_LENGTH, MAX_NODES,
+                    MAX_POWER_BITS, MAX_TERMS, NON_SMOOTH,
                     RESERVED, SYMBOLS, ExpressionError, UserSymbol, symbol)
 
 __all__ = [
@@ -16,11 +16,14 @@ __all__ = [
     "MAX_DEPTH",
     "MAX_EXPONENT",
     "MAX_LENGTH",
+    "MAX_NODES",
     "MAX_POWER_BITS",
+    "MAX_TERMS",
     "NON_SMOOTH",
     "RESERVED",
     "SYMBOLS",
     "UserSymbol",
+    "bound_size",
     "check_parameter_name",
     "failing_term",
     "formula",

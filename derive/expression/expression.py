@@ -24,7 +24,8 @@ from typing import Iterable
 
 import sympy
 
-from .names import CONTACT_SYMBOLS, FUNCTIONS, MAX_EXPONENT, MAX_LENGTH, NON_FINITE_NAMES, SYMBOLS, ExpressionError, symbol
+from .names import (CONTACT_SYMBOLS, FUNCTIONS, MAX_EXPONENT, MAX_LENGTH, MAX_NODES, MAX_TERMS, NON_FINITE_NAMES,
+                    SYMBOLS, ExpressionError, symbol)
 from .parser import Parser
 from .tokens import PARAM_RE, WHITESPACE, context, printable, show, tokenize
 
@@ -114,11 +115,12 @@ def is_polynomial_in_state(expr: sympy.Expr) -> bool:
 def total_degree(expr: sympy.Expr, names: tuple[str, ...] = SYMBOLS) -> int:
     """An upper bound on the total degree of ``expr`` in u, v, i, read off its tree without expanding
     it: sums over products, maxima over sums, degree times |exponent| over numeric powers (so
-    ``((u^64)^64)^64`` and ``u*u*...*u`` count what they are); a function counts its argument."""
-    state = {symbol(name) for name in names}
-    if expr in state:
-        return 1
-    if not expr.free_symbols & state:
+    ``((u^64)^64)^64`` and ``u*u*...*u`` count what they are); a function counts its argument. The state
+    symbols (``names``: u, v, i, or the contact law's d, w, k) are known by name (a sympy R from Python is counted
+    before its symbols are replaced)."""
+    if isinstance(expr, sympy.Symbol):
+        return int(expr.name in names)
+    if not any(s.name in names for s in expr.free_symbols if isinstance(s, sympy.Symbol)):
         return 0
     if isinstance(expr, sympy.Pow) and expr.exp.is_Number:
         return total_degree(expr.base, names) * math.ceil(abs(expr.exp))
@@ -169,13 +171,28 @@ def failing_term(expr: sympy.Expr, values: dict[str, float]) -> tuple[sympy.Expr
     return None
 
 
-def _check_result(expr: sympy.Expr, text: str) -> sympy.Expr:
+def bound_size(expr: sympy.Expr, what: str) -> None:
+    """Refuse ``expr`` (named ``what`` in the message) beyond the bounds every door of R shares: MAX_TERMS
+    additive terms, MAX_NODES nodes of its tree, total degree MAX_EXPONENT in u, v, i. Counted without
+    expanding, and stopped at the bound, so a huge expression is refused at once."""
+    terms = len(sympy.Add.make_args(expr))
+    if terms > MAX_TERMS:
+        raise ExpressionError(f"{what} has {terms} terms, more than {MAX_TERMS}: collect terms or move sums of "
+                              "constants into parameters")
+    for count, _ in enumerate(sympy.preorder_traversal(expr), start=1):
+        if count > MAX_NODES:
+            raise ExpressionError(f"{what} has more than {MAX_NODES} nodes (operations, symbols, numbers): "
+                                  "simplify it or move constants into parameters")
     degree = max(total_degree(expr), total_degree(expr, CONTACT_SYMBOLS))
     if degree > MAX_EXPONENT:
         raise ExpressionError(
-            f"{context(text)} has total degree {degree} in u, v, i, more than {MAX_EXPONENT}: "
+            f"{what} has total degree {degree} in u, v, i, more than {MAX_EXPONENT}: "
             "lower the powers (repeated products and powers of powers multiply the degree)"
         )
+
+
+def _check_result(expr: sympy.Expr, text: str) -> sympy.Expr:
+    bound_size(expr, context(text))
     bad = (sympy.zoo, sympy.oo, -sympy.oo, sympy.nan)
     if expr.has(*bad):
         raise ExpressionError(

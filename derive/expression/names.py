@@ -48,6 +48,8 @@ MAX_DEPTH = 50
 MAX_EXPONENT = 64
 MAX_POWER_BITS = 20000  # bound on the size of an exact number raised to a power
 MAX_DECIMAL_EXPONENT = 400
+MAX_NODES = 4000  # operations, symbols and numbers of R's tree: about what MAX_LENGTH characters of text can make
+MAX_TERMS = 500  # additive terms of R as given: derive's time grows with them (about 3 s at 500)
 
 
 class ExpressionError(PulsemapError):

@@ -57,7 +57,7 @@ def run_choices(scene: Scene, methods: "Sequence[str] | None", profile: str | No
                 seed_peak: float | None = None,
                 snapshots: Sequence[int] = ()) -> tuple[tuple[str, ...], str, str, tuple[int, ...]]:
     """A run's methods, profile and variant (names the scene file accepts, the closest one named
-    otherwise; None: the scene's), its seed peak (finite, > 0) and snapshot contacts (integers within
+    otherwise; None: the scene's), its seed peak (within the peaks of the velocities a run takes) and snapshot contacts (integers within
     the scene's contacts, with the DNS among the methods), checked where the input enters
     (``pulsemap.run``, ``pulsemap run``); returns (methods, profile, variant, snapshots), or a
     one-line RunError (a ValueError). The types were checked by the caller."""
@@ -66,6 +66,14 @@ def run_choices(scene: Scene, methods: "Sequence[str] | None", profile: str | No
 
     if seed_peak is not None and not (math.isfinite(seed_peak) and seed_peak > 0):
         raise RunError(f"seed peak must be a finite number > 0, got {seed_peak!r}")
+    if seed_peak is not None:
+        from pulsemap.solvers.chain.scaling import VELOCITY_RANGE
+
+        lo, hi = (v ** (2.0 / (scene.exponent + 1.0)) for v in VELOCITY_RANGE)  # strains scale as v0^(2/(n+1))
+        if not lo <= seed_peak <= hi:
+            raise RunError(f"seed peak {seed_peak:g} is beyond the range {lo:.3g} <= peak <= {hi:.3g} a chain of n = "
+                           f"{scene.exponent:g} carries (the peaks of v0 in [{VELOCITY_RANGE[0]:g}, "
+                           f"{VELOCITY_RANGE[1]:g}], whose energy is a float64 number): give a peak within it")
     try:
         names = tuple(check_choice(m.strip(), "method", METHODS) for m in (scene.methods if methods is None else methods))
         profile = check_choice(profile or scene.profile, "profile", PROFILES)

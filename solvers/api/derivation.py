@@ -394,7 +394,7 @@ def quadrature_energy_law(pert: Any, n: float = 1.5) -> dict:
     from pulsemap.symbolic.balance import json_header, model_title
     from pulsemap.symbolic.profile import check_exponent
     from pulsemap.solvers.models.codeload import force_module
-    from pulsemap.solvers.models.energy_quadrature import bead_force, rate_table
+    from pulsemap.solvers.models.energy_quadrature import RATE_TOLERANCE, EnergyQuadratureError, bead_force, off_poles, rate_table
 
     if not pert.is_uniform:
         raise PulsemapError(f"R = {pert.text} varies along the chain: the tabulated energy law needs a uniform R; "
@@ -406,9 +406,17 @@ def quadrature_energy_law(pert: Any, n: float = 1.5) -> dict:
     n = float(check_exponent(n))
     values = {name: float(value) for name, value in pert.params.items()}
     module = force_module(pert.text, pert.used_parameters)
-    force = bead_force(module, float(pert.eps), lambda bead: tuple(values[name] for name in module.PARAMS))
+    def params_at(bead: float) -> tuple:
+        return tuple(values[name] for name in module.PARAMS)
+
+    force = off_poles(bead_force(module, float(pert.eps), params_at), pert, module.PARAMS, params_at)
     t = rate_table(lambda x, v: force(x, v, 1.0), n)
-    rows = [{"A": a, "peak": a * t.S0, "rate_dB_di": r, "dlnA_di": g, "error": e}
+    if all(r is None for r in t.rate):
+        raise EnergyQuadratureError(
+            f"R = {pert.text}: no tabulated rate of the energy law is resolved by the quadrature (its change with "
+            f"{2 * t.nodes} instead of {t.nodes} nodes per unit interval exceeds {RATE_TOLERANCE:g} of its size at "
+            "every amplitude): R varies too fast along the wave's path; smooth it or use pulsemap run --methods dns")
+    rows = [{"A": a, "peak": a * t.S0, "rate_dB_di": r, "dlnA_di": g, "error": e, "resolved": r is not None}
             for a, r, g, e in zip(t.A, t.rate, t.dlnA_di(), t.error)]
     return {
         **json_header("energy", pert),
@@ -429,8 +437,11 @@ def quadrature_energy_law(pert: Any, n: float = 1.5) -> dict:
             "W": "eps*int R(A X, A^(1+s) X') A X' dtau over |tau| <= L (Gauss-Legendre)",
             "error": f"change of W/E_1 with {2 * t.nodes} instead of {t.nodes} nodes per unit interval",
             "table": rows,
-            "max_error": max(t.error),
-            "max_rel_error": max((e / abs(r) for r, e in zip(t.rate, t.error) if r != 0), default=0.0),
+            "tolerance": RATE_TOLERANCE,
+            "tolerance_of": "A int |eps R X'| dtau / E_1 (the rate's size without cancellation): a rate whose error "
+                            "is larger is not resolved (null)",
+            "max_error": max(e for r, e in zip(t.rate, t.error) if r is not None),
+            "max_rel_error": max((e / abs(r) for r, e in zip(t.rate, t.error) if r), default=0.0),
         },
     }
 
@@ -452,9 +463,12 @@ def quadrature_energy_text(doc: dict) -> str:
         f"  {'A':>12s} {'peak A S(0)':>14s} {'dB/di = W/E_1':>16s} {'d ln A/di':>14s} {'error':>10s}",
     ]
     for row in law["table"]:
-        lines.append(f"  {row['A']:12.6g} {row['peak']:14.6g} {row['rate_dB_di']:16.9g} {row['dlnA_di']:14.7g} "
-                     f"{row['error']:10.2g}")
+        rate, g = ((f"{row['rate_dB_di']:16.9g}", f"{row['dlnA_di']:14.7g}") if row["resolved"]
+                   else (f"{'not resolved':>16s}", f"{'-':>14s}"))
+        lines.append(f"  {row['A']:12.6g} {row['peak']:14.6g} {rate} {g} {row['error']:10.2g}")
     lines.append(f"  largest relative error of the rate: {law['max_rel_error']:.2g}")
+    if not all(row["resolved"] for row in law["table"]):
+        lines.append(f"  not resolved: the error is above {law['tolerance']:g} of {law['tolerance_of'].split(':')[0]}")
     return "\n".join(lines)
 
 

@@ -192,7 +192,11 @@ def build(method: str, form: str, name: str, path: Path) -> None:
                 sink.seek(0)
                 said = (log.getvalue() + sink.read()).strip().splitlines()[-3:]
                 raise RuntimeError(f"{type(exc).__name__}: {exc}" + "".join(f"\n  {s}" for s in said)) from exc
-        os.replace(Path(work) / path.name, path)
+        built = Path(work) / path.name
+        digest_file = Path(work) / _digest_path(path).name
+        digest_file.write_text(hashlib.sha256(built.read_bytes()).hexdigest() + "\n", encoding="utf-8")
+        os.replace(digest_file, _digest_path(path))  # first the digest: a reader never meets a module unchecked
+        os.replace(built, path)
     finally:
         os.dup2(out_fd, 1)
         os.dup2(err_fd, 2)
@@ -245,6 +249,21 @@ def kernel(method: str, args: tuple):
     return load(method, form)
 
 
+def _digest_path(path: Path) -> Path:
+    """The file holding the sha256 of module ``path``, written by build."""
+    return path.with_name(path.name + ".sha256")
+
+
+def _intact(path: Path) -> bool:
+    """Whether module ``path`` is the file build wrote (its sha256 recorded next to it): a truncated or
+    overwritten shared library can crash the process when loaded (SIGBUS), so it is checked first."""
+    try:
+        recorded = _digest_path(path).read_text(encoding="utf-8").strip()
+        return hashlib.sha256(path.read_bytes()).hexdigest() == recorded
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
 def _paths(name: str) -> tuple[Path, Path]:
     """Module ``name``'s file and its ``.failed`` file (the folder is looked up: once a process has the
     module, callers ask ``_loaded`` first)."""
@@ -261,10 +280,13 @@ def load(method: str, form: str):
     start = time.perf_counter()
     path, failed = _paths(name)
     run = None
-    if path.exists():
+    if path.exists() and not _intact(path):
+        print(f"pulsemap: note: the ahead-of-time kernel {path} is damaged (not the file that was built: its "
+              "sha256 differs or is missing): building it again", file=sys.stderr, flush=True)
+    elif path.exists():
         try:
             run = _import(name, path)
-        except ImportError:  # a damaged file: the JIT kernel serves, a new build replaces it
+        except ImportError:  # a file the loader refuses: the JIT kernel serves, a new build replaces it
             run = None
     if run is None and not failed.exists() and writable(path.parent):
         try:

@@ -12,13 +12,13 @@ stops as soon as the last requested contact has peaked or the pulse has died.
 from __future__ import annotations
 
 import math
-import numbers
 import time as _time
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from pulsemap.symbolic.profile import check_exponent
 from pulsemap.solvers.chain import scaling as _scaling
 from pulsemap.solvers.chain import window as _window
 from pulsemap.solvers.chain.contact_force import ContactTable, check_masses
@@ -33,7 +33,8 @@ from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the 
 from pulsemap.solvers.chain.force_table import JitForce, MonomialTable, force_data
 from pulsemap.solvers.chain.front import FrontRecorder, Snapshots, check_snapshot_contacts, memo, state_at
 from pulsemap.solvers.chain.launch import Launch
-from pulsemap.solvers.chain.peaks import PeakTracker, StopRules, contact_rate, scan_step, velocity_scale  # noqa: F401
+from pulsemap.solvers.chain.peaks import (PeakTracker, StopRules, contact_rate, real_number, scan_step,  # noqa: F401
+                                          velocity_scale)
 from pulsemap.solvers.chain.plan import plan, wants_force_data
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -46,6 +47,8 @@ MAX_BEADS = 1_000_000
 """Longest chain simulate() accepts (the scene files' limit, data/scene/schema.MAX_BEADS)."""
 MIN_RTOL = 100 * float(np.finfo(float).eps)
 """Smallest rtol float64 can deliver (scipy raises a smaller one to this silently)."""
+MAX_RTOL = 1.0
+"""rtol at or above this accepts a 100 % error: no digit of a peak is kept."""
 
 
 @dataclass(frozen=True)
@@ -67,8 +70,8 @@ class Chain:
 
     def __post_init__(self) -> None:
         beads, exponent, velocity = self.beads, self.exponent, self.velocity
-        _real(exponent, "exponent")
-        _real(velocity, "velocity")
+        real_number(exponent, "exponent")
+        real_number(velocity, "velocity")
         if isinstance(beads, (str, bytes)):
             raise TypeError(f"beads must be an integer, got {type(beads).__name__} {beads!r}")
         if isinstance(beads, bool) or not isinstance(beads, (int, np.integer)) or beads < 2:
@@ -77,6 +80,7 @@ class Chain:
             raise ValueError(f"beads = {beads} is beyond the supported {MAX_BEADS}: use a shorter chain")
         if not math.isfinite(exponent) or exponent <= 1.0:
             raise ValueError(f"exponent must be a finite number > 1 (Hertz: 1.5), got {exponent!r}")
+        check_exponent(float(exponent))  # the profile's supported range: beyond it the wave is not float64
         if not math.isfinite(velocity):
             raise ValueError(f"velocity must be finite, got {velocity!r}")
         if velocity <= 0.0:
@@ -111,8 +115,8 @@ class Integrator:
 
     def __post_init__(self) -> None:
         method, rtol, atol = self.method, self.rtol, self.atol
-        _real(rtol, "rtol")
-        _real(atol, "atol")
+        real_number(rtol, "rtol")
+        real_number(atol, "atol")
         known = selectable()
         if not isinstance(method, str):
             raise TypeError(f"method must be a string ({', '.join(known)}), got {type(method).__name__}")
@@ -123,6 +127,9 @@ class Integrator:
         if rtol < MIN_RTOL:
             raise ValueError(f"rtol = {rtol:g} is below what float64 can deliver: give rtol >= {MIN_RTOL:.2g} "
                              "(100 x machine epsilon)")
+        if rtol >= MAX_RTOL:
+            raise ValueError(f"rtol = {rtol:g} is beyond the usable range {MIN_RTOL:.2g} <= rtol < {MAX_RTOL:g}: "
+                             "a relative tolerance of 1 or more keeps no digit of the peaks")
         if not (math.isfinite(atol) and atol > 0.0):
             raise ValueError(f"atol must be a finite number > 0, got {atol!r}")
         if self.engine not in ENGINES:
@@ -130,20 +137,13 @@ class Integrator:
 
 
 def check_run(chain: Chain, contacts: tuple[int, int], stop: StopRules) -> tuple[int, int]:
-    """Check what simulate() takes beyond its specs' own checks: the contact range against the chain
-    and the stop rules; return the range. One-line ValueErrors (TypeErrors for a value of the wrong
-    type), each naming the argument (a stop rule by its StopRules field)."""
+    """Check what simulate() takes beyond its specs' own checks (each option object checks its fields when
+    made): the contact range against the chain; return the range. One-line ValueErrors (TypeErrors for a
+    value of the wrong type), each naming the argument."""
     if not isinstance(chain, Chain):
         raise TypeError(f"chain must be a Chain (solvers.chain.dns), got {type(chain).__name__}")
     if not isinstance(stop, StopRules):
         raise TypeError(f"stop must be a StopRules (solvers.chain.peaks), got {type(stop).__name__}")
-    peak_fraction, death_fraction, stall_factor = stop.peak_fraction, stop.death_fraction, stop.stall_factor
-    overtake_factor, t_max, max_steps = stop.overtake_factor, stop.t_max, stop.max_steps
-    for name, value in (("peak_fraction", peak_fraction), ("death_fraction", death_fraction),
-                        ("stall_factor", stall_factor), ("overtake_factor", overtake_factor)):
-        _real(value, name)
-    if t_max is not None:
-        _real(t_max, "t_max")
     beads = chain.beads
     try:
         first, last = (int(c) for c in contacts)
@@ -156,30 +156,7 @@ def check_run(chain: Chain, contacts: tuple[int, int], stop: StopRules) -> tuple
             f"contacts {contacts!r} must satisfy 1 <= first <= last <= beads-1 = {beads - 1}; "
             f"fix the range or use beads=chain_length_for({last})"
         )
-    if not 0.0 < peak_fraction < 1.0:
-        raise ValueError(f"peak_fraction must lie in (0, 1), got {peak_fraction!r}")
-    if not 0.0 <= death_fraction < 1.0:
-        raise ValueError(f"death_fraction must lie in [0, 1), got {death_fraction!r}")
-    if t_max is not None and not (math.isfinite(t_max) and t_max > 0.0):
-        raise ValueError(f"t_max must be a finite number > 0 or None, got {t_max!r}")
-    if not (math.isfinite(stall_factor) and stall_factor > 1.0):
-        raise ValueError(f"stall_factor must be a finite number > 1, got {stall_factor!r}")
-    if not (math.isfinite(overtake_factor) and overtake_factor > 1.0):
-        raise ValueError(f"overtake_factor must be a finite number > 1, got {overtake_factor!r}")
-    if max_steps is not None and (isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer))
-                                  or max_steps < 1):
-        raise ValueError(f"max_steps must be an integer >= 1 or None, got {max_steps!r}")
     return first, last
-
-
-def _real(value, name: str) -> None:
-    """A TypeError naming ``name`` unless ``value`` is a real number (not a bool, not a string)."""
-    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
-        raise TypeError(f"{name} must be a number, got {type(value).__name__} {value!r}"[:200])
-    try:
-        float(value)
-    except OverflowError:
-        raise ValueError(f"{name} is beyond the float range (an integer of {len(str(value))} digits)") from None
 
 
 # ----------------------------------------------------------------------------- the run

@@ -27,6 +27,7 @@ from pulsemap.solvers.chain.peaks import Peak, QuinticStep
 Array = np.ndarray
 PULSE_HALF_WIDTH = 8  # beads on each side of the peaked contact that carry the pulse
 SNAPSHOT_SPAN = (12, 4)  # default snapshot: contacts behind and ahead of the peaked one
+MAX_SNAPSHOT_SPAN = 1_000_000  # the longest chain (dns.MAX_BEADS): a wider span holds no more contacts
 
 
 @dataclass(frozen=True)
@@ -127,19 +128,25 @@ class Snapshots:
     span: tuple[int, int] = SNAPSHOT_SPAN
 
     def __post_init__(self) -> None:
-        try:
-            behind, ahead = (int(s) for s in self.span)
-        except (TypeError, ValueError):
-            raise ValueError(f"snapshot span must be a pair (behind, ahead) of integers >= 0, got {self.span!r}"
-                             ) from None
-        if behind < 0 or ahead < 0:
-            raise ValueError(f"snapshot span must be a pair (behind, ahead) of integers >= 0, got {self.span!r}")
-        try:
-            contacts = tuple(self.contacts or ())
-        except TypeError:
-            raise ValueError(f"snapshot contacts must be a sequence of integers, got {self.contacts!r}") from None
-        object.__setattr__(self, "contacts", contacts)
-        object.__setattr__(self, "span", (behind, ahead))
+        span = self.span
+        if (isinstance(span, (str, bytes)) or not hasattr(span, "__len__") or len(span) != 2
+                or not all(_integer(s) and 0 <= s <= MAX_SNAPSHOT_SPAN for s in span)):
+            raise ValueError(f"snapshot span must be a pair (behind, ahead) of integers in 0..{MAX_SNAPSHOT_SPAN}, "
+                             f"got {span!r}"[:200])
+        contacts = self.contacts
+        if isinstance(contacts, (str, bytes)) or not hasattr(contacts or (), "__iter__"):
+            raise ValueError(f"snapshot contacts must be a sequence of integers >= 1, got {contacts!r}"[:200])
+        contacts = tuple(contacts or ())
+        for c in contacts:
+            if not (_integer(c) and c >= 1):
+                raise ValueError(f"snapshot contact {c!r} must be an integer >= 1 (a contact of the chain)"[:200])
+        object.__setattr__(self, "contacts", tuple(int(c) for c in contacts))
+        object.__setattr__(self, "span", (int(span[0]), int(span[1])))
+
+
+def _integer(value) -> bool:
+    """An int (numpy's too), not a bool."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
 
 
 def check_snapshot_contacts(contacts: Sequence[int] | None, first: int, last: int) -> frozenset:

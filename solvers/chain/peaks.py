@@ -9,6 +9,8 @@ not a sampling grid's. The state is interleaved: y = [x_1, v_1, x_2, v_2, ...].
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass
 from typing import Callable
 
@@ -252,6 +254,37 @@ class StopRules:
     stall_factor: float = 5.0
     t_max: float | None = None
     max_steps: int | None = None
+
+    def __post_init__(self) -> None:
+        """Refuse every value no run can use: one-line TypeError/ValueError naming the field and its range."""
+        for name in ("peak_fraction", "death_fraction", "stall_factor", "overtake_factor"):
+            real_number(getattr(self, name), name)
+        if self.t_max is not None:
+            real_number(self.t_max, "t_max")
+        if not 0.0 < self.peak_fraction < 1.0:
+            raise ValueError(f"peak_fraction must lie in (0, 1), got {self.peak_fraction!r}")
+        if not 0.0 <= self.death_fraction < 1.0:
+            raise ValueError(f"death_fraction must lie in [0, 1), got {self.death_fraction!r}")
+        if self.t_max is not None and not (math.isfinite(self.t_max) and self.t_max > 0.0):
+            raise ValueError(f"t_max must be a finite number > 0 or None, got {self.t_max!r}")
+        if not (math.isfinite(self.stall_factor) and self.stall_factor > 1.0):
+            raise ValueError(f"stall_factor must be a finite number > 1, got {self.stall_factor!r}")
+        if not (math.isfinite(self.overtake_factor) and self.overtake_factor > 1.0):
+            raise ValueError(f"overtake_factor must be a finite number > 1, got {self.overtake_factor!r}")
+        steps = self.max_steps
+        if steps is not None and (isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1):
+            raise ValueError(f"max_steps must be an integer >= 1 or None, got {steps!r}")
+
+
+def real_number(value, name: str) -> None:
+    """A TypeError naming ``name`` unless ``value`` is a real number (not a bool, not a string), a
+    ValueError when it is an integer beyond float64."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__} {value!r}"[:200])
+    try:
+        float(value)
+    except OverflowError:
+        raise ValueError(f"{name} is beyond the float range (an integer of {len(str(value))} digits)") from None
 
 
 @dataclass

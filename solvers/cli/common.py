@@ -14,7 +14,6 @@ import sys
 from typing import Callable, Sequence, TextIO
 
 from pulsemap.symbolic.errors import PulsemapError
-from pulsemap.solvers.data.numba_cache import remove_damaged_numba_cache
 
 
 class UsageError(PulsemapError):
@@ -90,17 +89,6 @@ def write_text(path: str, text: str) -> None:
             write_atomic(os.path.realpath(path), text)
     except OSError as exc:
         raise WriteError(describe_os_error(exc, path, "the document")) from None
-
-
-def call_recovering_numba_cache(func: Callable[[argparse.Namespace], int], args: argparse.Namespace) -> int:
-    """``func(args)``; when numba fails to read its own cache files (damaged), they are removed with a
-    note on stderr and the command runs once more (its kernels are compiled anew, 20-30 s)."""
-    try:
-        return func(args)
-    except Exception as exc:  # noqa: BLE001 - only numba's cache damage is handled; the rest goes on up
-        if not remove_damaged_numba_cache(exc):
-            raise
-    return func(args)
 
 
 def stdout_document(args: argparse.Namespace) -> bool:

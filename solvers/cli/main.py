@@ -12,12 +12,14 @@ import importlib
 import os
 import re
 import sys
+import time
 import traceback
 from pathlib import Path
 from typing import Callable, NoReturn, Sequence
 
 from pulsemap.symbolic.errors import PulsemapError, closest
-from pulsemap.solvers.cli.common import UsageError, call_recovering_numba_cache, stdout_document, text_to_stderr
+from pulsemap.solvers.cli.common import UsageError, stdout_document, text_to_stderr
+from pulsemap.solvers.data.numba_cache import call_recovering_numba_cache
 
 EXIT_USAGE = 2  # a PulsemapError or an OSError: what was asked cannot be done as asked
 EXIT_BUG = 1  # any other exception: a bug in pulsemap (exit status 1, as Python gives an uncaught one)
@@ -106,16 +108,18 @@ def _is_number(text: str) -> bool:
 
 
 def _protect_expressions(argv: list[str], options: set[str] = frozenset()) -> list[str]:
-    """Let an expression that starts with '-' (e.g. "-mu*v", "-v") pass as a positional argument.
+    """Let an expression that starts with '-' (e.g. "-mu*v", "-v", "----u") pass as a positional argument.
 
-    A single-dash word that is no option of any command and no number is a value: a leading
-    space makes argparse take it as one (the expression parser skips the space).
+    A single-dash word that is no option of any command and no number is a value, as is a word of two
+    or more dashes that cannot be an option's name: a leading space makes argparse take it as one (the
+    expression parser skips the space).
     """
     out = []
     for arg in argv:
         single_dash = arg.startswith("-") and not arg.startswith("--") and arg != "-"
-        if single_dash and (any(c in arg for c in "*()^/+ ")
-                            or (arg.split("=")[0] not in options and not _is_number(arg))):
+        no_option = arg.startswith("--") and arg != "--" and not re.fullmatch(r"--[A-Za-z][\w-]*(=.*)?", arg, re.S)
+        if no_option or (single_dash and (any(c in arg for c in "*()^/+ ")
+                                          or (arg.split("=")[0] not in options and not _is_number(arg)))):
             arg = " " + arg  # argparse treats it as a value; the parser skips the space
         out.append(arg)
     return out
@@ -127,6 +131,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(_protect_expressions(list(sys.argv[1:] if argv is None else argv),
                                                       _option_strings(parser)))
         _check_outputs(args)
+        from pulsemap.symbolic.cache import remove_stale_temporaries
+
+        remove_stale_temporaries(time.time())  # what killed runs left behind, a day on
         func: Callable[[argparse.Namespace], int] = args.func
         if stdout_document(args):
             with text_to_stderr():

@@ -88,7 +88,10 @@ def cmd_run(args: argparse.Namespace) -> int:
                        progress=not args.quiet, seed_peak=args.seed_peak, snapshots=snapshots)
     why = nothing_ran(result)
     if why:
-        raise UsageError(why)
+        from pulsemap.solvers.studies.forcing import out_of_range
+
+        strong = out_of_range(scene)
+        raise UsageError(f"{strong}: {why}" if strong else why)
     if args.rank:
         add_ranking(scene, result)
     print(to_text(result, every=1 if args.all else None))

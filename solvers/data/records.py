@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, TextIO
 
 from pulsemap.symbolic.errors import PulsemapError
-from pulsemap.symbolic.files import FileKindError, bounded_lines, open_regular
+from pulsemap.symbolic.files import FileKindError, WriteError, bounded_lines, describe_os_error, open_regular
 
 MAX_LINE_BYTES = 64 * 1024 * 1024
 """Longest record line read (bytes read): a record is a few kB; a longer line is skipped unread."""
@@ -132,15 +132,18 @@ def read_keyed(path: str | os.PathLike, required: tuple[str, ...] = (),
 def open_for_append(path: str | os.PathLike) -> TextIO:
     """Open ``path`` (and its folder) for appending; end a line cut short by a killed run first."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if path.exists() and path.stat().st_size > 0:
-        with path.open("rb") as fh:
-            fh.seek(-1, os.SEEK_END)
-            cut = fh.read(1) != b"\n"
-        if cut:
-            with path.open("a", encoding="utf-8") as fh:
-                fh.write("\n")
-    return path.open("a", encoding="utf-8")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.exists() and path.stat().st_size > 0:
+            with path.open("rb") as fh:
+                fh.seek(-1, os.SEEK_END)
+                cut = fh.read(1) != b"\n"
+            if cut:
+                with path.open("a", encoding="utf-8") as fh:
+                    fh.write("\n")
+        return path.open("a", encoding="utf-8")
+    except OSError as exc:  # the system's reason alone names no file ("Invalid argument" for /proc/version)
+        raise WriteError(describe_os_error(exc, path, "the records file")) from None
 
 
 def write_record(fh: TextIO, record: dict, sync: bool = False) -> None:

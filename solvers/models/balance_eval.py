@@ -107,8 +107,9 @@ def evaluate_balance_law(module: ModuleType, A0: float, i0: float, contacts, eps
         ok = (base > 0) & np.isfinite(A)
         ended_at, status = None, "ok"
         if module.LAW_KIND == "power law":
-            b0 = float(module.law_closed(np.array([i0]), A0, i0, eps, *args)[1][0])
-            b1 = float(module.law_closed(np.array([i0 + 1.0]), A0, i0, eps, *args)[1][0])
+            with np.errstate(all="ignore"):  # only the base (linear in i) is read: its power may overflow
+                b0 = float(module.law_closed(np.array([i0]), A0, i0, eps, *args)[1][0])
+                b1 = float(module.law_closed(np.array([i0 + 1.0]), A0, i0, eps, *args)[1][0])
             if b1 < b0:  # base is linear in i and falls: the law ends where it reaches zero
                 ended_at = i0 + b0 / (b0 - b1)
                 status = "extinction" if module.LAW_POWER < 1 else "blow-up"

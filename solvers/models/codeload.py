@@ -8,6 +8,7 @@ used and never silently rebuilt).
 from __future__ import annotations
 
 import importlib.util
+import shutil
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -111,7 +112,13 @@ def _ensure(source) -> ModuleType:
                   file=sys.stderr, flush=True)
     from pulsemap.symbolic import codegen  # only now: the code is missing or damaged and must be generated
 
-    return _load_path(codegen.write(source))
+    path = codegen.write(source)
+    if path == cached:
+        return _load_path(path)
+    try:  # its place in the cache is taken: built in a private temporary folder, removed once loaded
+        return _load_path(path)
+    finally:
+        shutil.rmtree(path.parent, ignore_errors=True)
 
 
 def _check_profile(profile: str) -> None:

@@ -45,11 +45,14 @@ def evaluate_law(module: ModuleType, A0: float, i0: float, contacts, eps: float,
     args = contact_params(module, params, int(i0) + 1)
     S0 = module.S0
     if hasattr(module, "longwave_law"):
-        A, base = module.longwave_law(contacts, A0, i0, eps, *args)
+        with np.errstate(over="ignore"):  # A past float64 is a blow-up, reported as such below
+            A, base = module.longwave_law(contacts, A0, i0, eps, *args)
         A, base = np.broadcast_to(A, contacts.shape), np.broadcast_to(base, contacts.shape)
-        ok = base > 0
+        ok = (base > 0) & np.isfinite(A)
         ended_at, ended = None, ""
-        if not ok.all():
+        if np.all(base > 0) and not ok.all():  # the law's power left float64: blow-up at the first such contact
+            ended_at, ended = float(contacts[np.argmin(ok)]), "blow-up"
+        elif not ok.all():
             # base is linear in i: find where it crosses zero
             b0 = float(module.longwave_law(np.array([i0]), A0, i0, eps, *args)[1][0])
             b1 = float(module.longwave_law(np.array([i0 + 1.0]), A0, i0, eps, *args)[1][0])

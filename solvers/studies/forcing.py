@@ -28,7 +28,7 @@ from pulsemap.solvers.models.onsite import ForceError, distinct_beads, onsite_fo
 from pulsemap.solvers.studies.methods import RunError
 from pulsemap.solvers.studies.sweep import SweepError
 
-__all__ = ["bead_params", "chain_force", "force_failure", "make_force", "parameter_values"]
+__all__ = ["bead_params", "chain_force", "force_failure", "make_force", "out_of_range", "parameter_values"]
 
 #: Forces built by make_force in this process, by resolved force (most recent last).
 _FORCES: dict[tuple, OnSiteForce] = {}
@@ -101,16 +101,38 @@ def _build_force(scene: Scene, beads: int) -> OnSiteForce:
         with np.errstate(all="ignore"):
             f0 = np.asarray(force.restrict(0, k).force(zeros, zeros), dtype=float)
     except SweepError as exc:
-        raise RunError(str(exc)) from None
+        raise RunError(_at_rest(scene, beads) or str(exc)) from None
     except (ValueError, ArithmeticError) as exc:
-        raise RunError(f"the on-site force cannot be evaluated at rest: {exc}") from None
+        raise RunError(_at_rest(scene, beads) or f"the on-site force cannot be evaluated at rest: {exc}") from None
     if not np.all(np.isfinite(f0)):
-        raise RunError("the on-site force is undefined at rest (non-finite value): check R and its parameters")
+        raise RunError(_at_rest(scene, beads)
+                       or "the on-site force is undefined at rest (non-finite value): check R and its parameters")
     if np.any(np.abs(f0) > 1e-12):
         k = int(np.argmax(np.abs(f0)))
         eps_k = float(pert.eps) if k + 1 >= scene.first_perturbed else 0.0
         raise RunError(f"R(0, 0) = {f0[k] / max(eps_k, 1e-300):.6g} at bead {k + 1}: the chain would not start at rest")
     return force
+
+
+def _at_rest(scene: Scene, beads: int, scan: int = 64) -> str | None:
+    """The first perturbed bead (of the first ``scan``) where R or its slope in u or v is not a finite real
+    number at rest (u = v = 0), with the term and what it is there (derive's failing_term); None if none."""
+    import sympy
+
+    from pulsemap.symbolic.expression import failing_term, symbol
+
+    pert = scene.perturbation
+    values = parameter_values(scene, beads)
+    for bead in range(scene.first_perturbed, min(beads, scene.first_perturbed + scan) + 1):
+        point = {"u": 0.0, "v": 0.0, "i": float(bead)}
+        point.update({name: float(v[bead - 1]) if np.ndim(v) else float(v) for name, v in values.items()})
+        for what, expr in (("R", pert.R), ("dR/du", sympy.diff(pert.R, symbol("u"))),
+                           ("dR/dv", sympy.diff(pert.R, symbol("v")))):
+            found = failing_term(expr, point)
+            if found is not None:
+                return (f"R = {pert.text}: {what} is {found[1]} at rest on bead {bead} (its term {found[0]} is "
+                        f"{found[1]} there): R and its slopes must be finite and real at u = v = 0 on every bead")
+    return None
 
 
 def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | None = None) -> OnSiteForce:
@@ -147,3 +169,31 @@ def force_failure(scene: Scene, beads: int, exc: ArithmeticError, who: str) -> s
     when = f" at t = {exc.t:.6g}" if exc.t is not None else ""
     return (f"{who} stopped{when}: R = {pert.text} is not finite (or not real) at bead {bead} (u = {exc.x:.6g}, "
             f"v = {exc.v:.6g}; the on-site {exc.what} is {exc.value}){term}; {fix}")
+
+
+def out_of_range(scene: Scene) -> str | None:
+    """The values of eps and the parameters named, when eps R on the wave is more than FORCE_LIMIT times the
+    contact forces (chain/scaling: the largest on-site force the integrator holds, probed over the wave's
+    strains and velocities in the unit frame of v0): the integrator cannot follow it and the models' expansion
+    in small eps R does not hold. None when eps R is within it (or cannot be built)."""
+    from pulsemap.solvers.chain.equations import chain_length_for
+    from pulsemap.solvers.chain.scaling import FORCE_LIMIT, Scaling
+
+    beads = scene.beads or chain_length_for(scene.contacts[1])
+    try:
+        size = Scaling(scene.exponent, scene.velocity).unit_force_size(make_force(scene, beads), beads)
+    except (ValueError, ArithmeticError):
+        return None
+    if size <= FORCE_LIMIT:
+        return None
+    pert = scene.perturbation
+    values = [f"eps = {pert.eps:.6g}"]
+    for name, value in parameter_values(scene, beads).items():
+        if np.ndim(value):
+            big = float(np.max(np.abs(value)))
+            values.append(f"{name} up to {big:.6g} in magnitude" if np.isfinite(big) else f"{name} beyond float64")
+        else:
+            values.append(f"{name} = {value:.6g}")
+    shown = "inf" if not np.isfinite(size) else f"{size:.3g}"
+    return (f"{', '.join(values)} is beyond the range the DNS and the models hold: eps R reaches {shown} times the "
+            f"contact forces on the wave (limit {FORCE_LIMIT:g}); lower eps or the parameters")

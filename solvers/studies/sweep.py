@@ -36,7 +36,7 @@ from types import ModuleType
 from typing import Any, Callable, Iterable, Mapping, TextIO
 
 from pulsemap.symbolic.errors import PulsemapError
-from pulsemap.solvers.data.numba_cache import remove_damaged_numba_cache
+from pulsemap.solvers.data.numba_cache import call_recovering_numba_cache
 from pulsemap.solvers.data.records import open_for_append, read_keyed, write_record
 from pulsemap.solvers.studies.progress import Progress, StatusLine, describe
 
@@ -168,12 +168,7 @@ def _call(task: Callable[[dict], dict], params: dict) -> dict:
     t0 = time.perf_counter()
     where = {"host": socket.gethostname(), "pid": os.getpid()}
     try:
-        try:
-            result = task(params)
-        except Exception as exc:  # noqa: BLE001 - numba's damaged cache files: removed, the point run once more
-            if not remove_damaged_numba_cache(exc):
-                raise
-            result = task(params)
+        result = call_recovering_numba_cache(task, params)  # numba's damaged cache files: removed, run again
     except Exception as exc:  # noqa: BLE001 - recorded with its message, the sweep goes on
         message = str(exc).splitlines()[0] if str(exc) else ""
         return {"status": "error", "error": f"{type(exc).__name__}: {message}".rstrip(": "),

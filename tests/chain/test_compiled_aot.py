@@ -161,6 +161,28 @@ def test_a_failed_build_says_so_once_and_the_jit_kernel_serves(tmp_path, monkeyp
     assert np.array_equal(fast.peaks, got.peaks) and np.array_equal(fast.peak_times, got.peak_times)
 
 
+@pytest.mark.slow
+def test_a_damaged_module_is_never_loaded_but_built_again(tmp_path, monkeypatch, capsys):
+    """A truncated shared library crashes the process that loads it (SIGBUS): the module's sha256, recorded
+    when it was built, is checked first; a damaged one is built again with a note and gives the same peaks."""
+    aot = tmp_path / "aot"
+    monkeypatch.setattr(compiled_aot, "folder", lambda: aot)
+    monkeypatch.setattr(compiled_aot, "_loaded", {})
+    first = _damped()
+    (module,) = [p for p in aot.iterdir() if not p.name.endswith(".sha256")]
+    capsys.readouterr()
+    for damage in (lambda b: b[: len(b) // 2], lambda b: b[:4096] + bytes(len(b) - 4096)):
+        fresh = module.with_name("damaged")  # a new file renamed over: this process still maps the old one
+        fresh.write_bytes(damage(module.read_bytes()))
+        os.replace(fresh, module)
+        monkeypatch.setattr(compiled_aot, "_loaded", {})  # a new process
+        again = _damped()
+        err = capsys.readouterr().err
+        assert err.count("is damaged (not the file that was built") == 1 and "building it again" in err, err
+        assert np.array_equal(again.peaks, first.peaks) and np.array_equal(again.peak_times, first.peak_times)
+        assert compiled_aot._intact(module)
+
+
 CONCURRENT = r"""
 import json, sys
 from pathlib import Path
@@ -185,8 +207,9 @@ def test_concurrent_first_builds_install_one_module_atomically(tmp_path):
     assert any("ahead of time" in e for _, e in outs)
     peaks = [json.loads(o) for o, _ in outs]
     assert peaks[0] == peaks[1] and len(peaks[0]) > 10
-    files = [p.name for p in aot.iterdir()]  # one module, no temporary folder left
-    assert len(files) == 1 and files[0].startswith(compiled_aot.module_name(plan.METHOD, "dense") + ".")
+    files = sorted(p.name for p in aot.iterdir())  # one module and its digest, no temporary folder left
+    assert len(files) == 2 and files[0].startswith(compiled_aot.module_name(plan.METHOD, "dense") + ".")
+    assert files[1] == files[0] + ".sha256"
 
 
 WARM = r"""

@@ -431,3 +431,12 @@ def test_run_specs_are_frozen_values_checked_when_made():
         Integrator(engine="numba")
     with pytest.raises(TypeError, match="launch must be"):
         Chain(40, 1.5, 1.0, launch=(0.7, 8))
+
+
+def test_the_ends_of_the_option_ranges_still_run():
+    """The ranges the option objects enforce refuse only what no run can use: rtol just below 1 and the
+    largest exponent give finite peaks."""
+    loose = simulate(Chain(40, 1.5, 1.0), (5, 30), integrator=Integrator(rtol=0.99)).peaks
+    assert np.all(np.isfinite(loose[:10]))
+    steep = simulate(Chain(40, 20.0, 1.0), (5, 30)).peaks
+    assert np.all(np.isfinite(steep)) and np.all(steep > 0)

@@ -119,3 +119,85 @@ def test_a_compiled_run_reports_its_kernel_compile_apart_from_the_integration():
     assert np.array_equal(first.peaks, again.peaks) and again.wall_time_s > 0.0
     scipy_run = simulate(Chain(40, 1.5, 1.0), (5, 30), integrator=Integrator(rtol=1e-8, engine="scipy"))
     assert scipy_run.compile_s == 0.0
+
+
+def _truncate(path: Path) -> None:
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+
+
+DAMAGE = {
+    "random bytes in .nbi": ("*.nbi", lambda p: p.write_bytes(np.random.default_rng(1).bytes(64))),
+    "random bytes in .nbc": ("*.nbc", lambda p: p.write_bytes(np.random.default_rng(2).bytes(64))),
+    "emptied .nbc": ("*.nbc", lambda p: p.write_bytes(b"")),
+    "truncated .nbi": ("*.nbi", _truncate),
+    "truncated .nbc": ("*.nbc", _truncate),
+    "unreadable .nbc": ("*.nbc", lambda p: p.chmod(0)),
+}
+
+
+@pytest.mark.parametrize("how", DAMAGE)
+def test_a_damaged_cache_entry_is_compiled_again_with_a_note(how, tmp_path, monkeypatch, capsys):
+    """Real numba cache files, damaged: the next dispatcher compiles the function anew (no exception),
+    says so once, and writes an entry that a third dispatcher loads."""
+    import os
+
+    if how.startswith("unreadable") and os.geteuid() == 0:
+        pytest.skip("root reads a file without read permission")
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "numba"))
+    assert _tiny_kernel(tmp_path)(1.5) == 2.5
+    pattern, damage = DAMAGE[how]
+    files = list((tmp_path / "numba").rglob(pattern))
+    assert files
+    for path in files:
+        damage(path)
+    capsys.readouterr()
+    again = _tiny_kernel(tmp_path)
+    assert again(1.5) == 2.5 and again.stats.cache_misses and not again.stats.cache_hits
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "numba's compiled-code cache in " in err and "is damaged (" in err, err
+    assert "compiled again" in err
+    third = _tiny_kernel(tmp_path)
+    assert third(1.5) == 2.5 and third.stats.cache_hits and not third.stats.cache_misses
+    assert capsys.readouterr().err == ""
+
+
+def test_every_damaged_entry_is_compiled_again_however_many(tmp_path, monkeypatch, capsys):
+    """Two functions in one folder, both damaged: one note for the folder, both compiled again."""
+    import importlib.util
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "numba"))
+    path = tmp_path / "two_kernels.py"
+    path.write_text("from pulsemap.solvers.chain.jit import njit\n\n\n@njit(cache=True)\ndef a(x):\n    return x + 1.0\n"
+                    "\n\n@njit(cache=True)\ndef b(x):\n    return a(x) * 2.0\n", encoding="utf-8")
+
+    def load():
+        spec = importlib.util.spec_from_file_location("pulsemap_test_two_kernels", path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
+    assert load().b(1.0) == 4.0
+    files = list((tmp_path / "numba").rglob("*.nb?"))
+    assert len([p for p in files if p.suffix == ".nbi"]) == 2
+    for p in files:
+        p.write_bytes(b"")
+    capsys.readouterr()
+    fresh = load()
+    assert fresh.b(1.0) == 4.0 and fresh.a(1.0) == 2.0
+    assert capsys.readouterr().err.count("is damaged (") == 1
+    assert all(p.stat().st_size > 0 for p in (tmp_path / "numba").rglob("*.nb?"))
+
+
+def test_a_folder_where_a_cache_entry_goes_is_bypassed_with_a_note(tmp_path, monkeypatch, capsys):
+    """An index file's place taken by a folder: the function is compiled in memory each time, one note."""
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "numba"))
+    assert _tiny_kernel(tmp_path)(1.5) == 2.5
+    (index,) = (tmp_path / "numba").rglob("*.nbi")
+    index.unlink()
+    index.mkdir()
+    capsys.readouterr()
+    again = _tiny_kernel(tmp_path)
+    assert again(1.5) == 2.5 and again.stats.cache_misses
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"numba's compiled-code cache in {index.parent}" in err, err
+    assert index.is_dir()  # not ours to remove

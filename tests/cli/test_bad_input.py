@@ -209,6 +209,11 @@ CLI = [
     ("R singular on the wave's path, energy law", ["run", "default", "--set", "perturbation.R=-v/(u-0.5)",
                                                    "--methods", "energy-law"],
      ["its term 1/(u - 1/2) is infinite where the wave takes bead", "work of R on the wave is not finite"]),
+    ("R singular on the wave's path, derive --model energy", ["derive", "u*exp(1/(u-1))", "--model", "energy"],
+     ["its term 1/(u - 1) is infinite where the wave of amplitude A = ", "meets it", "work of R on the wave is not finite"]),
+    ("R singular on the wave's path, derive --model energy with a parameter",
+     ["derive", "-mu*v/(u-0.5)", "--param", "mu=1", "--model", "energy"],
+     ["its term 1/(u - 1/2) is infinite where the wave of amplitude A = ", "meets it"]),
     ("R singular in the relaxed map's segment runs", ["run", "default", "--set", "perturbation.R=u*exp(1/(u-1))",
                                                        "--methods", "relaxed"],
      ["relaxed: failed: relaxed's segment DNS stopped at t = ", "its term exp(1/(u - 1)) is infinite there"]),
@@ -219,10 +224,38 @@ CLI = [
     ("parameter a 401-digit integer", ["run", "default", "--set", "perturbation.params.mu=" + "9" * 401],
      ["'mu'", "(401 digits) is beyond float64"]),
     ("seed peak 1e300", ["run", "default", "--seed-peak", "1e300", "--methods", "map"],
-     ["nothing ran: map: failed: OverflowError", "seeded with peak 1e+300", "smaller --seed-peak"]),
+     ["seed peak 1e+300 is beyond the range 1e-120 <= peak <= 1e+120", "n = 1.5", "give a peak within it"]),
     ("run: --methods ''", ["run", "default", "--methods", ""], ["--methods ''", "names no method"]),
     ("run: nothing ran, with the reason", ["run", "default", "--methods", "dns", "--set", "perturbation.eps=1e300"],
-     ["nothing ran: no method produced a peak: DNS: no live primary pulse", "pulse died"]),
+     ["eps = 1e+300, mu = 1 is beyond the range the DNS and the models hold", "times the contact forces",
+      "nothing ran: no method produced a peak: DNS: no live primary pulse", "pulse died"]),
+    # messages that named a library's words, not the problem
+    ("seed peak 1e-300", ["run", "default", "--seed-peak", "1e-300", "--methods", "map"],
+     ["seed peak 1e-300 is beyond the range 1e-120 <= peak <= 1e+120"]),
+    ("seed peak 5e-324", ["run", "default", "--seed-peak", "5e-324", "--methods", "map"],
+     ["seed peak 4.94066e-324 is beyond the range"]),
+    ("parameter i^64", ["run", "default", "--set", "perturbation.params.mu=i^64", "--methods", "longwave"],
+     ["the long-wave law (Eq. 30) stopped", "mu up to", "is beyond the range the DNS and the models hold"]),
+    ("sweep --out a /proc file", ["sweep", "default", "--over", "perturbation.eps=0.1,0.2", "--out", "/proc/version",
+                                  "--workers", "1", "--quiet"],
+     ["cannot write the records file /proc/version", "write elsewhere"]),
+    ("eps 1e300, the map", ["run", "default", "--methods", "map", "--set", "perturbation.eps=1e300"],
+     ["eps = 1e+300, mu = 1 is beyond the range", "nothing ran"]),
+    ("parameter 1e300, map and DNS", ["run", "default", "--methods", "map,dns", "--set", "perturbation.params.mu=1e300"],
+     ["mu = 1e+300 is beyond the range", "nothing ran"]),
+    ("parameter -1e300, the map", ["run", "default", "--methods", "map", "--set", "perturbation.params.mu=-1e300"],
+     ["mu = -1e+300 is beyond the range", "nothing ran"]),
+    ("parameter 1e300, long-wave law", ["run", "default", "--methods", "longwave", "--set",
+                                        "perturbation.params.mu=1e300"], ["mu = 1e+300 is beyond the range"]),
+    ("parameter -1e300, DNS", ["run", "default", "--methods", "dns", "--set", "perturbation.params.mu=-1e300"],
+     ["mu = -1e+300 is beyond the range"]),
+    ("eps a 401-digit integer", ["run", "default", "--set", "perturbation.eps=" + "9" * 401],
+     ["eps = 999999999999... (401 digits) is beyond float64", "(401 characters)"]),
+    ("R complex at rest", ["run", "default", "--set", "perturbation.R=(-1)^(i/2)*u", "--methods", "dns"],
+     ["R is complex at rest on bead 17", "its term (-1)**(i/2) is complex there"]),
+    ("R complex at rest, the map", ["run", "default", "--set", "perturbation.R=(-1)^(i/2)*u", "--methods", "map"],
+     ["R is complex at rest on bead 17", "its term (-1)**(i/2) is complex there"]),
+    ("60 leading minus signs", ["derive", "-" * 60 + "u"], ["nesting too deep", "signs"]),
     # argparse's own usage errors
     ("no command", [], ["required", "COMMAND"]),
     ("unknown command", ["rnu", "default"], ["invalid choice: 'rnu'", "did you mean 'run'"]),
@@ -233,7 +266,8 @@ CLI = [
 
 @pytest.mark.parametrize("argv, needles", [c[1:] for c in CLI], ids=[c[0] for c in CLI])
 def test_cli(argv, needles, capsys):
-    check_cli(argv, needles, capsys)
+    err = check_cli(argv, needles, capsys)
+    assert len(err) < 600, err  # an echoed value is shortened
 
 
 SUBPROCESS = [
@@ -274,6 +308,8 @@ def edit(old: str, new: str) -> str:
 SCENES = [
     ("toml syntax error", edit("eps = 0.1", "eps = = 0.1"), ["TOML syntax error", "line 10"]),
     ("misspelt key", edit("velocity = 1.0", "velocty = 1.0"), ["'velocty'", "did you mean 'velocity'"]),
+    ("a name of a million characters", edit('name = "catalogue"', 'name = "' + "n" * 1_000_000 + '"'),
+     ["name is 1000000 characters long, more than 1000"]),
     ("misspelt table", edit("[output]", "[ouptut]"), ["[ouptut]", "did you mean [output]"]),
     ("beads zero", edit("beads = 60", "beads = 0"), ["beads = 0", ">= 3"]),
     ("beads negative", edit("beads = 60", "beads = -40"), ["beads = -40", ">= 3"]),
@@ -362,6 +398,14 @@ def _pert(R="-mu*v", eps=0.1, params=None):
     return make_perturbation(R, eps, {"mu": 1.0} if params is None else params)
 
 
+def _sympy():
+    return importlib.import_module("sympy")
+
+
+def _sym(name: str):
+    return _sympy().Symbol(name)
+
+
 def _expression_error():
     from pulsemap.symbolic.expression import ExpressionError
 
@@ -446,6 +490,21 @@ API: list[tuple[str, Callable[[], object], Callable[[], type], list[str]]] = [
      _perturbation_error, ["'normal'", "uniform"]),
     ("perturbation: unknown symbol", lambda: _pert("-mu*w"), _perturbation_error, ["unknown symbol 'w'"]),
     ("perturbation: R a list", lambda: _pert(["-mu*v"]), _perturbation_error, ["R must be a string", "list"]),
+    # symbolic input bounded the same from every door (expression.bound_size): terms, nodes, degree, float64
+    ("perturbation: sympy R of 5000 terms", lambda: _pert(sum(_sym(f"a{j}") * _sym("v") ** (1 + j % 3) for j in range(5000))),
+     _perturbation_error, ["R has 5000 terms", "more than 500"]),
+    ("perturbation: sympy R of 4200 nodes", lambda: _pert(_sym("v") * _sympy().Mul(*(_sympy().sin(_sym(f"a{j}"))
+                                                                                      for j in range(2100)))),
+     _perturbation_error, ["R has more than 4000 nodes"]),
+    ("perturbation: sympy R of degree 65", lambda: _pert(_sym("u") ** 65), _perturbation_error,
+     ["R has total degree 65", "more than 64"]),
+    ("perturbation: text R of degree 65", lambda: _pert("u^64*u"), _perturbation_error, ["total degree 65", "more than 64"]),
+    ("perturbation: sympy Float 1e400 in R", lambda: _pert(_sympy().Float("1e400") * _sym("u")), _perturbation_error,
+     ["R contains the number 1.00000e+400", "beyond float64"]),
+    ("perturbation: a 401-digit integer in R", lambda: _pert(_sympy().Integer(10) ** 400 * _sym("u")),
+     _perturbation_error, ["(401 digits), beyond float64"]),
+    ("perturbation: a number float64 rounds to 0 in R", lambda: _pert(_sympy().Rational(1, 10**400) * _sym("u")),
+     _perturbation_error, ["rounds to 0.0"]),
     ("bead values: zero beads", lambda: _pert().bead_values("mu", 0), _perturbation_error, ["beads", "positive"]),
     ("bead values: wrong length", lambda: _pert(params={"mu": [1.0, 2.0]}).bead_values("mu", 5),
      _perturbation_error, ["'mu'", "2 per-bead values", "5 beads"]),
@@ -482,6 +541,34 @@ def test_api(call, error, needles):
     cls = error()
     assert issubclass(cls, ValueError) and cls is not ValueError
     with pytest.raises(cls) as info:
+        call()
+    message = str(info.value)
+    assert "\n" not in message, message
+    for needle in needles:
+        assert needle in message, (needle, message)
+
+
+def _dns():
+    return importlib.import_module("pulsemap.solvers.chain.dns")
+
+
+OPTIONS = [  # option objects refuse at construction what no run can use, naming the field and its range
+    ("Integrator rtol 1e300", lambda: _dns().Integrator(rtol=1e300), ["rtol = 1e+300", "2.2e-14 <= rtol < 1"]),
+    ("Integrator rtol 1", lambda: _dns().Integrator(rtol=1.0), ["rtol = 1 ", "rtol < 1"]),
+    ("Chain exponent 50", lambda: _dns().Chain(40, 50, 1.0), ["exponent n = 50", "1.01 <= n <= 20"]),
+    ("Snapshots span of floats", lambda: _dns().Snapshots(span=(1.5, 2.7)), ["snapshot span", "integers in 0..", "(1.5, 2.7)"]),
+    ("Snapshots span 1e9", lambda: _dns().Snapshots(span=(10**9, 1)), ["snapshot span", "integers in 0..1000000"]),
+    ("Snapshots contacts a string", lambda: _dns().Snapshots(contacts="abc"),
+     ["snapshot contacts must be a sequence of integers", "'abc'"]),
+    ("Snapshots contact a float", lambda: _dns().Snapshots(contacts=[20, 1.5]), ["snapshot contact 1.5", "integer >= 1"]),
+    ("StopRules peak_fraction 2", lambda: _dns().StopRules(peak_fraction=2.0), ["peak_fraction", "(0, 1)"]),
+    ("StopRules t_max nan", lambda: _dns().StopRules(t_max=math.nan), ["t_max", "finite number > 0"]),
+]
+
+
+@pytest.mark.parametrize("call, needles", [c[1:] for c in OPTIONS], ids=[c[0] for c in OPTIONS])
+def test_option_objects_refuse_what_no_run_can_use(call, needles):
+    with pytest.raises(ValueError) as info:
         call()
     message = str(info.value)
     assert "\n" not in message, message

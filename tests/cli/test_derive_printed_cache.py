@@ -96,6 +96,24 @@ def test_a_damaged_printed_entry_is_derived_again(own_cache, derivations, capsys
     assert captured.out == out and "does not match its sha256 digest" in captured.err
 
 
+def test_a_forged_printed_entry_with_terminal_codes_is_derived_again(own_cache, derivations, capsys):
+    """An entry edited with its digest recomputed passes the digest, but this code never prints a control
+    character: text holding one (a terminal escape) is damage, derived again, never sent to the terminal."""
+    from pulsemap.symbolic import cache
+
+    assert main(VDP) == 0
+    out = capsys.readouterr().out
+    (path,) = (own_cache / printed.NAMESPACE).glob("*.json")
+    entry = json.loads(path.read_text())
+    entry["value"]["printed"] = "\x1b]0;owned\x07\x1b[2J" + entry["value"]["printed"]
+    entry["sha256"] = cache.digest(entry["value"])
+    path.write_text(json.dumps(entry))
+    assert main(VDP) == 0 and len(derivations) == 2
+    captured = capsys.readouterr()
+    assert captured.out == out and "\x1b" not in captured.out + captured.err
+    assert "control character '\\x1b'" in captured.err and captured.err.count("\n") == 1
+
+
 def test_a_failed_derivation_is_not_stored(own_cache, derivations, capsys):
     for _ in range(2):
         assert main(["derive", "-mu*v", "--param", "mu=1", "--fold", "nu"]) == 2

@@ -4,9 +4,11 @@ tabulated by quadrature over the wave, the model ``run --methods energy-law`` ev
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
+import sympy
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
@@ -65,3 +67,47 @@ def test_text_report_and_refused_options(capsys):
         assert "pulsemap: error:" in capsys.readouterr().err
     assert main(["derive", "-k*sin(u)", "--param", "k=1,2,3", "--model", "energy"]) == 2
     assert "uniform R" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("R, params, pole", [("u*exp(1/(u-1))", [], 1.0), ("-mu*v/(u-0.5)", ["--param", "mu=1"], 0.5)])
+def test_path_through_a_pole_is_refused_at_the_amplitude_where_it_meets_it(capsys, R, params, pole):
+    """As run refuses it: exit 2, one line naming the pole's term and the amplitude A at which the bead's
+    path u = A X(tau) first reaches u = pole, i.e. A X(L) = pole with X(L) = sum_k S(L - k) (the final shift)."""
+    from pulsemap.symbolic.profile import exact_profile
+
+    assert main(["derive", R, *params, "--model", "energy"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1
+    match = re.search(r"infinite where the wave of amplitude A = ([0-9.e+-]+) \(peak", captured.err)
+    assert match and f"its term 1/(u - {sympy.nsimplify(pole)})" in captured.err, captured.err
+    prof = exact_profile(1.5)
+    L = int(np.ceil(prof.tail)) + 1
+    shift = sum(float(prof.S(np.array([L - k]))[0]) for k in range(2 * L + 1))
+    assert float(match.group(1)) * shift == pytest.approx(pole, rel=1e-4)
+
+
+def test_rates_the_quadrature_does_not_resolve_are_not_numbers(capsys):
+    """A Lorentzian of width 1e-3 in u: where the path crosses it the 24-node rate is wrong; those rows are
+    refused (null, 'not resolved'), and every rate still given agrees with 8 times the nodes."""
+    from pulsemap.solvers.models.codeload import force_module
+    from pulsemap.solvers.models.energy_quadrature import NODES, RATE_TOLERANCE, bead_force, wave_table, work
+
+    args = ["-mu*v/(k+(u-0.5)^2)", "--param", "mu=1", "--param", "k=1e-6"]
+    doc = _derive_json(capsys, *args)
+    rows = doc["law"]["table"]
+    assert any(not r["resolved"] for r in rows) and any(r["resolved"] for r in rows)
+    module = force_module("-mu*v/(k+(u-0.5)^2)", ("k", "mu"))
+    force = bead_force(module, 0.1, lambda bead: tuple({"mu": 1.0, "k": 1e-6}[p] for p in module.PARAMS))
+    fine = wave_table(1.5, 8 * NODES)
+    worst_refused = 0.0
+    for row in rows:
+        exact = work(lambda x, v: force(x, v, 1.0), row["A"], fine) / fine.E1
+        if row["resolved"]:
+            assert row["rate_dB_di"] == pytest.approx(exact, rel=10 * RATE_TOLERANCE, abs=1e-300)
+        else:
+            assert row["rate_dB_di"] is None and row["dlnA_di"] is None
+            worst_refused = max(worst_refused, row["error"] / abs(exact))
+    assert worst_refused > 1e-3  # what is refused was really wrong
+    assert main(["derive", *args, "--model", "energy"]) == 0
+    out = capsys.readouterr().out
+    assert "not resolved" in out and "nan" not in out.lower()

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from conftest import scene_toml, write_scene
 from pulsemap.solvers.data.scene import load_scene, parse_scene
@@ -71,3 +73,35 @@ def test_without_a_usable_cache_the_scene_still_loads(tmp_path, monkeypatch):
     monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(blocker / "cache"))
     scene = load_scene("fig8-eps0.1")
     assert scene.perturbation.eps == 0.1 and not isinstance(scene.perturbation, CachedPerturbation)
+
+
+@pytest.mark.parametrize("field, forged, needle", [
+    ("contacts", lambda d: d["output"].update(contacts=[16, 1e9]), "[output] contacts last must be an integer"),
+    ("contacts", lambda d: d["output"].update(contacts=[16, 10**9]), "beyond the supported 1000000 beads"),
+    ("beads", lambda d: d["chain"].update(beads=20), "contact 30 is beyond a chain of 20 beads"),
+    ("exponent", lambda d: d["chain"].update(exponent=50.0), "outside the supported range"),
+    ("eps", lambda d: d["perturbation"].update(eps=-1.0), "eps = -1.0 must be >= 0"),
+    ("name", lambda d: d.update(name="x\x1b[2Jy"), "contains control characters"),
+    ("R", lambda d: d["perturbation"].update(R="-mu*v\x1b[2J"), "R must be a printable formula"),
+    ("params", lambda d: d["perturbation"]["params"].update(mu=[1.0, 2.0]), "2 per-bead values for a chain of 60"),
+])
+def test_a_forged_record_is_checked_as_the_scene_file_and_parsed_again(field, forged, needle, tmp_path, monkeypatch,
+                                                                        capsys):
+    """A record edited with its digest recomputed is re-validated like user input: refused with one note
+    naming the problem, and the scene is the file's."""
+    from pulsemap.symbolic import cache
+
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path / "cache"))
+    path = write_scene(tmp_path, scene_toml("forged", beads=60, contacts=(16, 30)))
+    original = load_scene(path)
+    (entry_path,) = (tmp_path / "cache" / "scenes").glob("*.json")
+    entry = json.loads(entry_path.read_text())
+    forged(entry["value"]["scene"])
+    entry["sha256"] = cache.digest(entry["value"])
+    entry_path.write_text(json.dumps(entry))
+    capsys.readouterr()
+    scene = load_scene(path)
+    err = capsys.readouterr().err
+    assert scene == original and scene.contacts == (16, 30) and scene.name == "forged"
+    assert err.count("\n") == 1 and "refused as a scene file would be" in err and needle in err, err
+    assert "\x1b" not in err

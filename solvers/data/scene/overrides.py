@@ -55,10 +55,10 @@ def scene_keys(scene: Scene) -> list[str]:
 def parse_assignment(text: str) -> tuple[str, Any]:
     """'perturbation.eps=0.2' -> ('perturbation.eps', 0.2); the value as TOML, else as text."""
     if not isinstance(text, str) or "=" not in text:
-        raise SceneError(f"--set {text!r}: expected KEY=VALUE with a dotted scene key, e.g. --set perturbation.eps=0.2")
+        raise SceneError(f"--set {shorten(repr(text))}: expected KEY=VALUE with a dotted scene key, e.g. --set perturbation.eps=0.2")
     key, raw = (part.strip() for part in text.split("=", 1))
     if not key or not raw:
-        raise SceneError(f"--set {text!r}: expected KEY=VALUE with a dotted scene key, e.g. --set perturbation.eps=0.2")
+        raise SceneError(f"--set {shorten(repr(text))}: expected KEY=VALUE with a dotted scene key, e.g. --set perturbation.eps=0.2")
     try:
         value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
@@ -139,12 +139,17 @@ def with_sets(scene: Scene, assignments: Iterable[str | tuple[str, Any]]) -> Sce
     items = [parse_assignment(a) if isinstance(a, str) else tuple(a) for a in assignments]
     if not items:
         return scene
-    shown = ", ".join(f"{k}={v}" for k, v in items)
+    shown = ", ".join(f"{k}={shorten(str(v))}" for k, v in items)
     named = [] if any(k == "name" for k, _ in items) else [("name", f"{scene.name} [{shown}]")]
     try:
         return apply_overrides(scene, items + named)
     except SceneError as exc:
         raise SceneError(f"--set {shown}: {exc}") from None
+
+
+def shorten(text: str, most: int = 40) -> str:
+    """``text`` for a one-line message: as it is up to ``most`` characters, else its start and its length."""
+    return text if len(text) <= most else f"{text[:most - 16]}... ({len(text)} characters)"
 
 
 def _text(value: float | int) -> str:

@@ -70,6 +70,9 @@ def override_changes(scene: Scene, kw: Mapping[str, Any]) -> list[tuple[str, Any
     return changes
 
 
+MAX_NAME = 1000  # characters of a scene's name: a label in reports (--set adds each change to it, shortened)
+
+
 class _Problem(Exception):
     """A problem found by a field check; turned into a SceneError with the scene's name."""
 
@@ -249,8 +252,10 @@ def _check_fields(raw: Mapping[str, Any]) -> dict[str, Any]:
 def _check_name(value: Any) -> str:
     if not isinstance(value, str) or not value.strip():
         raise _Problem(f"name must be a non-empty string, got {_type_name(value)}: e.g. name = \"damping-eps0.3\"")
+    if len(value) > MAX_NAME:
+        raise _Problem(f"name is {len(value)} characters long, more than {MAX_NAME}: use a short one-line name")
     if any(not c.isprintable() for c in value):
-        raise _Problem(f"name {value!r} contains control characters: use a short one-line name")
+        raise _Problem(f"name {value[:40]!r} contains control characters: use a short one-line name")
     return value.strip()
 
 
@@ -381,24 +386,7 @@ def _check_consistency(scene: Scene) -> None:
     from pulsemap.symbolic.perturbation import PerturbationError, RandomDraw
 
     first, last = scene.contacts
-    if scene.beads is not None:
-        if last > scene.beads - 1:
-            raise _Problem(
-                f"contact {last} is beyond a chain of {scene.beads} beads (last contact {scene.beads - 1}): "
-                "raise beads or lower contacts"
-            )
-        if scene.first_perturbed > scene.beads:
-            raise _Problem(
-                f"[chain] first_perturbed = {scene.first_perturbed} is beyond a chain of {scene.beads} beads: "
-                "lower first_perturbed or raise beads"
-            )
-    seeded = [m for m in METHODS if m != "dns" and m in scene.methods]
-    if seeded and first < scene.first_perturbed:
-        raise _Problem(
-            f"[output] contacts start at {first}, before first_perturbed = {scene.first_perturbed}, but "
-            f"{' and '.join(seeded)} start at the first perturbed contact (seeded by contact "
-            f"{scene.first_perturbed - 1}): set contacts = [{scene.first_perturbed}, {last}] or methods = [\"dns\"]"
-        )
+    _check_chain_fits(scene.beads, scene.first_perturbed, scene.contacts, scene.methods)
     _check_chain_terms(scene)
     pert = scene.perturbation
     if scene.beads is None:
@@ -417,6 +405,81 @@ def _check_consistency(scene: Scene) -> None:
         pert.check_at_rest(1 if pert.is_uniform else scene.beads)  # uniform R: every bead alike, O(1)
     except PerturbationError as exc:
         raise _Problem("[perturbation] " + _scene_hint(str(exc))) from None
+
+
+def _check_chain_fits(beads: int | None, first_perturbed: int, contacts: tuple[int, int],
+                      methods: tuple[str, ...]) -> None:
+    """The chain holds the contacts and first_perturbed; the seeded models start where R does."""
+    first, last = contacts
+    if beads is not None:
+        if last > beads - 1:
+            raise _Problem(
+                f"contact {last} is beyond a chain of {beads} beads (last contact {beads - 1}): "
+                "raise beads or lower contacts"
+            )
+        if first_perturbed > beads:
+            raise _Problem(
+                f"[chain] first_perturbed = {first_perturbed} is beyond a chain of {beads} beads: "
+                "lower first_perturbed or raise beads"
+            )
+    seeded = [m for m in METHODS if m != "dns" and m in methods]
+    if seeded and first < first_perturbed:
+        raise _Problem(
+            f"[output] contacts start at {first}, before first_perturbed = {first_perturbed}, but "
+            f"{' and '.join(seeded)} start at the first perturbed contact (seeded by contact "
+            f"{first_perturbed - 1}): set contacts = [{first_perturbed}, {last}] or methods = [\"dns\"]"
+        )
+
+
+def check_recorded_scene(d: Mapping[str, Any]) -> dict[str, Any]:
+    """A scene record read back (:meth:`Scene.as_dict` from the cache) checked as a scene file is, without
+    sympy: every plain field by its own check, the chain against the contacts, eps, the parameter values
+    and R's text (printable). Returns the checked plain fields; a SceneError naming the first problem."""
+    name, source = "record", ""
+    try:
+        if not isinstance(d, Mapping):
+            raise _Problem(f"a scene record must be a table, got {_type_name(d)}")
+        source = d.get("source", "")
+        tables = {key: _as_table(d.get(key), key) for key in ("chain", "excitation", "perturbation", "output",
+                                                               "model", "dns")}
+        chain, output, model = tables["chain"], tables["output"], tables["model"]
+        fields = _check_fields({
+            "name": d.get("name"), "beads": chain.get("beads"), "exponent": chain.get("exponent"),
+            "first_perturbed": chain.get("first_perturbed"), "velocity": tables["excitation"].get("velocity"),
+            "contacts": output.get("contacts"), "methods": output.get("methods"), "profile": model.get("profile"),
+            "variant": model.get("variant"), "dns": tables["dns"], "source": source})
+        name = fields["name"]
+        _check_chain_fits(fields["beads"], fields["first_perturbed"], fields["contacts"], fields["methods"])
+        pert = tables["perturbation"]
+        R = pert.get("R")
+        if not isinstance(R, str) or not R.strip() or not R.isprintable():
+            raise _Problem(f"[perturbation] R must be a printable formula, got {_type_name(R)}")
+        if _number(pert.get("eps"), "[perturbation] eps") < 0:
+            raise _Problem(f"[perturbation] eps = {pert.get('eps')} must be >= 0")
+        for pname, value in _as_table(pert.get("params"), "perturbation.params").items():
+            _check_recorded_param(str(pname), value, fields["beads"])
+    except _Problem as exc:
+        raise SceneError(_prefix(str(source), str(name)) + str(exc)) from None
+    return fields
+
+
+def _check_recorded_param(name: str, value: Any, beads: int | None) -> None:
+    """A recorded parameter value: a finite number, a per-bead list of them (one a bead), or a random draw."""
+    key = f"[perturbation.params] {name}"
+    if isinstance(value, Mapping):
+        bounds, seed = value.get("uniform"), value.get("seed")
+        if not (isinstance(bounds, list) and len(bounds) == 2) or isinstance(seed, bool) or not isinstance(seed, int) \
+                or seed < 0:
+            raise _Problem(f"{key} must be a random draw {{uniform = [lo, hi], seed = s}}, got {_type_name(value)}")
+        for bound in bounds:
+            _number(bound, key)
+    elif isinstance(value, list):
+        if beads is None or len(value) != beads:
+            raise _Problem(f"{key} holds {len(value)} per-bead values for a chain of {beads} beads")
+        for item in value:
+            _number(item, key)
+    else:
+        _number(value, key)
 
 
 def _check_chain_terms(scene: Scene) -> None:

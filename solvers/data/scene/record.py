@@ -21,9 +21,10 @@ from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 from pulsemap.symbolic import __version__
-from pulsemap.symbolic.cache import load, store
-from pulsemap.symbolic.frozenmap import FrozenMap
+from pulsemap.symbolic.cache import load, note_damaged, store
 from pulsemap.symbolic.param_forms import ParamMap, RandomDraw, param_data
+from pulsemap.solvers.data.scene.parse import check_recorded_scene
+from pulsemap.solvers.data.scene.schema import SceneError
 from pulsemap.solvers.data.scene.spec import Scene
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -118,18 +119,19 @@ def load_record(text: bytes, source: str) -> Scene | None:
     if value is None:
         return None
     d, facts = value["scene"], value["facts"]
+    try:  # a record is re-validated as the scene file would be: a forged one is read as damaged
+        fields = check_recorded_scene(d)
+    except SceneError as exc:
+        note_damaged(NAMESPACE, record_key(text, source), f"refused as a scene file would be: {exc}")
+        return None
     pert = d["perturbation"]
     return Scene(
-        name=d["name"], beads=d["chain"]["beads"], exponent=float(d["chain"]["exponent"]),
-        first_perturbed=int(d["chain"]["first_perturbed"]), velocity=float(d["excitation"]["velocity"]),
+        **fields,
         perturbation=CachedPerturbation(
             text=pert["R"], eps=float(pert["eps"]),
             params=ParamMap.of({k: _param_value(v) for k, v in pert["params"].items()}),
             used_parameters=tuple(facts["used_parameters"]), uses_i=bool(facts["uses_i"]),
             is_zero=bool(facts["is_zero"])),
-        contacts=(int(d["output"]["contacts"][0]), int(d["output"]["contacts"][1])),
-        methods=tuple(d["output"]["methods"]), profile=d["model"]["profile"], variant=d["model"]["variant"],
-        dns=FrozenMap(tuple(d["dns"].items())), source=d["source"],
     )
 
 
@@ -156,8 +158,11 @@ def _check(value: Any) -> str | None:
     try:
         d, facts = value["scene"], value["facts"]
         numbers = [d["chain"]["exponent"], d["excitation"]["velocity"], d["perturbation"]["eps"]]
+        used = facts["used_parameters"]
         ok = (all(isinstance(x, (int, float)) and math.isfinite(x) for x in numbers)
-              and isinstance(d["perturbation"]["R"], str) and isinstance(facts["used_parameters"], list))
+              and isinstance(d["perturbation"]["R"], str) and isinstance(used, list)
+              and all(isinstance(p, str) and p in d["perturbation"]["params"] for p in used)
+              and isinstance(facts["uses_i"], bool) and isinstance(facts["is_zero"], bool))
     except (KeyError, TypeError, IndexError):
         return "not a scene record"
     return None if ok else "not a scene record"

@@ -21,14 +21,13 @@ from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.models.balance_eval import BalanceRun, evaluate_balance_law, iterate_balance_map
 from pulsemap.solvers.models.codeload import balance_module, force_module, map_module
-from pulsemap.solvers.models.energy_quadrature import (EnergyQuadratureError, bead_force, evaluate_energy_law,
-                                                       iterate_energy_map)
+from pulsemap.solvers.models.energy_quadrature import bead_force, evaluate_energy_law, iterate_energy_map, off_poles
 from pulsemap.solvers.models.site_law_eval import evaluate_site_law
 from pulsemap.solvers.studies.run.dressed import prepare_dressed, run_dressed
 from pulsemap.solvers.models.longwave_eval import evaluate_law
 from pulsemap.solvers.models.map_iteration import contact_params, eps0_ratio, iterate_map
-from pulsemap.solvers.chain.equations import ForceNotFinite
-from pulsemap.solvers.studies.forcing import force_failure, parameter_values
+from pulsemap.solvers.chain.equations import ForceNotFinite, chain_length_for
+from pulsemap.solvers.studies.forcing import force_failure, make_force, out_of_range, parameter_values
 from pulsemap.solvers.studies.methods import BALANCE_METHODS, DRIFT_WARN, FORCING_WARN, WIDTH_WARN
 from pulsemap.solvers.studies.points import on_contacts
 from pulsemap.solvers.studies.run.state import RunState
@@ -306,6 +305,13 @@ def run_model(state: "RunState", name: str, inputs: ModelInputs) -> None:
     except (PulsemapError, ArithmeticError) as exc:
         fail(state, name, exc)
         return
+    except ValueError as exc:  # a numerical library's words ("f(a) and f(b) must have different signs")
+        if type(exc) is not ValueError:
+            raise
+        strong = out_of_range(state.scene)
+        fail(state, name, PulsemapError(f"{name} stopped: " + (strong or f"the numerical library refused its input "
+                                                                  f"({exc}): please report this scene")))
+        return
     state.out[name] = {"model": title(name), **info}
 
 
@@ -324,6 +330,8 @@ def run_models(state: "RunState") -> None:
     todo = [m for m in state.methods if m in RUNNERS and m not in state.out]  # not refused while deriving
     if not todo:
         return
+    if not state.scene.perturbation.is_uniform:  # R or a parameter varies along the chain: real and finite at
+        make_force(state.scene, state.scene.beads or chain_length_for(state.scene.contacts[1]))  # rest on each bead
     modules = [m for m in (mod, *balance.values()) if m is not None and m is not QUADRATURE]
     S0 = float(modules[0].S0 if modules else exact_profile(state.scene.exponent).S0)
     inputs = ModelInputs(mod, balance, dressed, seed_models(state, S0), S0, parameter_values(state.scene, state.scene.beads))
@@ -341,56 +349,6 @@ class _Quadrature:
 QUADRATURE = _Quadrature()
 
 
-def _off_poles(F, pert, params: tuple, params_at):
-    """``F`` refusing a wave path that crosses a pole of R where R diverges: a term 1/g, g^(-k) or log g
-    (tan g: cos g) whose g changes sign between consecutive quadrature nodes (or is 0 at one), with F at
-    the float64 points either side of the crossing not finite or above 1e12 times its largest value at
-    the nodes. The nodes alone can step over such a pole and give a finite, wrong work; a pole R does
-    not feel (u*exp(-1/(u - 1)^2)) passes."""
-    import sympy
-
-    from pulsemap.symbolic.expression import singular_terms, symbol
-
-    poles = [(t, sympy.cos(t.args[0]) if isinstance(t, sympy.tan) else (t.base if t.is_Pow else t.args[0]))
-             for t in singular_terms(pert.R)]
-    if not poles:
-        return F
-    names = (symbol("u"), symbol("v"), symbol("i"), *(symbol(p) for p in params))
-    where = [(term, sympy.lambdify(names, g, "numpy")) for term, g in poles]
-
-    def diverges(x, v, bead: float, g, k: int, scale: float) -> bool:
-        """F either side of g's sign change between nodes k and k + 1 (bisected to float64 resolution)."""
-        def at(s: float):
-            return x[k] + s * (x[k + 1] - x[k]), v[k] + s * (v[k + 1] - v[k])
-
-        def sign(s: float) -> float:
-            return float(np.sign(g(*at(s), bead, *params_at(bead))))
-
-        lo, hi, first = 0.0, 1.0, sign(0.0)
-        for _ in range(80):
-            mid = 0.5 * (lo + hi)
-            if mid in (lo, hi):
-                break
-            lo, hi = (mid, hi) if sign(mid) == first and first != 0.0 else (lo, mid)
-        sides = np.array([F(*(np.array([c]) for c in at(s)), bead) for s in (lo, hi)], dtype=float)
-        return not (np.all(np.isfinite(sides)) and np.max(np.abs(sides)) <= 1e12 * max(scale, 1e-300))
-
-    def checked(x, v, bead: float):
-        out = F(x, v, bead)
-        scale = float(np.max(np.abs(out), initial=0.0, where=np.isfinite(out)))
-        for term, g in where:
-            side = np.sign(np.broadcast_to(g(x, v, bead, *params_at(bead)), np.shape(x)))
-            for k in np.flatnonzero((side[:-1] * side[1:] <= 0) & ~((side[:-1] == 0) & (side[1:] == 0))):
-                if diverges(x, v, bead, g, int(k), scale):
-                    raise EnergyQuadratureError(
-                        f"R = {pert.text}: its term {term} is infinite where the wave takes bead {bead:g} (u = "
-                        f"{x[k]:.6g}..{x[k + 1]:.6g}), so the work of R on the wave is not finite; R must stay finite "
-                        "for every u, v the chain reaches (move the singularity out of reach or bound R)")
-        return out
-
-    return checked
-
-
 def _quadrature_energy(state: "RunState", form: str, seed_A: float, prm: dict) -> BalanceRun:
     """Energy map or law for a non-polynomial R: W(A) by quadrature over the wave with the DNS's force
     module (solvers/models/energy_quadrature.py); bead parameters from the scene."""
@@ -401,7 +359,7 @@ def _quadrature_energy(state: "RunState", form: str, seed_A: float, prm: dict) -
     def params_at(bead: float) -> tuple:
         return tuple(float(pert.values_at(name, [bead])[0]) for name in fmod.PARAMS)
 
-    F = _off_poles(bead_force(fmod, float(pert.eps), params_at), pert, fmod.PARAMS, params_at)
+    F = off_poles(bead_force(fmod, float(pert.eps), params_at), pert, fmod.PARAMS, params_at)
     seed_contact = scene.first_perturbed - 1
     if form == "map":
         return iterate_energy_map(F, scene.exponent, seed_A, seed_contact, scene.contacts[1])
