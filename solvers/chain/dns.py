@@ -94,9 +94,9 @@ class Chain:
             raise TypeError(f"contact must be a solvers.chain.contact_force.ContactTable or None, "
                             f"got {type(self.contact).__name__}")
         object.__setattr__(self, "masses", check_masses(self.masses, int(beads)))
-        if self.launch is not None and (self.contact is not None or self.masses is not None):
-            raise ValueError("a launched solitary wave starts a chain of unit masses with the Hertz law: "
-                             "give contact=None and masses=None, or start from the impact")
+        if self.launch is not None and self.masses is not None:
+            raise ValueError("a launched solitary wave starts a chain of unit masses: give masses=None, or start "
+                             "from the impact")
         object.__setattr__(self, "beads", int(beads))
         object.__setattr__(self, "exponent", float(exponent))
         object.__setattr__(self, "velocity", float(velocity))

@@ -421,11 +421,37 @@ def bead_coefficients(force_mod, used: tuple[str, ...], values: Mapping[str, obj
     return c
 
 
+def contact_model(scene, values: Mapping[str, object], rtol: float) -> RelaxedModel:
+    """The relaxed model of a scene with a uniform contact-law term (and a uniform R or none): tables of segment
+    runs launched into the chain with both, from the scene's first perturbed contact on."""
+    law, pert = scene.contact, scene.perturbation
+    if scene.masses is not None:
+        raise RelaxedError("relaxed: a chain with masses has no relaxed model yet (its pulse has no fixed shape "
+                           "to relax to); energy-law and the DNS run it")
+    if law.first_perturbed != scene.first_perturbed:
+        raise RelaxedError(f"relaxed: the contact term starts at contact {law.first_perturbed} and R at bead "
+                           f"{scene.first_perturbed}: the segment runs enter both at once; give one first_perturbed")
+    exps, coef = law.table(scene.first_perturbed + 1)
+    if any(s.name == "k" for m in law.monomials for s in m.coef.free_symbols) or \
+            any(not isinstance(v, float) for v in law.params.values()) or \
+            any(np.ndim(values[k]) for k in pert.used_parameters):
+        raise RelaxedError("relaxed: a contact term or R that varies along the chain has no relaxed model yet; "
+                           "energy-law and the DNS run it")
+    R_text = "0" if (pert.is_zero or pert.eps == 0.0) else pert.text
+    params = tuple(sorted((k, float(values[k])) for k in pert.used_parameters)) if R_text != "0" else ()
+    contact = tuple((float(a), float(b), float(c)) for (a, b), c in zip(exps, coef[:, -1]))
+    spec = SegmentSpec(R_text, params, float(pert.eps), float(scene.exponent), rtol, contact=contact)
+    return RelaxedModel(float(scene.exponent), spec, {0: SegmentTable(spec)})
+
+
 def model_for_scene(scene, values: Mapping[str, object], *, rtol: float = 1e-9) -> RelaxedModel:
-    """The relaxed model of a scene's eps R (``values``: its parameters, scalars or per-bead arrays)."""
+    """The relaxed model of a scene's eps R (``values``: its parameters, scalars or per-bead arrays), with its
+    contact-law term when it has one (contact_model)."""
     from pulsemap.symbolic.scaling import monomial_exponents
     from pulsemap.solvers.models.codeload import force_module
 
+    if getattr(scene, "contact", None) is not None or getattr(scene, "masses", None) is not None:
+        return contact_model(scene, values, rtol)
     pert = scene.perturbation
     coef = None
     if monomial_exponents(pert.R) is not None:

@@ -48,7 +48,8 @@ class SegmentSpec:
     ``window_accuracy``. atol is rtol/100 times the amplitude's scales. ``bump``: () for the uniform
     chain, or ((bead, delta, name), ...): on each bead first_perturbed + bead, R multiplied by
     1 + delta (name "") or parameter ``name`` raised by delta (the runs a response kernel is
-    measured from, solvers/models/relaxed_kernel.py).
+    measured from, solvers/models/relaxed_kernel.py). ``contact``: () for the Hertz law, or the contact law's
+    term as ((a, b, eps_c c), ...): eps_c c d^a w^b on every contact from the first perturbed bead's on.
     """
 
     R: str
@@ -58,6 +59,7 @@ class SegmentSpec:
     rtol: float = 1e-9
     window_accuracy: float = 1e-8
     bump: tuple = ()
+    contact: tuple = ()
 
     def geometry(self) -> tuple[int, int, int]:
         """(launch contact, first perturbed bead, entry contact) of the segment runs."""
@@ -74,7 +76,8 @@ class SegmentSpec:
                 f"|death={DEATH}|rtol={self.rtol!r}|atol=rtol/100*scale|dns=simulate-auto"
                 f"|window={self.window_accuracy!r}:{self.window_rule()}"
                 + ("|bump=" + ";".join(f"bead fp+{b}:{name or 'R'}:{d!r}" for b, d, name in self.bump)
-                   if self.bump else ""))
+                   if self.bump else "")
+                + ("|contact=" + ";".join(f"{c!r}*d^{a!r}*w^{b!r}" for a, b, c in self.contact) if self.contact else ""))
 
     def window_rule(self) -> str:
         """The segment runs' window geometry (window.rule_for_accuracy: the cache key follows its calibration)."""
@@ -118,9 +121,10 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
             values[name][fp - 1 + bead] += delta
         else:
             eps[fp - 1 + bead] *= 1.0 + delta
-    force = onsite_force(force_module(spec.R, names), beads, fp, eps, values)
+    force = None if spec.R == "0" else onsite_force(force_module(spec.R, names), beads, fp, eps, values)
     scale = min(1.0, amplitude, amplitude ** ((spec.n + 1.0) / 2.0))
-    res = simulate(Chain(beads, spec.n, 1.0, force, launch=Launch(float(amplitude), centre)), (entry, entry + CONTACTS),
+    chain = Chain(beads, spec.n, 1.0, force, launch=Launch(float(amplitude), centre), contact=_contact(spec, beads, fp))
+    res = simulate(chain, (entry, entry + CONTACTS),
                    integrator=Integrator(rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale),
                    window=WindowSpec("auto", spec.window_accuracy), stop=StopRules(death_fraction=DEATH))
     if not res.stop_reason.startswith(PULSE_ENDS):
@@ -132,6 +136,17 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
             break
         out.append(float(p))
     return out
+
+
+def _contact(spec: SegmentSpec, beads: int, fp: int):
+    """The segment chain's contact-law term (contact_force.ContactTable; None: the Hertz law alone)."""
+    if not spec.contact:
+        return None
+    from pulsemap.solvers.chain.contact_force import ContactTable
+
+    coef = np.zeros((len(spec.contact), beads - 1))
+    coef[:, fp - 1:] = np.array([c for _, _, c in spec.contact])[:, None]
+    return ContactTable(np.array([[a, b] for a, b, _ in spec.contact], float), coef)
 
 
 def cached_segment(spec: SegmentSpec, j: int) -> list[float]:

@@ -85,3 +85,19 @@ def test_an_elastic_correction_keeps_the_plateau_the_law_transmits():
     assert np.sqrt(np.mean(np.log(law[plateau] / dns[plateau]) ** 2)) < 1e-3
     assert law[0] > dns[0] * 1.005  # a stiffer contact raises the peak (the jump) ...
     assert abs(law[0] / result.data["seed"]["peak"] - 1) > 0.005  # ... which the law carries
+
+
+def test_relaxed_takes_a_uniform_contact_term_and_beats_the_first_order_law():
+    """The relaxed map built from segment runs of the same contact law (no scene data): within a few percent of
+    the DNS where the first-order law is off by more, on a dashpot and a Kuwabara-Kono contact."""
+    for contact, bound in (({"P": "w", "eps": 0.035}, 3.0), ({"P": "d^(1/2)*w", "eps": 0.05}, 1.5)):
+        result = pulsemap.run(scene(contact, methods=("dns", "energy-law", "relaxed")))
+        assert result.data["relaxed"]["status"] == "ok"
+        assert result.errors["relaxed"]["rms_pct"] < bound < result.errors["energy-law"]["rms_pct"]
+
+
+def test_relaxed_refuses_masses_and_a_graded_contact_term_naming_what_runs_them():
+    result = pulsemap.run(scene({"P": "w", "eps": 0.01}, masses={"m": 1.2}, methods=("dns", "relaxed")))
+    assert "energy-law" in result.data["relaxed"]["refused"]
+    graded = pulsemap.run(scene({"P": "(1 + 0.01*k)*w", "eps": 0.01}, methods=("dns", "relaxed")))
+    assert "varies along the chain" in graded.data["relaxed"]["refused"]

@@ -46,8 +46,9 @@ def refusals(scene, methods) -> dict[str, str]:
     kinds = [what for what, given in (("a contact-law term P", scene.contact is not None),
                                       ("bead masses", scene.masses is not None)) if given]
     why = (f"derived for an on-site R on a chain of unit masses; this scene has {' and '.join(kinds)}: "
-           f"energy-law, energy-map and the DNS run it")
-    return {m: why for m in methods if m in MODELS and m not in CHAIN_TERM_MODELS}
+           f"energy-law, energy-map{', relaxed' if scene.masses is None else ''} and the DNS run it")
+    own = set(CHAIN_TERM_MODELS) | ({"relaxed"} if scene.masses is None else set())  # relaxed: its segment runs
+    return {m: why for m in methods if m in MODELS and m not in own}
 
 
 def _law_inputs(scene, beads: int):
