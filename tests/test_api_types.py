@@ -39,7 +39,8 @@ SIMULATE = [
 ]
 
 
-@pytest.mark.parametrize("name, bad, error", SIMULATE, ids=[f"{c[0]}={list(c[1].values())[0]!r}"[:40] for c in SIMULATE])
+@pytest.mark.parametrize("name, bad, error", SIMULATE, ids=[f"{c[0]}=" + (f"{v!r}" if not callable(v) else "made-bad")[:40]
+                                                          for c in SIMULATE for v in [list(c[1].values())[0]]])
 def test_simulate_names_the_bad_argument(name, bad, error):
     kw = {**OK, **bad}
     with pytest.raises(error) as info:
