@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: 8af3100966847c10
+# numba cache stamp: 8da591db2b551c6e
 from __future__ import annotations
 
 import numpy as np

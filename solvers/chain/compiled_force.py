@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 8af3100966847c10
+# numba cache stamp: 8da591db2b551c6e
 from __future__ import annotations
 
 import numpy as np

@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: 8af3100966847c10
+# numba cache stamp: 8da591db2b551c6e
 from __future__ import annotations
 
 import numpy as np

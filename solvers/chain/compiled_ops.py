@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 8af3100966847c10
+# numba cache stamp: 8da591db2b551c6e
 from __future__ import annotations
 
 import numpy as np

@@ -19,7 +19,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci) and return codes: compiled_layout.py.
 """
 
-# numba cache stamp: 8af3100966847c10
+# numba cache stamp: 8da591db2b551c6e
 from __future__ import annotations
 
 import numpy as np
@@ -45,20 +45,38 @@ def dense_value(theta, i, y0, rc):
 
 
 @njit(**NO_NRT)
-def locate(p, q, y0, y1, rc, h):
-    """theta of the root of delta' = v_p - v_q in (0, 1] on the dense output (Illinois method)."""
+def dense_slope(theta, i, y0, rc):
+    """d/dtheta of component i of the dense output (dense_value's nested form differentiated)."""
+    th1 = 1.0 - theta
+    v = rc[rc.shape[0] - 1, i]
+    dv = 0.0
+    for r in range(rc.shape[0] - 2, -1, -1):
+        even = r % 2 == 0
+        dv = (-v if even else v) + (th1 if even else theta) * dv
+        v = rc[r, i] + (th1 if even else theta) * v
+    return v + theta * dv
+
+
+@njit(**NO_NRT)
+def _root_side(kind, theta, i, j, y0, rc):
+    """The function a root is sought of on the dense output: v_i - v_j (kind 0) or the slope of component i (kind 1)."""
+    if kind == 0:
+        return dense_value(theta, i, y0, rc) - dense_value(theta, j, y0, rc)
+    return dense_slope(theta, i, y0, rc)
+
+
+@njit(**NO_NRT)
+def illinois(kind, i, j, y0, rc, fa, fb, h):
+    """theta in (0, 1] of the root of _root_side(kind, ...) bracketed by fa > 0 at 0 and fb < 0 at 1 (Illinois
+    method, to the spacing of floats in t = theta h)."""
     a, b = 0.0, 1.0
-    fa = y0[2 * p + 1] - y0[2 * q + 1]
-    fb = y1[2 * p + 1] - y1[2 * q + 1]
-    if fb == 0.0:
-        return 1.0
     side = 0
     c = 1.0
     for _ in range(200):
         c = (a * fb - b * fa) / (fb - fa)
         if not (a < c < b):
             c = 0.5 * (a + b)
-        fc = dense_value(c, 2 * p + 1, y0, rc) - dense_value(c, 2 * q + 1, y0, rc)
+        fc = _root_side(kind, c, i, j, y0, rc)
         if fc == 0.0:
             return c
         if fc > 0.0:
@@ -74,6 +92,16 @@ def locate(p, q, y0, y1, rc, h):
         if (b - a) * abs(h) < 1e-15 + 4.0 * 2.220446049250313e-16 * abs(h) * c:
             break
     return c
+
+
+@njit(**NO_NRT)
+def locate(p, q, y0, y1, rc, h):
+    """theta of the root of delta' = v_p - v_q in (0, 1] on the dense output (Illinois method)."""
+    fa = y0[2 * p + 1] - y0[2 * q + 1]
+    fb = y1[2 * p + 1] - y1[2 * q + 1]
+    if fb == 0.0:
+        return 1.0
+    return illinois(0, 2 * p + 1, 2 * q + 1, y0, rc, fa, fb, h)
 
 
 @njit(cache=True, inline="always")
@@ -117,54 +145,19 @@ def peak_in_step(y, yn, f, fn, st, ci, vpeaks):
 
 
 @njit(**NO_NRT)
-def dense_slope(theta, i, y0, rc):
-    """d/dtheta of component i of the dense output (dense_value's nested form differentiated)."""
-    th1 = 1.0 - theta
-    v = rc[rc.shape[0] - 1, i]
-    dv = 0.0
-    for r in range(rc.shape[0] - 2, -1, -1):
-        even = r % 2 == 0
-        dv = (-v if even else v) + (th1 if even else theta) * dv
-        v = rc[r, i] + (th1 if even else theta) * v
-    return v + theta * dv
-
-
-@njit(**NO_NRT)
-def locate_max(i, y0, rc):
-    """theta in [0, 1] of the maximum of component i on the dense output (root of its slope, Illinois;
-    an end when the slope does not change sign there)."""
-    a, b = 0.0, 1.0
-    fa, fb = dense_slope(a, i, y0, rc), dense_slope(b, i, y0, rc)
+def locate_max(i, y0, rc, h):
+    """theta in [0, 1] of the maximum of component i on the dense output (the root of its slope; an end when the
+    slope does not change sign there)."""
+    fa, fb = dense_slope(0.0, i, y0, rc), dense_slope(1.0, i, y0, rc)
     if fa <= 0.0:
         return 0.0
     if fb >= 0.0:
         return 1.0
-    side = 0
-    c = 1.0
-    for _ in range(200):
-        c = (a * fb - b * fa) / (fb - fa)
-        if not (a < c < b):
-            c = 0.5 * (a + b)
-        fc = dense_slope(c, i, y0, rc)
-        if fc == 0.0:
-            return c
-        if fc > 0.0:
-            a, fa = c, fc
-            if side == -1:
-                fb *= 0.5
-            side = -1
-        else:
-            b, fb = c, fc
-            if side == 1:
-                fa *= 0.5
-            side = 1
-        if b - a < 1e-14:
-            break
-    return c
+    return illinois(1, i, 0, y0, rc, fa, fb, h)
 
 
 @njit(**NO_NRT)
-def track_velocity(y, yn, f, fn, rc, w, st, cf, vpeaks):
+def track_velocity(y, yn, f, fn, rc, h, w, st, cf, vpeaks):
     """The bead velocity peaks completed in the step (the first maximum in time of v_b, above peak_fraction of
     the previous bead's): vpeaks[b - 1] for bead b = st[VBEAD], ...; a bead dropped before its peak keeps NaN."""
     lo = st[LO]
@@ -175,7 +168,7 @@ def track_velocity(y, yn, f, fn, rc, w, st, cf, vpeaks):
             continue
         if b >= w or not (f[2 * b + 1] > 0.0 and fn[2 * b + 1] <= 0.0):
             return
-        value = dense_value(locate_max(2 * b + 1, y, rc), 2 * b + 1, y, rc)
+        value = dense_value(locate_max(2 * b + 1, y, rc, h), 2 * b + 1, y, rc)
         bead = st[VBEAD]
         if bead > 1 and vpeaks[bead - 2] == vpeaks[bead - 2] and not value > cf[PEAK_FRAC] * vpeaks[bead - 2]:
             return  # a ripple ahead of the front: the bead's peak is still to come
@@ -192,7 +185,7 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
     ``vpeaks``: the bead velocity peaks (track_velocity; empty: not tracked), f and fn the right-hand side at
     the step's ends. Returns the stop code (0: go on)."""
     if vpeaks.shape[0] > 0:
-        track_velocity(y, yn, f, fn, rc, w, st, cf, vpeaks)
+        track_velocity(y, yn, f, fn, rc, h, w, st, cf, vpeaks)
     n = cf[EXP]
     lo = st[LO]
     w2 = 2 * w
