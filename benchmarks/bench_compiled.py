@@ -39,7 +39,7 @@ import numpy as np
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bench import Point, cost_at, peak_error
-from pulsemap.solvers.studies.points import dns_span, on_contacts
+from pulsemap.solvers.studies.extent import dns_span, on_contacts
 from pulsemap.solvers.studies.bench.reference_script import script_peaks
 from pulsemap.solvers.studies.forcing import make_force
 

@@ -27,7 +27,7 @@ from pulsemap.solvers.studies.bench.baselines import baseline_script
 from pulsemap.solvers.studies.bench import Point, best_of, cost_at
 from pulsemap.solvers.studies.bench import peak_error as _peak_error
 from pulsemap.solvers.chain.dns import Chain, Integrator, OnSiteForce, simulate
-from pulsemap.solvers.studies.points import on_contacts
+from pulsemap.solvers.studies.extent import on_contacts
 
 TARGET = 1e-6
 N, FIRST, EXPONENT = 1000, 16, 1.5

@@ -26,7 +26,7 @@ import numpy as np
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.bench import best_of
-from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.extent import dns_span
 from pulsemap.solvers.studies.forcing import make_force
 
 CASES = (("-mu*sin(u)", 1.0), ("-mu*v/(1+v^2)", 1.0), ("-mu*sin(u)*exp(-v^2)", 1.0), ("-mu*v/(1+v^2)", 10000.0))
@@ -35,7 +35,7 @@ import sys, time
 t0 = time.process_time()
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
-from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.extent import dns_span
 from pulsemap.solvers.studies.forcing import make_force
 scene = with_overrides(load_scene("fig8-eps0.1"), R=sys.argv[1], params={"mu": 1.0})
 beads, span = dns_span(scene)

@@ -39,7 +39,7 @@ import pulsemap
 from pulsemap.solvers.chain.peaks import velocity_scale
 from pulsemap.solvers.studies.bench.lines import script_span
 from pulsemap.solvers.studies.bench.measure import peak_error
-from pulsemap.solvers.studies.points import dns_span, on_contacts
+from pulsemap.solvers.studies.extent import dns_span, on_contacts
 from pulsemap.solvers.studies.bench import reference_script
 
 SCENES = ("vdp-mu3-v2.3", "fig8-eps0.1")

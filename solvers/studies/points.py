@@ -10,16 +10,15 @@ they load the generated modules by name, check their hash, and never import symp
 
 from __future__ import annotations
 
-import itertools
-import math
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping
 
 from pulsemap.symbolic.param_forms import RandomDraw
-from pulsemap.solvers.chain.dns import Chain, Integrator, chain_length_for, simulate
+from pulsemap.solvers.chain.dns import Chain, simulate
+from pulsemap.solvers.studies.extent import dns_integrator, dns_span, dns_window_of, on_contacts
 from pulsemap.solvers.studies.forcing import bead_params, chain_force
 from pulsemap.solvers.studies.sweep import SweepError, generated_ref, load_generated
 
-__all__ = ["dns_map_task", "dns_span", "dns_task", "on_contacts", "plain_chain", "random_params"]
+__all__ = ["dns_map_task", "dns_task", "plain_chain", "random_params"]
 
 
 # ----------------------------------------------------------------------------- parent side
@@ -38,22 +37,6 @@ def random_params(scene) -> list[str]:
     """Names of the scene's parameters drawn at random per bead (sorted)."""
     pert = scene.perturbation
     return sorted(n for n in pert.used_parameters if isinstance(pert.params[n], RandomDraw))
-
-
-def dns_span(scene) -> tuple[int, tuple[int, int]]:
-    """(beads, (first, last)) of a scene's DNS: the scene's chain length, else chain_length_for(last),
-    and the contacts it tracks, from the map's seed contact first_perturbed - 1 (or the first
-    reported contact, if earlier) to the last reported one."""
-    c0, c1 = scene.contacts
-    return scene.beads or chain_length_for(c1), (min(c0, scene.first_perturbed - 1), c1)
-
-
-def dns_window_of(scene, dns_window: "int | str | None") -> "int | str | None":
-    """The window a run's DNS uses: ``dns_window`` as given ("scene": the scene's [dns] mode, "window"
-    (the moving window sized by its accuracy rule, "auto") unless it says "full"; None: the full chain)."""
-    if dns_window == "scene":
-        return None if scene.dns.get("mode", "window") == "full" else "auto"
-    return dns_window
 
 
 def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, variant: str | None = None,
@@ -93,21 +76,11 @@ def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, va
 # ----------------------------------------------------------------------------- worker side
 
 
-def on_contacts(contacts: Sequence[int], at: Sequence[int], values: Sequence[float | None],
-                alive: Sequence[bool] | None = None) -> list[float | None]:
-    """``values`` given at contacts ``at`` (a DNS, a baseline or a model run) on ``contacts``:
-    None where there is no value, it is not finite, or ``alive`` (a DNS's live flags) is False."""
-    flags = itertools.repeat(True) if alive is None else alive
-    got = {int(c): float(v) for c, v, a in zip(at, values, flags) if a and v is not None and math.isfinite(v)}
-    return [got.get(int(c)) for c in contacts]
-
-
 def _dns(chain: Mapping[str, Any], values: Mapping[str, Any]) -> dict:
     force = chain_force(load_generated(chain["force"]), chain, values)
     opts = chain["dns"]
     first, last = (int(c) for c in chain["contacts"])
-    integrator = Integrator(method=opts.get("method", "auto"), rtol=float(opts["rtol"]), atol=float(opts["atol"]),
-                            engine=opts.get("engine", "compiled"))
+    integrator = dns_integrator(opts)
     res = simulate(Chain(int(chain["beads"]), float(chain["exponent"]), float(chain["velocity"]), force), (first, last),
                    integrator=integrator, window=opts.get("window"))
     contacts = list(range(first, last + 1))

@@ -18,7 +18,7 @@ from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain import compiled_dop853 as dop
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
-from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.extent import dns_span
 from pulsemap.solvers.studies.forcing import make_force
 
 PEAK_TOL = 1e-7

@@ -18,7 +18,7 @@ from scipy.integrate import solve_ivp
 from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
-from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.extent import dns_span
 from pulsemap.solvers.studies.forcing import make_force
 from pulsemap.solvers.studies.suite import resolve
 

@@ -12,7 +12,7 @@ from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.equations import largest_force
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.forcing import make_force
-from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.extent import dns_span
 
 ENGINES = {  # name: (Integrator keywords, window)
     "compiled RK45, moving window": ({}, "auto"),

@@ -12,7 +12,7 @@ from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import builtin_scenes, load_scene
 from pulsemap.solvers.data.scene.files import suite_scene_names
 from pulsemap.solvers.studies.forcing import make_force
-from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.extent import dns_span
 
 ACCURACIES = (1e-8, 1e-6)  # simulate's default for rtol <= 1e-8 (the rule `run` uses), and for rtol 1e-6
 #: chain10000's full-chain reference alone costs ~190 s (10,000 beads): the window against the full

@@ -16,7 +16,7 @@ from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bench import peak_error
 from pulsemap.solvers.studies.forcing import make_force
-from pulsemap.solvers.studies.points import dns_span, on_contacts
+from pulsemap.solvers.studies.extent import dns_span, on_contacts
 from pulsemap.solvers.studies.bench.reference_script import script_peaks
 
 pytestmark = pytest.mark.bench  # runs and times the benchmark harness (CI: -m bench)

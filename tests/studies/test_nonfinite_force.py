@@ -15,7 +15,7 @@ from conftest import scene_toml, write_scene
 from pulsemap.solvers.chain.dns import Chain, ForceNotFinite, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.models.codeload import force_module, jit_force_module
-from pulsemap.solvers.studies.points import dns_span
+from pulsemap.solvers.studies.extent import dns_span
 from pulsemap.solvers.studies.forcing import make_force
 from pulsemap.solvers.studies.run import run_scene
 

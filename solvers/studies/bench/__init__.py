@@ -67,7 +67,7 @@ def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = l
     from pulsemap.solvers.studies.run.chain_terms import require_onsite_only
 
     require_onsite_only(scene, "bench")
-    from pulsemap.solvers.studies.points import dns_span
+    from pulsemap.solvers.studies.extent import dns_span
 
     wall0 = time.perf_counter()
     c0, c1 = scene.contacts

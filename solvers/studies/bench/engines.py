@@ -47,7 +47,7 @@ def reference_points(scene, contacts: list[int], ref: list, ladder: Ladder,
     """The careful user's script over ``ladder.script_rtols`` (warm-up, then one timed run each)."""
     from pulsemap.solvers.studies.bench.lines import script_span
     from pulsemap.solvers.studies.forcing import make_force
-    from pulsemap.solvers.studies.points import dns_span, on_contacts
+    from pulsemap.solvers.studies.extent import dns_span, on_contacts
     from pulsemap.solvers.studies.bench.reference_script import GRID_STEP, script_peaks
 
     beads, span = dns_span(scene)
@@ -124,7 +124,7 @@ def _first_call(scene_path: str, job: dict) -> dict:
     """In the child: build the force (not timed), then time the first call of the job's line."""
     from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
     from pulsemap.solvers.studies.forcing import make_force
-    from pulsemap.solvers.studies.points import dns_span, on_contacts
+    from pulsemap.solvers.studies.extent import dns_span, on_contacts
     from pulsemap.solvers.studies.bench.reference_script import GRID_STEP, script_peaks
 
     scene = pickle.loads(Path(scene_path).read_bytes())

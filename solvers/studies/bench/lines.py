@@ -30,7 +30,7 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
     """The DNS of the scene over the tolerance ladder (``rtols``, default ladder.rtols) for each method
     (window or full chain) on ``engine`` ("scipy": the reference engine, "compiled": the numba one)."""
     from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
-    from pulsemap.solvers.studies.points import dns_span, on_contacts
+    from pulsemap.solvers.studies.extent import dns_span, on_contacts
     from pulsemap.solvers.studies.forcing import make_force
 
     beads, span = dns_span(scene)
@@ -61,7 +61,7 @@ def script_span(scene) -> tuple[float, float]:
     DNS at rtol 1e-8 (as short as a user who knows when the pulse gets there would make it)."""
     from pulsemap.solvers.chain.dns import Chain, Integrator, contact_rate, simulate
     from pulsemap.solvers.studies.forcing import make_force
-    from pulsemap.solvers.studies.points import dns_span
+    from pulsemap.solvers.studies.extent import dns_span
 
     beads, span = dns_span(scene)
     probe = simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span,
@@ -79,7 +79,7 @@ def script_points(scene, contacts: list[int], ref: list, ladder: Ladder,
     times (dt scaled by the contact time v0^(-(n-1)/(n+1)), so extreme v0 get the same grid).
     """
     from pulsemap.solvers.studies.bench.baselines import baseline_script, script_force
-    from pulsemap.solvers.studies.points import dns_span, on_contacts
+    from pulsemap.solvers.studies.extent import dns_span, on_contacts
 
     beads, span = dns_span(scene)
     t_end, contact_time = script_span(scene)

@@ -24,13 +24,13 @@ from typing import Sequence
 from pulsemap.symbolic.provenance import provenance
 from pulsemap.solvers import __version__
 from pulsemap.solvers.chain.front import Snapshots
-from pulsemap.solvers.chain.dns import Chain, Integrator, compiled_kernel_of, simulate
+from pulsemap.solvers.chain.dns import Chain, compiled_kernel_of, simulate
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import force_failure, make_force
 from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
 from pulsemap.solvers.studies.run import chain_terms
-from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
+from pulsemap.solvers.studies.extent import dns_integrator, dns_span, dns_window_of, on_contacts
 from pulsemap.solvers.studies.run.state import RunState
 
 __all__ = ["derive_models", "derive_while_kernels_build", "dns_kernel", "run_scene"]
@@ -81,12 +81,6 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
                     snapshots=tuple(sorted(set(snapshots))))
 
 
-def _integrator(scene: Scene) -> Integrator:
-    """The DNS's integrator as the scene's [dns] table sets it."""
-    return Integrator(method=scene.dns.get("method", "auto"), rtol=float(scene.dns.get("rtol", 1e-10)),
-                      atol=float(scene.dns.get("atol", 1e-12)), engine=scene.dns.get("engine", "compiled"))
-
-
 def _dns_force(scene: Scene, beads: int):
     """The on-site force of the scene's DNS; None for R = 0 (or eps = 0): the bare chain of Eq. 1, which
     conserves energy, its drift checking the run."""
@@ -110,7 +104,7 @@ def dns_kernel(scene: Scene) -> tuple[str, str] | None:
     """The compiled kernel (method, force form) the scene's DNS runs on (chain/dns.compiled_kernel_of), or None."""
     beads, _ = dns_span(scene)
     return compiled_kernel_of(dns_chain(scene, beads, _dns_force(scene, beads)),
-                              integrator=_integrator(scene), window=dns_window_of(scene, "scene"))
+                              integrator=dns_integrator(scene.dns), window=dns_window_of(scene, "scene"))
 
 
 def derive_models(scene: Scene, methods: Sequence[str], profile: str | None = None,
@@ -173,7 +167,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
-        res = simulate(dns_chain(scene, beads, force), span, integrator=_integrator(scene),
+        res = simulate(dns_chain(scene, beads, force), span, integrator=dns_integrator(scene.dns),
                        snapshots=Snapshots([c for c in state.snapshots if span[0] <= c <= span[1]]),
                        progress=progress, window=dns_window_of(scene, dns_window))
     except ArithmeticError as exc:  # R not finite (or not real) where the chain went

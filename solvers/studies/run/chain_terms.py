@@ -15,7 +15,7 @@ import numpy as np
 
 from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.studies.methods import MODELS
-from pulsemap.solvers.studies.points import dns_span, on_contacts
+from pulsemap.solvers.studies.extent import dns_span, on_contacts
 
 #: The models a scene with a contact law's term or masses runs here: name -> the law's form.
 CHAIN_TERM_MODELS = {"energy-law": "law", "energy-map": "map"}

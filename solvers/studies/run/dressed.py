@@ -6,7 +6,7 @@ import time
 from dataclasses import replace
 
 from pulsemap.solvers.models.dressed import evaluate_dressed_law
-from pulsemap.solvers.studies.points import on_contacts
+from pulsemap.solvers.studies.extent import on_contacts
 from pulsemap.solvers.studies.run.state import RunState
 
 
