@@ -25,6 +25,7 @@ import math
 import time as _time
 import warnings
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -37,6 +38,10 @@ from pulsemap.solvers.chain.peaks import (PeakTracker, StopRules, contact_rate, 
                                           velocity_scale)
 from pulsemap.solvers.chain import methods
 from pulsemap.solvers.chain.plan import METHOD, explicit_reason
+
+if TYPE_CHECKING:  # pragma: no cover
+    from pulsemap.solvers.chain.dns import Chain, Integrator
+    from pulsemap.solvers.chain.plan import Plan
 
 Array = np.ndarray
 ENERGY_EVERY = 4  # blow-up guard and energy drift every this many steps (as solvers/window.py)
@@ -95,15 +100,17 @@ class _Run:
     vpeaks: Array | None = None  # bead velocity peaks, beads 1..last + 1 (tracked with masses; empty otherwise)
 
 
-def prepare(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
-            table: "MonomialTable | JitForce | None", *, rule, rtol: float, atol: float, stop: StopRules,
-            method: str = METHOD, launch=None, contact=None, masses=None) -> _Run:
-    """The kernel's arrays at t = 0: all beads at rest, bead 1 with velocity v0 (Eq. 1), or with
-    ``launch`` (a chain/launch.Launch, checked by dns.simulate; ``velocity`` is then its velocity
-    scale) the exact solitary wave with contact launch.centre at its peak, the window holding every
-    bead it moves and contacts up to the centre counted as peaked; ``stop``: the stop rules with t_max
-    and max_steps given; ``method``: the kernel (RK45, DOP853 or compiled_stiff.METHOD); ``contact``: the
-    contact law's term (a contact_force.ContactTable or None), ``masses``: the beads' (None: all 1)."""
+def prepare(chain: "Chain", contacts: tuple[int, int], table: "MonomialTable | JitForce | None", how: "Plan",
+            integrator: "Integrator", stop: StopRules) -> _Run:
+    """The kernel's arrays at t = 0 for ``chain`` (dns.Chain, checked by dns.simulate): all beads at rest, bead 1
+    with velocity v0 (Eq. 1), or with a launch (chain/launch.Launch; the velocity scale is then its) the exact
+    solitary wave with contact launch.centre at its peak, the window holding every bead it moves and contacts up
+    to the centre counted as peaked; its contact law's term and masses. ``table``: the on-site force as the
+    kernels take it (force_table.force_data); ``how``: plan()'s Plan (the kernel and the window rule);
+    ``integrator``: rtol and atol; ``stop``: the stop rules with t_max and max_steps given."""
+    beads, exponent, launch, contact, masses = chain.beads, chain.exponent, chain.launch, chain.contact, chain.masses
+    velocity = chain.velocity if launch is None else launch.velocity_scale(exponent)
+    rule, method, rtol, atol = how.rule, how.method, integrator.rtol, integrator.atol
     first, last = int(contacts[0]), int(contacts[1])
     peak_fraction, death_fraction, overtake_factor = stop.peak_fraction, stop.death_fraction, stop.overtake_factor
     stall_factor, t_max, max_steps = stop.stall_factor, float(stop.t_max), int(stop.max_steps)
@@ -229,16 +236,17 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
     )
 
 
-def simulate_compiled(beads: int, exponent: float, velocity: float, contacts: tuple[int, int],
-                      table: "MonomialTable | JitForce | None", *, engine_reason: str = "", progress: bool = False,
-                      failure_note=None, **settings) -> DNSResult:
-    """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it; ``settings``:
-    rule, rtol, atol, stop, method, launch: prepare's).
-    ``progress``: a line on stderr at most every 5 s (dns_progress.DNSProgress), as the scipy engines.
-    ``failure_note(lo, y)``: what a failed step size adds to the stop reason, from the window's state."""
+def simulate_compiled(chain: "Chain", contacts: tuple[int, int], table: "MonomialTable | JitForce | None", how: "Plan",
+                      integrator: "Integrator", stop: StopRules, *, progress: bool = False,
+                      failure_note=None) -> DNSResult:
+    """Eq. 1 on the compiled engine (arguments validated by dns.simulate, which calls it; prepare's: the option
+    objects handed down as they are). ``progress``: a line on stderr at most every 5 s (dns_progress.DNSProgress),
+    as the scipy engines. ``failure_note(lo, y)``: what a failed step size adds to the stop reason, from the
+    window's state."""
     from pulsemap.solvers.chain.dns_progress import DNSProgress
 
-    run = prepare(beads, exponent, velocity, contacts, table, **settings)
+    engine_reason = how.reason
+    run = prepare(chain, contacts, table, how, integrator, stop)
     kernel, compile_s = kernel_for(run)
     wall0 = _time.perf_counter()
     code = drive(run, kernel, report=DNSProgress("dns", run.last, enabled=progress) if progress else None)

@@ -255,9 +255,7 @@ def simulate(
 
         try:
             res = compiled.simulate_compiled(
-                beads, exponent, velocity, (first, last), data, rule=how.rule, rtol=rtol, atol=atol, stop=rules,
-                method=how.method, engine_reason=how.reason, progress=progress, launch=launch, contact=contact,
-                masses=masses,
+                chain, (first, last), data, how, integrator, rules, progress=progress,
                 failure_note=lambda lo, y: largest_force(_window.restrict_force(force, beads, lo, lo + y.size // 2), y, lo))
         except ForceNotFinite as exc:
             raise _locate(force, beads, exc) from None

@@ -224,12 +224,13 @@ def test_progress_lines_pause_the_kernel_without_changing_a_number(monkeypatch, 
     beads, span = dns_span(scene)
     table = make_force(scene, beads).monomials
     method = plan.STIFF_METHOD if stiff else plan.METHOD
-    kw = dict(rule=rule_of_window(), rtol=1e-8, atol=1e-10, stop=StopRules(t_max=1e4, max_steps=10**6), method=method)
-    plain = compiled.prepare(beads, 1.5, 1.0, span, table, **kw)
+    args = (plan.Plan("compiled", method, rule_of_window(), "", ""), Integrator(rtol=1e-8, atol=1e-10),
+            StopRules(t_max=1e4, max_steps=10**6))
+    plain = compiled.prepare(Chain(beads, 1.5, 1.0), span, table, *args)
     code_plain = compiled.drive(plain, compiled.kernel_for(plain)[0])
     monkeypatch.setattr(compiled, "PAUSE_STEPS", 50)
     lines: list[str] = []
-    paused = compiled.prepare(beads, 1.5, 1.0, span, table, **kw)
+    paused = compiled.prepare(Chain(beads, 1.5, 1.0), span, table, *args)
     code_paused = compiled.drive(paused, compiled.kernel_for(paused)[0], report=DNSProgress("dns", paused.last, every=0.0, sink=lines.append))
     assert code_paused == code_plain
     steps = int(plain.st[3])  # compiled_layout.STEPS

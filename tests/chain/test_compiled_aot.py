@@ -13,13 +13,13 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-
-from pulsemap.solvers.chain.contact_force import ContactTable, kernel_terms
 import pytest
 
 import pulsemap
 from pulsemap.solvers.chain import compiled, compiled_aot, plan
-from pulsemap.solvers.chain.dns import Chain, simulate
+from pulsemap.solvers.chain.contact_force import ContactTable, kernel_terms
+from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+from pulsemap.solvers.chain.plan import Plan
 from pulsemap.solvers.chain.force_table import JitForce, MonomialTable
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain.window import rule_for_accuracy
@@ -34,11 +34,11 @@ def _run_both(name: str, method: str, **overrides):
     scene = pulsemap.scene(name, **overrides)
     beads, span = dns_span(scene)
     table = make_force(scene, beads).monomials
-    kw = dict(rule=rule_for_accuracy(1e-8), rtol=1e-8, atol=1e-10, stop=StopRules(t_max=1e4, max_steps=10**6),
-              method=method)
+    args = (Plan("compiled", method, rule_for_accuracy(1e-8), "", ""), Integrator(rtol=1e-8, atol=1e-10),
+            StopRules(t_max=1e4, max_steps=10**6))
     out = []
     for aot in (True, False):
-        run = compiled.prepare(beads, scene.exponent, scene.velocity, span, table, **kw)
+        run = compiled.prepare(Chain(beads, scene.exponent, scene.velocity), span, table, *args)
         kernel, _ = compiled.kernel_for(run, aot=aot)
         out.append((kernel, compiled.drive(run, kernel), run))
     return out
@@ -65,8 +65,8 @@ def test_the_ahead_of_time_kernel_is_taken_and_equals_the_jit_kernel_bit_for_bit
 
 def test_a_run_with_no_force_takes_the_table_kernel_and_equals_the_jit_run():
     first = simulate(Chain(40, 1.5, 1.0), (5, 30), window="auto")
-    run = compiled.prepare(40, 1.5, 1.0, (5, 30), None, rule=None, rtol=1e-8, atol=1e-10,
-                           stop=StopRules(t_max=1e4, max_steps=10**6))
+    run = compiled.prepare(Chain(40, 1.5, 1.0), (5, 30), None, Plan("compiled", plan.METHOD, None, "", ""),
+                           Integrator(rtol=1e-8, atol=1e-10), StopRules(t_max=1e4, max_steps=10**6))
     assert compiled_aot.form_of(compiled.kernel_args(run)) == "table"
     assert compiled_aot.kernel(plan.METHOD, compiled.kernel_args(run))[0] is not None
     assert first.engine == "compiled" and np.isfinite(first.peaks).all()
@@ -109,8 +109,9 @@ def test_the_module_name_follows_kernel_form_and_cpu(monkeypatch):
 
 def _damped():
     """A compiled run of a damped 40-bead chain (R = -0.1 v: the dense form)."""
-    return compiled.simulate_compiled(40, 1.5, 1.0, (5, 30), MonomialTable.of([[0, 1]], [[-0.1]]), rule=None,
-                                      rtol=1e-8, atol=1e-10, stop=StopRules(t_max=1e4, max_steps=10**6))
+    return compiled.simulate_compiled(Chain(40, 1.5, 1.0), (5, 30), MonomialTable.of([[0, 1]], [[-0.1]]),
+                                      Plan("compiled", plan.METHOD, None, "", ""), Integrator(rtol=1e-8, atol=1e-10),
+                                      StopRules(t_max=1e4, max_steps=10**6))
 
 
 FAILING_CC = """#!/bin/sh
@@ -189,10 +190,13 @@ from pathlib import Path
 from pulsemap.solvers.chain import compiled_aot
 compiled_aot.folder = lambda: Path(sys.argv[1])
 from pulsemap.solvers.chain.compiled import simulate_compiled
+from pulsemap.solvers.chain.dns import Chain, Integrator
 from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.peaks import StopRules
-res = simulate_compiled(40, 1.5, 1.0, (5, 30), MonomialTable.of([[0, 1]], [[-0.1]]), rule=None, rtol=1e-8,
-                        atol=1e-10, stop=StopRules(t_max=1e4, max_steps=10**6))
+from pulsemap.solvers.chain.plan import Plan
+res = simulate_compiled(Chain(40, 1.5, 1.0), (5, 30), MonomialTable.of([[0, 1]], [[-0.1]]),
+                        Plan("compiled", "RK45", None, "", ""), Integrator(rtol=1e-8, atol=1e-10),
+                        StopRules(t_max=1e4, max_steps=10**6))
 print(json.dumps([float(p) for p in res.peaks]))
 """
 

@@ -8,6 +8,7 @@ import pytest
 
 from pulsemap.solvers.chain.contact_force import ContactTable, check_masses, kernel_terms
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+from pulsemap.solvers.chain.plan import Plan
 
 N, FIRST, LAST = 70, 16, 50
 
@@ -47,8 +48,8 @@ def test_the_stiff_kernel_takes_damped_contacts_and_masses():
 
     chain = Chain(N, 1.5, 1.0, contact=dashpot(0.3), masses=masses)
     ref = peaks(chain, integrator=Integrator(method="Radau", rtol=1e-10, engine="scipy"))
-    run = compiled.prepare(N, 1.5, 1.0, (FIRST, LAST), None, rule=None, rtol=1e-9, atol=1e-12,
-                           stop=_rules(), method="Rodas4", contact=chain.contact, masses=masses)
+    run = compiled.prepare(chain, (FIRST, LAST), None, Plan("compiled", "Rodas4", None, "", ""),
+                           Integrator(rtol=1e-9, atol=1e-12), _rules())
     kernel, _ = compiled.kernel_for(run)
     compiled.drive(run, kernel)
     got = compiled.result(run, compiled.K.LAST_PEAKED, 0.0)
