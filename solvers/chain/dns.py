@@ -267,9 +267,7 @@ def simulate(
                             "= \"full\")")
     if how.rule is not None:
         with np.errstate(all="ignore"):  # a non-finite force raises ForceNotFinite (models/onsite.py), unprinted
-            res = _window.simulate_windowed(
-                beads, exponent, velocity, (first, last), force, rule=how.rule, method=chosen, rtol=rtol, atol=atol,
-                stop=rules, progress=progress, engine=how.window_engine, front=front, launch=launch)
+            res = _window.simulate_windowed(chain, (first, last), how, integrator, rules, progress=progress, front=front)
         return _window_energies(force, replace(res, engine="scipy", engine_reason=how.reason))
     y0 = initial_state(beads, velocity) if launch is None else launch.state(exponent, beads)
     e0 = energy(y0[0::2], y0[1::2], exponent, masses)

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import time as _time
 from dataclasses import dataclass, replace
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -38,6 +38,10 @@ from pulsemap.solvers.chain.front import memo, state_at
 from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.hairer import FORTRAN_CODES, run_fortran
 from pulsemap.solvers.chain.peaks import PeakTracker, StopRules, scan_step, velocity_scale
+
+if TYPE_CHECKING:  # pragma: no cover
+    from pulsemap.solvers.chain.dns import Chain, Integrator
+    from pulsemap.solvers.chain.plan import Plan
 
 Array = np.ndarray
 BOUNDARIES = ("coast", "free")
@@ -243,39 +247,21 @@ def shift_state(y: Array, lo: int, new_lo: int, new_hi: int) -> Array:
     return out
 
 
-def simulate_windowed(
-    beads: int,
-    exponent: float,
-    velocity: float,
-    contacts: tuple[int, int],
-    force=None,
-    *,
-    rule: WindowRule,
-    method: str = "DOP853",
-    rtol: float = 1e-10,
-    atol: float = 1e-12,
-    stop: StopRules,
-    progress: bool = False,
-    engine: str = "auto",
-    front=None,
-    launch=None,
-):
-    """Moving-window integration of Eq. 1 (arguments validated by dns.simulate, which calls it; ``stop``
-    with t_max and max_steps given).
-
-    ``launch`` (a solvers.chain.launch.Launch, checked by dns.simulate): start from that exact
-    solitary wave instead of the impact v0 on bead 1 (``velocity`` is then its velocity scale).
-
-    ``engine``: "fortran" (Hairer's DOP853/DOPRI5 through scipy.integrate.ode: the step loop
-    runs in compiled code, about 2x less overhead per step on a small window), "scipy" (the
-    scipy OdeSolver classes, needed for RK23 and the implicit methods) or "auto" (fortran when
-    the method has a Fortran code). ``front``: a front.FrontRecorder (energies, snapshots).
+def simulate_windowed(chain: "Chain", contacts: tuple[int, int], how: "Plan", integrator: "Integrator",
+                      stop: StopRules, *, progress: bool = False, front=None) -> DNSResult:
+    """Moving-window integration of Eq. 1 on the scipy engine (arguments validated by dns.simulate, which calls it,
+    and handed down as they are): ``chain`` (N, n, v0 or its launch, the on-site force), ``how`` (plan()'s Plan:
+    the method, the window rule and the window engine, "fortran" for Hairer's DOP853/DOPRI5 through
+    scipy.integrate.ode, about 2x less overhead per step on a small window, or "scipy" for the OdeSolver
+    classes), ``integrator`` (rtol, atol), ``stop`` (with t_max and max_steps given), ``front`` a
+    front.FrontRecorder (energies, snapshots). A launch (solvers.chain.launch.Launch) starts from that exact
+    solitary wave instead of the impact v0 on bead 1 (its velocity scale then stands for v0).
     """
+    beads, exponent, force, launch = chain.beads, chain.exponent, chain.force, chain.launch
+    velocity = chain.velocity if launch is None else launch.velocity_scale(exponent)
+    method, rule, engine, rtol, atol = how.method, how.rule, how.window_engine, integrator.rtol, integrator.atol
+    assert engine == "scipy" or (engine == "fortran" and method in FORTRAN_CODES), (engine, method)  # plan() chose
     first, last = int(contacts[0]), int(contacts[1])
-    if engine == "auto":
-        engine = "fortran" if method in FORTRAN_CODES else "scipy"
-    if engine not in ("fortran", "scipy") or (engine == "fortran" and method not in FORTRAN_CODES):
-        raise ValueError(f"engine {engine!r} cannot run method {method!r}; use engine='scipy'")
     scale_x, scale_v = velocity_scale(velocity, exponent), velocity
     moving = 1 if launch is None else launch.front(exponent)  # beads in motion at t = 0
     run = _Run(lo=0, hi=min(beads, moving + rule.ahead + rule.chunk + 1))
