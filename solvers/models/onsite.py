@@ -133,8 +133,6 @@ def numba_force(module, idx: np.ndarray, eps: np.ndarray, full: tuple):
     or a string saying why the scipy engine integrates it instead."""
     from pulsemap.solvers.models.codeload import jit_force_module
 
-    if hasattr(module, "DELTA"):
-        return "non-smooth R (sign, Heaviside or abs, integrated as a stiff ramp): the scipy engine runs it"
     zeros = np.zeros(idx.shape)
     with np.errstate(all="ignore"):
         if np.any(np.asarray(module.force(zeros, zeros, idx, eps, *full)) != 0.0):
