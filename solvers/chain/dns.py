@@ -228,7 +228,7 @@ def simulate(
     non-finite or the energy grows beyond 1e6 times its initial value. A contact whose first
     maximum exceeds ``overtake_factor`` times the previous contact's no longer carries the
     primary pulse (the wake overtook the front): the run stops there too. ``max_steps``
-    (default ``default_max_steps(last)``) bounds the accepted steps, so no run can hang.
+    (default ``default_max_steps(last, rtol)``) bounds the accepted steps, so no run can hang.
     Whatever stops the run, the peaks measured before it are returned (never NaN for a
     contact marked alive).
 
@@ -271,7 +271,7 @@ def simulate(
     data, how = _planned(chain, integrator, window, bool(snapshots.contacts))
     chosen = how.method
     t_limit = default_t_max(last, velocity, exponent) if stop.t_max is None else float(stop.t_max)
-    budget = default_max_steps(last) if stop.max_steps is None else int(stop.max_steps)
+    budget = default_max_steps(last, rtol) if stop.max_steps is None else int(stop.max_steps)
     rules = replace(stop, t_max=t_limit, max_steps=budget)
     if how.engine == "compiled":
         from pulsemap.solvers.chain import compiled  # numba: imported only when used

@@ -9,6 +9,7 @@ and the scipy solver factory. Both the full-chain front end (dns.py) and the mov
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
@@ -31,7 +32,10 @@ METHODS = methods.selectable()
 ENGINES = ("compiled", "scipy")
 STIFFNESS_RATIO = 30.0  # 'auto' goes implicit when stiffness_hint > this x contact rate
 ENERGY_BLOWUP = 1e6  # blow-up guard: energy (kinetic + contact) beyond this x initial
-STEPS_PER_CONTACT = 2000  # step budget per contact (default_max_steps)
+STEPS_PER_CONTACT = 2000  # step budget per contact at rtol >= BUDGET_RTOL (default_max_steps)
+#: Below this rtol the budget per contact grows as (BUDGET_RTOL/rtol)^(1/4), as the steps of Rodas4 (order 4, the
+#: lowest-order kernel) do on Coulomb friction's stick-slip, the most steps per contact measured (docs/dns.rst).
+BUDGET_RTOL = 1e-10
 
 
 class ForceNotFinite(PulsemapError, ArithmeticError):
@@ -223,9 +227,12 @@ def default_t_max(last_contact: int, velocity: float, exponent: float) -> float:
     return 100.0 * (last_contact + 5) / contact_rate(velocity, exponent)
 
 
-def default_max_steps(last_contact: int) -> int:
-    """Step budget: 2000 accepted steps per contact (a formed pulse takes ~5-10 at rtol 1e-10)."""
-    return STEPS_PER_CONTACT * (int(last_contact) + 10)
+def default_max_steps(last_contact: int, rtol: float = BUDGET_RTOL) -> int:
+    """Step budget, scaled with the run's length: STEPS_PER_CONTACT accepted steps per contact up to
+    ``last_contact``, times (BUDGET_RTOL/rtol)^(1/4) for a tighter rtol (a run takes ~50-250 per contact
+    at rtol 1e-10, Coulomb friction's stick phases the most)."""
+    per_contact = STEPS_PER_CONTACT * max(1.0, (BUDGET_RTOL / float(rtol)) ** 0.25)
+    return int(math.ceil(per_contact * (int(last_contact) + 10)))
 
 
 def initial_state(beads: int, velocity: float) -> Array:

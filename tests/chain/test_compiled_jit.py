@@ -24,7 +24,7 @@ from pulsemap.symbolic.cache import cache_dir
 from pulsemap.symbolic.codegen import PACKAGE_DIR
 from pulsemap.symbolic.codegen_force import DELTA
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
-from pulsemap.solvers.chain.equations import make_rhs
+from pulsemap.solvers.chain.equations import default_max_steps, make_rhs
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.models.codeload import force_module, jit_force_module
 from pulsemap.solvers.studies.points import dns_span
@@ -56,6 +56,19 @@ def test_non_polynomial_R_agrees_with_the_scipy_engine(R):
     assert np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 20
     assert rule_of(fast.stop_reason) == rule_of(ref.stop_reason)
     assert np.max(np.abs(fast.peaks[fast.alive] / ref.peaks[ref.alive] - 1.0)) < PEAK_TOL
+
+
+def test_coulomb_stick_slip_stays_well_inside_the_step_budget_per_contact():
+    """Coulomb friction's stick phases take the most steps per contact of any R (Rodas4 at the ramp's
+    corners): at rtol 1e-10 and 1e-12 a run uses under a third of the default budget per contact peaked."""
+    scene, beads, span, force = scene_with("-mu*sign(v)", mu=1.5)
+    scene = with_overrides(scene, eps=0.02)
+    chain = Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads))
+    for rtol in (1e-10, 1e-12):
+        res = simulate(chain, span, integrator=Integrator(rtol=rtol, atol=rtol * 1e-2), window="auto")
+        peaked = int(res.contacts[res.alive][-1])
+        assert res.method == "Rodas4" and res.stop_reason.startswith("pulse died") and peaked >= 30
+        assert res.steps < default_max_steps(peaked, rtol) / 3
 
 
 @pytest.mark.slow
