@@ -36,6 +36,10 @@ ONSET = 5  # contacts after the entry read from the onset table; the bulk map fr
 LATTICE = 3  # lattice points per factor 2 in the launch amplitude
 DEATH = 1e-3  # a segment stops when its peak falls below this fraction of P_0
 MAX_RUNS = 80  # segment runs one table may hold (a bound on the build cost)
+#: How far (in log P) below the bulk points the map is read where the pulses die (SegmentTable.dying_step):
+#: the lattice samples the last step before a death about this finely, so its lowest point lies up to one spacing
+#: above the lowest peak that still has a successor.
+DYING_REACH = math.log(2.0) / LATTICE
 
 
 @dataclass(frozen=True)
@@ -185,16 +189,16 @@ class SegmentTable:
             self.add(j)
 
     def cover(self, log_p: float) -> bool:
-        """Add lattice runs until the bulk map's range holds log P = log_p. False when it cannot:
-        beyond the runs' range pulses die before they relax (the lattice's end is then closed),
-        or the run budget MAX_RUNS is spent."""
+        """Add lattice runs until the bulk map's range holds log P = log_p (or ``dying_step``). False
+        when it cannot: beyond the runs' range pulses die before they relax (the lattice's end is then
+        closed), or the run budget MAX_RUNS is spent."""
         while True:
             rng = self.bulk_range()
             if rng is not None and rng[0] <= log_p <= rng[1]:
                 return True
             side = "high" if rng is None or log_p > rng[1] else "low"
             if side in self.closed or len(self.runs) >= MAX_RUNS:
-                return False
+                return self.dying_step(log_p)
             if not self.runs:
                 self.ensure_entry(log_p, margin=1)
                 continue
@@ -202,6 +206,15 @@ class SegmentTable:
             peaks = self.add(hi + 1 if side == "high" else lo - 1)
             if len(peaks) <= ONSET + 1:
                 self.closed.add(side)
+
+    def dying_step(self, log_p: float) -> bool:
+        """True when log_p lies within DYING_REACH below the bulk points and the pulses die there (the low
+        end closed): a step the runs take just before their death, though no run's lattice point fell on
+        it (a pulse that dies at a finite contact, as under Coulomb friction, takes one); the bulk map's
+        fit is read there as it continues."""
+        rng = self.bulk_range()
+        return (rng is not None and "low" in self.closed and rng[0] - DYING_REACH <= log_p < rng[0]
+                and self.ending(log_p) == "die")
 
     # ------------------------------------------------------------ data
     def bulk_points(self, runs: dict[int, list[float]] | None = None) -> tuple[np.ndarray, np.ndarray]:
