@@ -65,7 +65,8 @@ def generate_jit_force(source: JitForceSource) -> str:
     lines = ["import math", "", f"from numba import cfunc, {'njit, ' if kinks else ''}types", "",
              f"SOURCE = {json.dumps(source.as_dict(), sort_keys=True)}", f"PARAMS = {tuple(source.params)!r}",
              f"SIGNATURE = {SIGNATURE}", *(RAMP if kinks else [""])]
-    for fname, expr, doc in (("force", R, "eps_i R_i(x, v)"), ("force_dx", regularize(sympy.diff(R, u)), "d(eps_i R_i)/dx"),
+    for fname, expr, doc in (("force", R, "eps_i R_i(x, v)"),
+                             ("force_dx", regularize(sympy.diff(R, u)), "d(eps_i R_i)/dx"),
                              ("force_dv", regularize(sympy.diff(R, v)), "d(eps_i R_i)/dv")):
         lines += ["", '@cfunc(SIGNATURE, cache=True, error_model="numpy")', f"def {fname}(x, v, i, p):",
                   f'    """{doc} at bead i (1-based); p: [eps_i, then PARAMS at bead i]."""', *unpack,

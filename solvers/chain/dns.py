@@ -239,8 +239,9 @@ def simulate(
     ``integrator`` (an Integrator: method, rtol, atol, engine): ``engine="compiled"`` (default)
     runs chain/compiled.py (numba Dormand-Prince 5(4) for method 'auto' or 'RK45', numba DOP853
     for 'DOP853' (order 8: cheaper on a smooth, damped pulse, dearer where the wake keeps reopening
-    contacts), the force as a monomial table or, for a non-polynomial smooth R, a generated numba
-    function; Rodas4 with the exact Jacobian when 'auto' finds the force stiff) where it applies,
+    contacts), the force as a monomial table or, for a non-polynomial R (a non-smooth one as the ramp
+    of derive/codegen_force.py), a generated numba function; Rodas4 with the exact Jacobian when 'auto'
+    finds the force stiff) where it applies,
     else the scipy engine; ``engine="scipy"`` always the scipy engine. The result's
     ``engine_reason`` says which and why.
     """

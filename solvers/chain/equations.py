@@ -106,7 +106,7 @@ class OnSiteForce:
     embeds its beads in full-length arrays, which works for any force but costs O(N) per call.
     ``monomials``: the same force as a table for the compiled engine (polynomial R); else ``jit``,
     called only when the compiled engine runs, returns it as a generated numba force or a string
-    saying why there is none (non-smooth R: the scipy engine runs).
+    saying why there is none (a Python callable: the scipy engine runs).
     """
 
     force: Callable[[Array, Array], Array]

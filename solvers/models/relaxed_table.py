@@ -48,7 +48,7 @@ class SegmentSpec:
 
     ``R`` the perturbation text, ``params`` its scalar values, ``eps``, ``n``; DNS ``rtol`` (the
     engine and method are the ones ``simulate`` chooses for the force: the compiled engine, Rodas4
-    where stiff, the scipy engine for a non-smooth R); the moving window is sized for
+    where stiff, Coulomb friction's ramp included); the moving window is sized for
     ``window_accuracy``. atol is rtol/100 times the amplitude's scales. ``bump``: () for the uniform
     chain, or ((bead, delta, name), ...): on each bead first_perturbed + bead, R multiplied by
     1 + delta (name "") or parameter ``name`` raised by delta (the runs a response kernel is

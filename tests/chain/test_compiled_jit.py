@@ -98,6 +98,7 @@ def test_non_smooth_R_runs_compiled_and_converges_to_the_scipy_engine(R, eps, ke
     for rtol in (1e-9, 1e-11):
         fast = simulate(chain, span, integrator=Integrator(rtol=rtol, atol=rtol * 1e-2), window="auto")
         assert fast.engine == "compiled" and fast.method == kernel and "numba" in fast.engine_reason
+        assert "ramp of half-width 1e-09" in fast.engine_reason
         assert np.array_equal(fast.alive, ref.alive) and fast.alive.sum() >= 10
         assert rule_of(fast.stop_reason) == rule_of(ref.stop_reason)
         err[rtol] = np.max(np.abs(fast.peaks[fast.alive] / ref.peaks[ref.alive] - 1.0))
