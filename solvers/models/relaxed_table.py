@@ -256,14 +256,20 @@ class SegmentTable:
             self._onset = out
         return self._onset
 
-    def onset_ratios(self, log_p0: float) -> list[float] | None:
-        """log ratios of contacts 1..ONSET after entry at P_0 (cubic in log P_0); None where the
-        runs around P_0 died within the onset (the pulse dies there) or P_0 is off the lattice."""
+    def onset_ratios(self, log_p0: float) -> list[float]:
+        """log ratios of contacts 1..ONSET after entry at P_0 (cubic in log P_0), up to the first contact
+        the runs around P_0 do not reach (the pulse dies there within the onset) or where P_0 is off the
+        lattice: fewer than ONSET then. Like the bulk map (dying_step), a step is read down to DYING_REACH
+        below the lowest entry that takes it where the runs entering lower die before it: the pulse's
+        last step."""
         out = []
         for x, _, spline in self.onset():
-            if spline is None or not x[0] <= log_p0 <= x[-1]:
-                return None
+            dying = bool(x.size) and x[0] - DYING_REACH <= log_p0 < x[0] and self.ending(log_p0) == "die"
+            if spline is None or not (x[0] <= log_p0 or dying) or log_p0 > x[-1]:
+                break
             out.append(float(spline(log_p0)))
+            if dying:
+                break
         return out
 
 

@@ -56,6 +56,18 @@ def test_coulomb_friction_within_5_percent_of_the_dns(tmp_path, eps, mu):
     assert err["rms_pct"] < 5
 
 
+def test_a_pulse_that_dies_within_the_onset_has_values_until_it_dies(tmp_path):
+    """Coulomb friction with eps mu = 0.15: the pulse dies four contacts in, inside the onset table; relaxed
+    gives each of them (the runs entering there reach them) and says the pulse dies within the onset."""
+    text = scene_toml("coulomb", beads=60, eps=0.05, contacts=(16, 40), methods=("dns", "relaxed"))
+    text = text.replace('R = "-mu*v"', 'R = "-mu*sign(v)"').replace("mu = 1.0", "mu = 3.0")
+    res = run_scene(load_scene(str(write_scene(tmp_path, text))))
+    err = res["errors"]["relaxed"]
+    assert err["live_range"][0] == 16 and 3 <= err["compared"] < 5 and err["missing"] == 0  # dies in the onset
+    assert err["max_pct"] < 1
+    assert res["relaxed"]["status"] == "died" and "within the onset" in res["relaxed"]["message"]
+
+
 def test_a_table_row_skips_the_stated_accuracy_and_keeps_the_same_errors(tmp_path, monkeypatch):
     """The leave-one-run-out accuracy costs seconds of spline fits from an empty cache and no table column
     uses it: a row does not compute it; a run reports it, and the peaks and errors are the same either way."""
