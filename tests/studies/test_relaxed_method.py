@@ -41,8 +41,9 @@ def test_live_range_ends_at_two_percent_of_the_seed():
     assert model_error(contacts, dns, dns, 15, None)["rms_pct"] is None  # no seed: no live range
 
 
-@pytest.mark.parametrize("eps, mu", [(0.05, "1.0"), (0.02, "1.5"), (0.02, '"0.5 + 0.05*(i - 16)"'),
-                                     (0.02, "{uniform = [0.5, 1.5], seed = 7}")],
+@pytest.mark.parametrize("eps, mu", [pytest.param(0.05, "1.0", marks=pytest.mark.slow), (0.02, "1.5"),
+                                     (0.02, '"0.5 + 0.05*(i - 16)"'),
+                                     pytest.param(0.02, "{uniform = [0.5, 1.5], seed = 7}", marks=pytest.mark.slow)],
                          ids=["mu=1", "mu=1.5", "graded", "random"])
 def test_coulomb_friction_within_5_percent_of_the_dns(tmp_path, eps, mu):
     """-mu*sign(v), uniform or site-dependent: the pulse dies at a finite contact and relaxed follows it
