@@ -116,6 +116,7 @@ class OnSiteForce:
     restrict: Callable[[int, int], "OnSiteForce"] | None = None
     monomials: object | None = None  # chain.force_table.MonomialTable: the same force as data (compiled engine)
     jit: Callable[[], object] | None = None  # builds chain.force_table.JitForce (numba R) or says why not
+    ramp: bool = False  # R's sign or Heaviside runs as a stiff ramp (derive/codegen_force.py): choose_method's BDF
 
     @property
     def has_jacobian(self) -> bool:
@@ -211,15 +212,18 @@ def energy(x: Array, v: Array, exponent: float, masses: Array | None = None) -> 
 
 
 def choose_method(force: OnSiteForce | None, velocity: float, exponent: float) -> str:
-    """'DOP853' unless the force's stiffness hint dwarfs the contact rate, then 'LSODA'.
+    """'DOP853' unless the force's stiffness hint dwarfs the contact rate, then 'LSODA', or 'BDF' for a
+    force with a ramp (a non-smooth R).
 
     LSODA (banded analytic Jacobian) was the fastest implicit method in the damped-chain
     benchmarks (eps*mu = 30..3000, rtol 1e-6..1e-10); the explicit and implicit costs cross
-    near a stiffness ratio of 30.
+    near a stiffness ratio of 30. Through a ramp's corners (Coulomb friction's stick phases) LSODA's
+    switching goes astray at loose rtol (1e-2 off at rtol 1e-8, its step budget spent at 1e-9); BDF
+    is 2-3x slower there and converges with rtol (docs/dns.rst).
     """
     if force is None or force.stiffness_hint <= STIFFNESS_RATIO * contact_rate(velocity, exponent):
         return "DOP853"
-    return "LSODA"
+    return "BDF" if getattr(force, "ramp", False) else "LSODA"  # force: anything with a stiffness hint (plan.plan)
 
 
 def default_t_max(last_contact: int, velocity: float, exponent: float) -> float:
