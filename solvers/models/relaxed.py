@@ -321,11 +321,11 @@ def iterate_relaxed(model: RelaxedModel, seed_peak: float, seed_contact: int, la
     onset = model.onset_ratios(p, seed_contact)
     for c in range(seed_contact + 1, last_contact + 1):
         k = c - seed_contact
-        if k <= ONSET and k > len(onset):
+        if len(onset) < k <= ONSET:
             end = model.ending(seed_contact + 1, float(seed_peak))
             status, message = _ENDS[end][0], (f"the pulse {_ENDS[end][1]} within the onset after contact {c - 1} "
                                               f"(segment runs entering at peak {seed_peak:.4g} {end} within {k} "
-                                              "contacts)")
+                                              f"contact{'s' if k > 1 else ''})")
             break
         r = onset[k - 1] if k <= ONSET else model.bulk_ratio(p, c)
         if r is None:
