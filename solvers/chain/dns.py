@@ -28,7 +28,7 @@ from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
     ENERGY_BLOWUP, ENGINES, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
     ForceNotFinite, IntegratorFailed, OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy,
-    initial_state, largest_force, make_rhs, make_solver, run_scipy)
+    initial_state, largest_force, make_rhs, make_solver, ramp_atol, run_scipy)
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
 from pulsemap.solvers.chain.force_table import JitForce, MonomialTable, force_data
 from pulsemap.solvers.chain.front import FrontRecorder, Snapshots, check_snapshot_contacts, memo, state_at
@@ -253,7 +253,7 @@ def simulate(
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
     first, last = check_run(chain, contacts, stop)
     beads, exponent, velocity, force, launch = chain.beads, chain.exponent, chain.velocity, chain.force, chain.launch
-    rtol, atol = integrator.rtol, integrator.atol
+    rtol, atol = integrator.rtol, ramp_atol(chain.force, integrator.atol)
     contact, masses = chain.contact, chain.masses
     if launch is None and _scaling.needs_rescaling(velocity):  # a rescaled run at v0 = 1 (solvers/chain/scaling.py)
         _scaling.check_force_range(force, exponent, velocity, beads)

@@ -31,6 +31,9 @@ IMPLICIT_METHODS = methods.names(scipy=True, implicit=True)
 METHODS = methods.selectable()
 ENGINES = ("compiled", "scipy")
 STIFFNESS_RATIO = 30.0  # 'auto' goes implicit when stiffness_hint > this x contact rate
+#: atol of a run through a ramp is at most this x its half-width: a velocity step wider than the ramp hops across
+#: it and chatters (Coulomb friction on Rodas4 at atol 1e-8 spent its step budget; at 1e-10 it ran, docs/dns.rst).
+RAMP_ATOL = 0.1
 ENERGY_BLOWUP = 1e6  # blow-up guard: energy (kinetic + contact) beyond this x initial
 STEPS_PER_CONTACT = 2000  # step budget per contact at rtol >= BUDGET_RTOL (default_max_steps)
 #: Below this rtol the budget per contact grows as (BUDGET_RTOL/rtol)^(1/4), as the steps of Rodas4 (order 4, the
@@ -116,7 +119,7 @@ class OnSiteForce:
     restrict: Callable[[int, int], "OnSiteForce"] | None = None
     monomials: object | None = None  # chain.force_table.MonomialTable: the same force as data (compiled engine)
     jit: Callable[[], object] | None = None  # builds chain.force_table.JitForce (numba R) or says why not
-    ramp: bool = False  # R's sign or Heaviside runs as a stiff ramp (derive/codegen_force.py): choose_method's BDF
+    ramp: float = 0.0  # half-width of the ramp R's sign and Heaviside run as (derive/codegen_force.py; 0: none)
 
     @property
     def has_jacobian(self) -> bool:
@@ -223,7 +226,12 @@ def choose_method(force: OnSiteForce | None, velocity: float, exponent: float) -
     """
     if force is None or force.stiffness_hint <= STIFFNESS_RATIO * contact_rate(velocity, exponent):
         return "DOP853"
-    return "BDF" if getattr(force, "ramp", False) else "LSODA"  # force: anything with a stiffness hint (plan.plan)
+    return "BDF" if getattr(force, "ramp", 0.0) else "LSODA"  # force: anything with a stiffness hint (plan.plan)
+
+
+def ramp_atol(force: OnSiteForce | None, atol: float) -> float:
+    """The atol a run takes: ``atol``, at most RAMP_ATOL x the force's ramp half-width (a non-smooth R)."""
+    return min(float(atol), RAMP_ATOL * force.ramp) if force is not None and force.ramp else float(atol)
 
 
 def default_t_max(last_contact: int, velocity: float, exponent: float) -> float:

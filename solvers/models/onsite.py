@@ -90,7 +90,7 @@ def onsite_force(module, beads: int, first_perturbed: int, eps, values: Mapping[
             restrict=build,
             monomials=monomials,
             jit=jit,
-            ramp=hasattr(module, "DELTA"),
+            ramp=float(getattr(module, "DELTA", 0.0)),
         )
 
     table = table_from_module(module, idx, e, args0)  # the table: the compiled engine's F

@@ -73,6 +73,21 @@ def test_the_scipy_engine_takes_bdf_through_a_ramp_and_keeps_every_contact_at_lo
     assert np.max(np.abs(res.peaks[res.alive] / ref.peaks[ref.alive] - 1.0)) < 1e-5
 
 
+@pytest.mark.parametrize("engine", ["compiled", "scipy"])
+def test_a_loose_atol_is_capped_below_the_ramp_width_so_the_velocity_does_not_hop_across_it(engine):
+    """At atol 1e-8 (rtol 1e-6) Rodas4's velocity steps hopped across Coulomb's ramp (half-width 1e-9) and
+    spent the step budget by contact 47: a run through a ramp takes atol <= RAMP_ATOL x the half-width."""
+    from pulsemap.solvers.chain.equations import RAMP_ATOL
+
+    scene, beads, span, _ = scene_with("-mu*sign(v)", mu=0.2)
+    chain = Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads))
+    ref = simulate(chain, span, integrator=Integrator(rtol=1e-12, atol=1e-14), window="auto")
+    res = simulate(chain, span, integrator=Integrator(engine=engine, rtol=1e-6, atol=1e-8), window="auto")
+    assert res.atol == pytest.approx(RAMP_ATOL * DELTA) and res.stop_reason.startswith("pulse died")
+    assert np.array_equal(res.alive, ref.alive) and ref.alive.sum() >= 30
+    assert np.max(np.abs(res.peaks[res.alive] / ref.peaks[ref.alive] - 1.0)) < 1e-2
+
+
 def test_coulomb_stick_slip_stays_well_inside_the_step_budget_per_contact():
     """Coulomb friction's stick phases take the most steps per contact of any R (Rodas4 at the ramp's
     corners): at rtol 1e-10 and 1e-12 a run uses under a third of the default budget per contact peaked."""
