@@ -44,20 +44,24 @@ def _is_parameter(s: sympy.Symbol) -> bool:
     return isinstance(s, BeadSymbol) or (isinstance(s, UserSymbol) and s.name not in SYMBOLS)
 
 
-class _Printer(NumPyPrinter):
-    """numpy code; Heaviside(x) as numpy.heaviside(x, 0.5) (sympy's H(0) = 1/2)."""
+class _RampPrinter:
+    """ramp(s) and ramp_slope(s) (derive/codegen_force.py) as calls of the generated module's own functions."""
 
-    def _print_Heaviside(self, expr):
-        return f"numpy.heaviside({self._print(expr.args[0])}, 0.5)"
-
-    def _print_ramp(self, expr):  # derive/codegen_force.py: the module's own ramp(s)
+    def _print_ramp(self, expr):
         return f"ramp({self._print(expr.args[0])})"
 
     def _print_ramp_slope(self, expr):
         return f"ramp_slope({self._print(expr.args[0])})"
 
 
-class _MathPrinter(PythonCodePrinter):
+class _Printer(_RampPrinter, NumPyPrinter):
+    """numpy code; Heaviside(x) as numpy.heaviside(x, 0.5) (sympy's H(0) = 1/2)."""
+
+    def _print_Heaviside(self, expr):
+        return f"numpy.heaviside({self._print(expr.args[0])}, 0.5)"
+
+
+class _MathPrinter(_RampPrinter, PythonCodePrinter):
     """Scalar code with the math module (numba compiles it), for derive/codegen_jitforce.py."""
 
     def _print_not_supported(self, expr):

@@ -33,6 +33,7 @@ def test_runs_raise_no_runtime_warning(sets, tmp_path):
 def test_the_step_budget_advice_does_not_suggest_the_method_in_use():
     assert set(IMPLICIT) == set(IMPLICIT_METHODS)
     assert "try method='LSODA'" in budget_advice("DOP853")
+    assert "already an implicit method" in budget_advice("Rodas4")
     for method in IMPLICIT_METHODS:
         assert "LSODA'" not in budget_advice(method) and "max_steps" in budget_advice(method)
     for method, expect in (("LSODA", "already an implicit method"), ("DOP853", "try method='LSODA'")):

@@ -219,7 +219,7 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
     track = PeakTracker(run.first, run.last, float(cf[K.PEAK_FRAC]), float(cf[K.DEATH_FRAC]),
                         float(cf[K.OVERTAKE]), float(cf[K.STALL_FAC]), run.peaks, run.times,
                         float(fs[K.THRESH]), float(fs[K.STALL]), next_contact=int(st[K.NEXT]),
-                        last_peak_time=float(fs[K.LAST_PEAK_T]))
+                        last_peak_time=float(fs[K.LAST_PEAK_T]), method=run.method)
     reason = _reason(code, track, fs, st, run.t_max, run.max_steps, run.method)
     contacts_out, peaks_out, times_out, alive = track.outcome()
     return DNSResult(

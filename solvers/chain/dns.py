@@ -28,7 +28,7 @@ from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
     ENERGY_BLOWUP, ENGINES, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
     ForceNotFinite, IntegratorFailed, OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy,
-    initial_state, largest_force, make_rhs, make_solver, run_scipy)
+    initial_state, largest_force, make_rhs, make_solver, ramp_atol, run_scipy)
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
 from pulsemap.solvers.chain.force_table import JitForce, MonomialTable, force_data
 from pulsemap.solvers.chain.front import FrontRecorder, Snapshots, check_snapshot_contacts, memo, state_at
@@ -205,7 +205,7 @@ def simulate(
     non-finite or the energy grows beyond 1e6 times its initial value. A contact whose first
     maximum exceeds ``overtake_factor`` times the previous contact's no longer carries the
     primary pulse (the wake overtook the front): the run stops there too. ``max_steps``
-    (default ``default_max_steps(last)``) bounds the accepted steps, so no run can hang.
+    (default ``default_max_steps(last, rtol)``) bounds the accepted steps, so no run can hang.
     Whatever stops the run, the peaks measured before it are returned (never NaN for a
     contact marked alive).
 
@@ -216,8 +216,9 @@ def simulate(
     ``integrator`` (an Integrator: method, rtol, atol, engine): ``engine="compiled"`` (default)
     runs chain/compiled.py (numba Dormand-Prince 5(4) for method 'auto' or 'RK45', numba DOP853
     for 'DOP853' (order 8: cheaper on a smooth, damped pulse, dearer where the wake keeps reopening
-    contacts), the force as a monomial table or, for a non-polynomial smooth R, a generated numba
-    function; Rodas4 with the exact Jacobian when 'auto' finds the force stiff) where it applies,
+    contacts), the force as a monomial table or, for a non-polynomial R (a non-smooth one as the ramp
+    of derive/codegen_force.py), a generated numba function; Rodas4 with the exact Jacobian when 'auto'
+    finds the force stiff) where it applies,
     else the scipy engine; ``engine="scipy"`` always the scipy engine. The result's
     ``engine_reason`` says which and why.
     """
@@ -229,7 +230,7 @@ def simulate(
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
     first, last = check_run(chain, contacts, stop)
     beads, exponent, velocity, force, launch = chain.beads, chain.exponent, chain.velocity, chain.force, chain.launch
-    rtol, atol = integrator.rtol, integrator.atol
+    rtol, atol = integrator.rtol, ramp_atol(chain.force, integrator.atol)
     contact, masses = chain.contact, chain.masses
     if launch is None and _scaling.needs_rescaling(velocity):  # a rescaled run at v0 = 1 (solvers/chain/scaling.py)
         _scaling.check_force_range(force, exponent, velocity, beads)
@@ -248,7 +249,7 @@ def simulate(
     data, how = _planned(chain, integrator, window, bool(snapshots.contacts))
     chosen = how.method
     t_limit = default_t_max(last, velocity, exponent) if stop.t_max is None else float(stop.t_max)
-    budget = default_max_steps(last) if stop.max_steps is None else int(stop.max_steps)
+    budget = default_max_steps(last, rtol) if stop.max_steps is None else int(stop.max_steps)
     rules = replace(stop, t_max=t_limit, max_steps=budget)
     if how.engine == "compiled":
         from pulsemap.solvers.chain import compiled  # numba: imported only when used

@@ -9,6 +9,7 @@ and the scipy solver factory. Both the full-chain front end (dns.py) and the mov
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
@@ -30,8 +31,14 @@ IMPLICIT_METHODS = methods.names(scipy=True, implicit=True)
 METHODS = methods.selectable()
 ENGINES = ("compiled", "scipy")
 STIFFNESS_RATIO = 30.0  # 'auto' goes implicit when stiffness_hint > this x contact rate
+#: atol of a run through a ramp is at most this x its half-width: a velocity step wider than the ramp hops across
+#: it and chatters (Coulomb friction on Rodas4 at atol 1e-8 spent its step budget; at 1e-10 it ran, docs/dns.rst).
+RAMP_ATOL = 0.1
 ENERGY_BLOWUP = 1e6  # blow-up guard: energy (kinetic + contact) beyond this x initial
-STEPS_PER_CONTACT = 2000  # step budget per contact (default_max_steps)
+STEPS_PER_CONTACT = 2000  # step budget per contact at rtol >= BUDGET_RTOL (default_max_steps)
+#: Below this rtol the budget per contact grows as (BUDGET_RTOL/rtol)^(1/4), as the steps of Rodas4 (order 4, the
+#: lowest-order kernel) do on Coulomb friction's stick-slip, the most steps per contact measured (docs/dns.rst).
+BUDGET_RTOL = 1e-10
 
 
 class ForceNotFinite(PulsemapError, ArithmeticError):
@@ -102,7 +109,7 @@ class OnSiteForce:
     embeds its beads in full-length arrays, which works for any force but costs O(N) per call.
     ``monomials``: the same force as a table for the compiled engine (polynomial R); else ``jit``,
     called only when the compiled engine runs, returns it as a generated numba force or a string
-    saying why there is none (non-smooth R: the scipy engine runs).
+    saying why there is none (a Python callable: the scipy engine runs).
     """
 
     force: Callable[[Array, Array], Array]
@@ -112,6 +119,7 @@ class OnSiteForce:
     restrict: Callable[[int, int], "OnSiteForce"] | None = None
     monomials: object | None = None  # chain.force_table.MonomialTable: the same force as data (compiled engine)
     jit: Callable[[], object] | None = None  # builds chain.force_table.JitForce (numba R) or says why not
+    ramp: float = 0.0  # half-width of the ramp R's sign and Heaviside run as (derive/codegen_force.py; 0: none)
 
     @property
     def has_jacobian(self) -> bool:
@@ -207,15 +215,23 @@ def energy(x: Array, v: Array, exponent: float, masses: Array | None = None) -> 
 
 
 def choose_method(force: OnSiteForce | None, velocity: float, exponent: float) -> str:
-    """'DOP853' unless the force's stiffness hint dwarfs the contact rate, then 'LSODA'.
+    """'DOP853' unless the force's stiffness hint dwarfs the contact rate, then 'LSODA', or 'BDF' for a
+    force with a ramp (a non-smooth R).
 
     LSODA (banded analytic Jacobian) was the fastest implicit method in the damped-chain
     benchmarks (eps*mu = 30..3000, rtol 1e-6..1e-10); the explicit and implicit costs cross
-    near a stiffness ratio of 30.
+    near a stiffness ratio of 30. Through a ramp's corners (Coulomb friction's stick phases) LSODA's
+    switching goes astray at loose rtol (1e-2 off at rtol 1e-8, its step budget spent at 1e-9); BDF
+    is 2-3x slower there and converges with rtol (docs/dns.rst).
     """
     if force is None or force.stiffness_hint <= STIFFNESS_RATIO * contact_rate(velocity, exponent):
         return "DOP853"
-    return "LSODA"
+    return "BDF" if getattr(force, "ramp", 0.0) else "LSODA"  # force: anything with a stiffness hint (plan.plan)
+
+
+def ramp_atol(force: OnSiteForce | None, atol: float) -> float:
+    """The atol a run takes: ``atol``, at most RAMP_ATOL x the force's ramp half-width (a non-smooth R)."""
+    return min(float(atol), RAMP_ATOL * force.ramp) if force is not None and force.ramp else float(atol)
 
 
 def default_t_max(last_contact: int, velocity: float, exponent: float) -> float:
@@ -223,9 +239,12 @@ def default_t_max(last_contact: int, velocity: float, exponent: float) -> float:
     return 100.0 * (last_contact + 5) / contact_rate(velocity, exponent)
 
 
-def default_max_steps(last_contact: int) -> int:
-    """Step budget: 2000 accepted steps per contact (a formed pulse takes ~5-10 at rtol 1e-10)."""
-    return STEPS_PER_CONTACT * (int(last_contact) + 10)
+def default_max_steps(last_contact: int, rtol: float = BUDGET_RTOL) -> int:
+    """Step budget, scaled with the run's length: STEPS_PER_CONTACT accepted steps per contact up to
+    ``last_contact``, times (BUDGET_RTOL/rtol)^(1/4) for a tighter rtol (a run takes ~50-250 per contact
+    at rtol 1e-10, Coulomb friction's stick phases the most)."""
+    per_contact = STEPS_PER_CONTACT * max(1.0, (BUDGET_RTOL / float(rtol)) ** 0.25)
+    return int(math.ceil(per_contact * (int(last_contact) + 10)))
 
 
 def initial_state(beads: int, velocity: float) -> Array:

@@ -3,12 +3,12 @@
     x_i'' = (x_{i-1} - x_i)_+^n - (x_i - x_{i+1})_+^n + eps_i R_i(x_i, x_i')       (paper Eq. 1)
 
 A polynomial R enters as a monomial table (the generated force module's MONOMIALS and
-monomial_coefficients, derive/monomials.py), so a new polynomial R costs no compilation; a smooth
-non-polynomial R as a generated numba force (JitForce: derive/codegen_jitforce.py, in the cache),
-compiled once per R. A table whose monomials are u^a v^b with a <= 3, b <= 1 (every R of the paper:
-damping, linear and cubic foundations, Van der Pol) reaches the kernels in its dense form
-P_0(u) + v P_1(u), two cubics by Horner (MonomialTable.kernel_args): the general loop over monomials
-is the kernels' most expensive part (docs/dns.rst).
+monomial_coefficients, derive/monomials.py), so a new polynomial R costs no compilation; any other
+R as a generated numba force (JitForce: derive/codegen_jitforce.py, in the cache; sign, Heaviside
+and abs as the scipy engine's ramp), compiled once per R. A table whose monomials are u^a v^b with
+a <= 3, b <= 1 (every R of the paper: damping, linear and cubic foundations, Van der Pol) reaches
+the kernels in its dense form P_0(u) + v P_1(u), two cubics by Horner (MonomialTable.kernel_args):
+the general loop over monomials is the kernels' most expensive part (docs/dns.rst).
 """
 
 from __future__ import annotations
@@ -95,17 +95,25 @@ class MonomialTable:
 class JitForce:
     """eps_i R_i as a generated numba force (derive/codegen_jitforce.py, a non-polynomial R), Eq. 1:
     ``functions`` its C callables (force, dF/dx, dF/dv), ``arguments`` (L, 1 + P) whose row
-    min(i-1, L-1) is [eps_i, the parameters at bead i] (``jit_force`` builds both)."""
+    min(i-1, L-1) is [eps_i, the parameters at bead i] (``jit_force`` builds both); ``ramp`` the
+    half-width of the ramp a non-smooth R's sign and Heaviside are integrated as (0.0: none)."""
 
     functions: tuple
     arguments: Array
+    ramp: float = 0.0
 
     @property
     def kernel_args(self) -> tuple:
         return self.functions, self.arguments
 
     conservative = False
-    describe = "R as a generated numba function (not a polynomial)"
+
+    @property
+    def describe(self) -> str:
+        """How R reached the kernels (a non-smooth R: as which ramp)."""
+        if self.ramp:
+            return f"R as a generated numba function (non-smooth: sign as a ramp of half-width {self.ramp:g})"
+        return "R as a generated numba function (not a polynomial)"
 
 
 def _needed(rows: Array) -> int:
@@ -120,7 +128,7 @@ def jit_force(module, index: Array, eps: Array, params: tuple) -> JitForce:
     in module.PARAMS order; a parameter is a float or an array over beads)."""
     rows = np.column_stack([np.broadcast_to(np.asarray(a, float), index.shape) for a in (eps, *params)])
     return JitForce((module.force, module.force_dx, module.force_dv),
-                    np.ascontiguousarray(rows[: _needed(rows)], dtype=np.float64))
+                    np.ascontiguousarray(rows[: _needed(rows)], dtype=np.float64), float(getattr(module, "DELTA", 0.0)))
 
 
 def table_from_module(module, index: Array, eps: Array, params: tuple) -> MonomialTable | None:

@@ -16,6 +16,8 @@ from typing import Callable
 
 import numpy as np
 
+from pulsemap.solvers.chain import methods
+
 DenseOutput = Callable[[float], np.ndarray]
 
 
@@ -233,8 +235,9 @@ IMPLICIT = ("LSODA", "Radau", "BDF")
 
 
 def budget_advice(method: str) -> str:
-    """What to try when the step budget runs out: an implicit method, unless one is already in use."""
-    if method in IMPLICIT:
+    """What to try when the step budget runs out: an implicit method, unless one is already in use (the
+    scipy engine's or the compiled Rodas4, which Coulomb friction runs: chain/methods.py)."""
+    if method in methods.names(implicit=True):
         return f"{method} is already an implicit method: raise max_steps or ask for fewer contacts"
     return "too stiff for the method? try method='LSODA'"
 

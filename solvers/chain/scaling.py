@@ -78,6 +78,7 @@ class Scaling:
             stiffness_hint=force.stiffness_hint * self.tau,  # a rate: times tau
             restrict=None if restrict is None else (lambda lo, hi: self.force(restrict(lo, hi))),
             monomials=self.table(force.monomials),
+            ramp=force.ramp,
         )
 
     def table(self, table):

@@ -90,6 +90,7 @@ def onsite_force(module, beads: int, first_perturbed: int, eps, values: Mapping[
             restrict=build,
             monomials=monomials,
             jit=jit,
+            ramp=float(getattr(module, "DELTA", 0.0)),
         )
 
     table = table_from_module(module, idx, e, args0)  # the table: the compiled engine's F
@@ -133,8 +134,6 @@ def numba_force(module, idx: np.ndarray, eps: np.ndarray, full: tuple):
     or a string saying why the scipy engine integrates it instead."""
     from pulsemap.solvers.models.codeload import jit_force_module
 
-    if hasattr(module, "DELTA"):
-        return "non-smooth R (sign, Heaviside or abs, integrated as a stiff ramp): the scipy engine runs it"
     zeros = np.zeros(idx.shape)
     with np.errstate(all="ignore"):
         if np.any(np.asarray(module.force(zeros, zeros, idx, eps, *full)) != 0.0):

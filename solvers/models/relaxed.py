@@ -213,7 +213,7 @@ class RelaxedModel:
             at = log_p if bound is None else bound
             tab.ensure_entry(at)
             ratios = tab.onset_ratios(at)
-            if ratios is None:
+            if len(ratios) < k:
                 return None
             value = ratios[k - 1]
             if bound is not None:
@@ -237,13 +237,14 @@ class RelaxedModel:
             total += weight * value
         return total
 
-    def onset_ratios(self, seed_peak: float, seed_contact: int) -> list[float] | None:
-        """P_k/P_{k-1} for the ONSET contacts after the seed; None: the pulse dies in the onset."""
+    def onset_ratios(self, seed_peak: float, seed_contact: int) -> list[float]:
+        """P_k/P_{k-1} for the ONSET contacts after the seed, up to the first the pulse does not reach
+        (fewer than ONSET: it dies within the onset, as the segment runs entering at seed_peak do)."""
         out = []
         for k in range(1, ONSET + 1):
             value = self.onset_log_ratio(k, seed_contact, seed_peak)
             if value is None:
-                return None
+                break
             out.append(math.exp(value))
         return out
 
@@ -318,12 +319,14 @@ def iterate_relaxed(model: RelaxedModel, seed_peak: float, seed_contact: int, la
     status, message = "ok", f"reached contact {last_contact}"
     p = float(seed_peak)
     onset = model.onset_ratios(p, seed_contact)
-    if onset is None:
-        end = model.ending(seed_contact + 1, p)
-        return RelaxedRun(np.zeros(0, int), np.zeros(0), _ENDS[end][0], f"the pulse {_ENDS[end][1]} within the onset "
-                          f"(segment runs entering at peak {p:.4g} {end} within {ONSET} contacts)", p, seed_contact)
     for c in range(seed_contact + 1, last_contact + 1):
         k = c - seed_contact
+        if len(onset) < k <= ONSET:
+            end = model.ending(seed_contact + 1, float(seed_peak))
+            status, message = _ENDS[end][0], (f"the pulse {_ENDS[end][1]} within the onset after contact {c - 1} "
+                                              f"(segment runs entering at peak {seed_peak:.4g} {end} within {k} "
+                                              f"contact{'s' if k > 1 else ''})")
+            break
         r = onset[k - 1] if k <= ONSET else model.bulk_ratio(p, c)
         if r is None:
             end = model.ending(c, p)

@@ -36,6 +36,10 @@ ONSET = 5  # contacts after the entry read from the onset table; the bulk map fr
 LATTICE = 3  # lattice points per factor 2 in the launch amplitude
 DEATH = 1e-3  # a segment stops when its peak falls below this fraction of P_0
 MAX_RUNS = 80  # segment runs one table may hold (a bound on the build cost)
+#: How far (in log P) below the bulk points the map is read where the pulses die (SegmentTable.dying_step):
+#: the lattice samples the last step before a death about this finely, so its lowest point lies up to one spacing
+#: above the lowest peak that still has a successor.
+DYING_REACH = math.log(2.0) / LATTICE
 
 
 @dataclass(frozen=True)
@@ -44,7 +48,7 @@ class SegmentSpec:
 
     ``R`` the perturbation text, ``params`` its scalar values, ``eps``, ``n``; DNS ``rtol`` (the
     engine and method are the ones ``simulate`` chooses for the force: the compiled engine, Rodas4
-    where stiff, the scipy engine for a non-smooth R); the moving window is sized for
+    where stiff, Coulomb friction's ramp included); the moving window is sized for
     ``window_accuracy``. atol is rtol/100 times the amplitude's scales. ``bump``: () for the uniform
     chain, or ((bead, delta, name), ...): on each bead first_perturbed + bead, R multiplied by
     1 + delta (name "") or parameter ``name`` raised by delta (the runs a response kernel is
@@ -200,16 +204,16 @@ class SegmentTable:
             self.add(j)
 
     def cover(self, log_p: float) -> bool:
-        """Add lattice runs until the bulk map's range holds log P = log_p. False when it cannot:
-        beyond the runs' range pulses die before they relax (the lattice's end is then closed),
-        or the run budget MAX_RUNS is spent."""
+        """Add lattice runs until the bulk map's range holds log P = log_p (or ``dying_step``). False
+        when it cannot: beyond the runs' range pulses die before they relax (the lattice's end is then
+        closed), or the run budget MAX_RUNS is spent."""
         while True:
             rng = self.bulk_range()
             if rng is not None and rng[0] <= log_p <= rng[1]:
                 return True
             side = "high" if rng is None or log_p > rng[1] else "low"
             if side in self.closed or len(self.runs) >= MAX_RUNS:
-                return False
+                return self.dying_step(log_p)
             if not self.runs:
                 self.ensure_entry(log_p, margin=1)
                 continue
@@ -217,6 +221,15 @@ class SegmentTable:
             peaks = self.add(hi + 1 if side == "high" else lo - 1)
             if len(peaks) <= ONSET + 1:
                 self.closed.add(side)
+
+    def dying_step(self, log_p: float) -> bool:
+        """True when log_p lies within DYING_REACH below the bulk points and the pulses die there (the low
+        end closed): a step the runs take just before their death, though no run's lattice point fell on
+        it (a pulse that dies at a finite contact, as under Coulomb friction, takes one); the bulk map's
+        fit is read there as it continues."""
+        rng = self.bulk_range()
+        return (rng is not None and "low" in self.closed and rng[0] - DYING_REACH <= log_p < rng[0]
+                and self.ending(log_p) == "die")
 
     # ------------------------------------------------------------ data
     def bulk_points(self, runs: dict[int, list[float]] | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -258,14 +271,20 @@ class SegmentTable:
             self._onset = out
         return self._onset
 
-    def onset_ratios(self, log_p0: float) -> list[float] | None:
-        """log ratios of contacts 1..ONSET after entry at P_0 (cubic in log P_0); None where the
-        runs around P_0 died within the onset (the pulse dies there) or P_0 is off the lattice."""
+    def onset_ratios(self, log_p0: float) -> list[float]:
+        """log ratios of contacts 1..ONSET after entry at P_0 (cubic in log P_0), up to the first contact
+        the runs around P_0 do not reach (the pulse dies there within the onset) or where P_0 is off the
+        lattice: fewer than ONSET then. Like the bulk map (dying_step), a step is read down to DYING_REACH
+        below the lowest entry that takes it where the runs entering lower die before it: the pulse's
+        last step."""
         out = []
         for x, _, spline in self.onset():
-            if spline is None or not x[0] <= log_p0 <= x[-1]:
-                return None
+            dying = bool(x.size) and x[0] - DYING_REACH <= log_p0 < x[0] and self.ending(log_p0) == "die"
+            if spline is None or not (x[0] <= log_p0 or dying) or log_p0 > x[-1]:
+                break
             out.append(float(spline(log_p0)))
+            if dying:
+                break
         return out
 
 

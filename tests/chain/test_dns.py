@@ -394,6 +394,19 @@ def test_step_budget_bounds_a_run():
     assert win.stop_reason.startswith("step budget")
 
 
+def test_default_step_budget_scales_with_the_run_length_and_the_tolerance():
+    """STEPS_PER_CONTACT per contact to the last, more per contact below BUDGET_RTOL as rtol^(-1/4)."""
+    from pulsemap.solvers.chain.equations import BUDGET_RTOL, STEPS_PER_CONTACT, default_max_steps
+
+    assert default_max_steps(30) == STEPS_PER_CONTACT * 40 == default_max_steps(30, 1e-6)
+    assert default_max_steps(90) == 2 * default_max_steps(40)
+    tight = default_max_steps(30, BUDGET_RTOL / 100)
+    assert tight == pytest.approx(10 ** 0.5 * default_max_steps(30), rel=1e-5)
+    res = simulate(Chain(60, 1.5, 1.0), (1, 8), integrator=Integrator(engine="scipy", rtol=1e-12, atol=1e-14),
+                   stop=StopRules(max_steps=None))
+    assert res.stop_reason == "last contact peaked" and res.steps < default_max_steps(8, 1e-12)
+
+
 @pytest.mark.parametrize("bad", [0, -3, 2.5, True])
 def test_bad_step_budget(bad):
     with pytest.raises(ValueError, match="max_steps"):

@@ -77,6 +77,8 @@ def test_the_scipy_engine_runs_where_the_compiled_one_cannot_and_says_why(kw, wh
 def test_scipy_auto_is_dop853_or_lsoda_for_a_stiff_force_on_the_fortran_window():
     assert make(engine="scipy").method == "DOP853"
     assert make(engine="scipy", force=force(STIFFNESS_RATIO * 1.01)).method == "LSODA"
+    ramp = SimpleNamespace(stiffness_hint=STIFFNESS_RATIO * 1.01 * RATE, ramp=True)  # Coulomb's sign as a ramp
+    assert make(engine="scipy", force=ramp).method == "BDF"
     win = make(engine="scipy", window="auto")
     assert (win.method, win.window_engine, win.rule) == ("DOP853", "fortran", rule_for_accuracy(1e-8))
     assert make(engine="scipy", window="auto", method="RK45").window_engine == "fortran"

@@ -127,7 +127,7 @@ def test_seed_is_checked():
 
 
 def test_segment_runs_use_the_engine_simulate_chooses(monkeypatch):
-    """A polynomial R runs on the compiled engine, a non-smooth one (Coulomb's sign) on the scipy one."""
+    """A polynomial R and a non-smooth one (Coulomb's sign, its ramp through Rodas4) run on the compiled engine."""
     from pulsemap.solvers.chain import dns
 
     engines = []
@@ -141,7 +141,7 @@ def test_segment_runs_use_the_engine_simulate_chooses(monkeypatch):
     monkeypatch.setattr(dns, "simulate", spy)
     assert len(rt.segment_peaks(rt.SegmentSpec("-u^1", (), 1.0, N), 1.0)) > rt.ONSET
     assert len(rt.segment_peaks(rt.SegmentSpec("-mu*sign(v)", (("mu", 1.0),), 0.05, N), 1.0)) > rt.ONSET
-    assert engines == ["compiled", "scipy"]
+    assert engines == ["compiled", "compiled"]
 
 
 def test_a_segment_run_that_stops_early_is_an_error_not_a_dead_pulse(monkeypatch):
@@ -152,3 +152,18 @@ def test_a_segment_run_that_stops_early_is_an_error_not_a_dead_pulse(monkeypatch
     monkeypatch.setattr(dns, "simulate", lambda *a, **kw: real(*a, **{**kw, "stop": replace(kw["stop"], max_steps=20)}))
     with pytest.raises(rt.SegmentRunError, match="ended early: step budget of 20 steps"):
         rt.segment_peaks(rt.SegmentSpec("-u^1", (), 1.0, N), 1.0)
+
+
+def test_a_dying_step_is_read_within_one_lattice_spacing_below_the_bulk_points():
+    """Where the low end is closed (runs there die before they relax), the map reaches DYING_REACH below its
+    lowest point and no further; not where the end is open, nor where the runs blow up."""
+    spec = rt.SegmentSpec("-mu*sign(v)", (("mu", 1.0),), 0.02, N)
+    dying = [0.9 ** k for k in range(rt.ONSET + 6)] + [0.3]  # the last step before death: a steep drop
+    tab = rt.SegmentTable(spec, runs={0: dying, -1: [0.5, 0.2]}, closed={"low"})
+    low = tab.bulk_range()[0]
+    assert low == pytest.approx(math.log(dying[-2]))
+    assert tab.dying_step(low - 0.9 * rt.DYING_REACH) and tab.cover(low - 0.9 * rt.DYING_REACH)
+    assert not tab.dying_step(low - 1.1 * rt.DYING_REACH) and not tab.cover(low - 1.1 * rt.DYING_REACH)
+    assert not rt.SegmentTable(spec, runs=dict(tab.runs)).dying_step(low - 0.5 * rt.DYING_REACH)
+    growing = rt.SegmentTable(spec, runs={0: [1.1 ** k for k in range(rt.ONSET + 6)]}, closed={"low"})
+    assert not growing.dying_step(growing.bulk_range()[0] - 0.5 * rt.DYING_REACH)

@@ -41,16 +41,32 @@ def test_live_range_ends_at_two_percent_of_the_seed():
     assert model_error(contacts, dns, dns, 15, None)["rms_pct"] is None  # no seed: no live range
 
 
-@pytest.mark.slow
-def test_coulomb_friction_within_5_percent_of_the_dns(tmp_path):
-    """-mu*sign(v) at eps 0.05: the pulse lives to ~contact 28 and relaxed follows it (segment runs on
-    the scipy engine, which simulate chooses for a non-smooth R; the live range of `pulsemap run`)."""
-    text = scene_toml("coulomb", beads=60, eps=0.05, contacts=(16, 50), methods=("dns", "relaxed"))
-    text = text.replace('R = "-mu*v"', 'R = "-mu*sign(v)"')
+@pytest.mark.parametrize("eps, mu", [pytest.param(0.05, "1.0", marks=pytest.mark.slow), (0.02, "1.5"),
+                                     (0.02, '"0.5 + 0.05*(i - 16)"'),
+                                     pytest.param(0.02, "{uniform = [0.5, 1.5], seed = 7}", marks=pytest.mark.slow)],
+                         ids=["mu=1", "mu=1.5", "graded", "random"])
+def test_coulomb_friction_within_5_percent_of_the_dns(tmp_path, eps, mu):
+    """-mu*sign(v), uniform or site-dependent: the pulse dies at a finite contact and relaxed follows it
+    (segment runs on the compiled engine, Rodas4 through the ramp; the live range of `pulsemap run`)."""
+    text = scene_toml("coulomb", beads=80, eps=eps, contacts=(16, 70), methods=("dns", "relaxed"))
+    text = text.replace('R = "-mu*v"', 'R = "-mu*sign(v)"').replace("mu = 1.0", f"mu = {mu}")
     res = run_scene(load_scene(str(write_scene(tmp_path, text))))
+    assert res["relaxed"]["status"] in ("ok", "died") and res["relaxed"]["segment_runs"] > 0
     err = res["errors"]["relaxed"]
     assert err["live_range"][0] == 16 and err["compared"] >= 10 and err["missing"] == 0
     assert err["rms_pct"] < 5
+
+
+def test_a_pulse_that_dies_within_the_onset_has_values_until_it_dies(tmp_path):
+    """Coulomb friction with eps mu = 0.15: the pulse dies four contacts in, inside the onset table; relaxed
+    gives each of them (the runs entering there reach them) and says the pulse dies within the onset."""
+    text = scene_toml("coulomb", beads=60, eps=0.05, contacts=(16, 40), methods=("dns", "relaxed"))
+    text = text.replace('R = "-mu*v"', 'R = "-mu*sign(v)"').replace("mu = 1.0", "mu = 3.0")
+    res = run_scene(load_scene(str(write_scene(tmp_path, text))))
+    err = res["errors"]["relaxed"]
+    assert err["live_range"][0] == 16 and 3 <= err["compared"] < 5 and err["missing"] == 0  # dies in the onset
+    assert err["max_pct"] < 1
+    assert res["relaxed"]["status"] == "died" and "within the onset" in res["relaxed"]["message"]
 
 
 def test_a_table_row_skips_the_stated_accuracy_and_keeps_the_same_errors(tmp_path, monkeypatch):
