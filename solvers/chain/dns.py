@@ -230,7 +230,8 @@ def simulate(
         raise TypeError(f"progress must be True or False, got {type(progress).__name__}")
     first, last = check_run(chain, contacts, stop)
     beads, exponent, velocity, force, launch = chain.beads, chain.exponent, chain.velocity, chain.force, chain.launch
-    rtol, atol = integrator.rtol, ramp_atol(chain.force, integrator.atol)
+    integrator = replace(integrator, atol=ramp_atol(chain.force, integrator.atol))  # a ramp's cap (equations.py)
+    rtol, atol = integrator.rtol, integrator.atol
     contact, masses = chain.contact, chain.masses
     if launch is None and _scaling.needs_rescaling(velocity):  # a rescaled run at v0 = 1 (solvers/chain/scaling.py)
         _scaling.check_force_range(force, exponent, velocity, beads)
