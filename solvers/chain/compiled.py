@@ -96,7 +96,7 @@ class _Run:
     y: Array
     f: Array
     method: str = METHOD  # the kernel: RK45 (compiled_kernel.py), DOP853 (compiled_dop853.py) or Rodas4
-    terms: tuple = ()  # the contact law's term and the masses: contact_force.kernel_terms (cx, cc, mi)
+    terms: tuple = ()  # the contact law's term and the masses: contact_force.kernel_terms (ct,)
     vpeaks: Array | None = None  # bead velocity peaks, beads 1..last + 1 (tracked with masses; empty otherwise)
 
 
@@ -146,6 +146,11 @@ def prepare(chain: "Chain", contacts: tuple[int, int], table: "MonomialTable | J
                 cap, cf, ci, st, fs, np.full(last, np.nan), np.full(last, np.nan),
                 np.full(last - first + 1, np.nan), np.full(last - first + 1, np.nan), y, f, method,
                 kernel_terms(contact, masses), _velocity_peaks(masses, last, velocity, st))
+
+
+def _contact_rows(ct: Array) -> int:
+    """How many contact-law terms the kernels' ``ct`` holds (kernel_terms' layout)."""
+    return ct.shape[0] - 1 if ct.ndim == 2 else 0
 
 
 def _velocity_peaks(masses, last: int, velocity: float, st: Array) -> Array:
@@ -226,7 +231,7 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
         contacts=contacts_out, peaks=peaks_out, peak_times=times_out, alive=alive, stop_reason=reason,
         method=run.method, rtol=run.rtol, atol=run.atol, beads=int(run.beads), nfev=int(st[K.NFEV]),
         njev=int(st[K.NJEV]),
-        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.conservative and not run.terms[0].shape[0] else None,
+        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.conservative and not _contact_rows(run.terms[0]) else None,
         exponent=float(run.exponent), velocity=float(run.velocity), t_end=float(fs[K.T]),
         mode="full" if run.rule is None else "window/compiled", window_beads=int(st[K.WIDEST]),
         window_shifts=int(st[K.SHIFTS]), window_rule=run.rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),

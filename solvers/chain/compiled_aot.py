@@ -40,11 +40,11 @@ from pulsemap.solvers.chain import methods
 #: carries their common cache stamp: tests/chain/test_numba_stamp.py).
 SOURCES = ("compiled_ops.py", "compiled_track.py", "compiled_kernel.py", "compiled_stiff.py", "compiled_force.py",
            "compiled_dop853.py", "compiled_layout.py")
-#: ``run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi)``'s types
-#: (compiled.kernel_args), per form of ``coef``; (cx, cc, mi) in the bare form (contact_force.kernel_terms):
+#: ``run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct)``'s types
+#: (compiled.kernel_args), per form of ``coef``; ct in the bare form (contact_force.kernel_terms):
 #: a contact law's term or masses take numba's JIT kernels.
 SIGNATURE = ("i8(f8[::1], f8[::1], f8[::1], i8[::1], f8[::1], i8[::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[::1],"
-             " i8[:, ::1], {}, f8[:, ::1], f8[::1], f8[::1])")
+             " i8[:, ::1], {}, f8[::1])")
 COEF_TYPES = {"dense": "f8[:, :, ::1]", "table": "f8[:, ::1]"}
 FORM_OF_NDIM = {3: "dense", 2: "table"}  # coef (2, 4, L): the dense cubics; (M, L): the table
 INTEGER_ARGS = (3, 5, 11)  # st, ci, exps: int64; every other argument float64
@@ -86,7 +86,7 @@ def writable(path: Path) -> bool:
 def form_of(args: tuple) -> str | None:
     """The force form of the kernel arguments ``args`` ("dense" or "table"), or None when no
     ahead-of-time kernel takes them (a generated numba force, or an array of another type or layout)."""
-    exps, coef, cc = args[-5], args[-4], args[-2]
+    exps, coef, cc = args[-3], args[-2], args[-1]
     if not isinstance(exps, np.ndarray) or not isinstance(coef, np.ndarray) or coef.ndim not in FORM_OF_NDIM:
         return None
     if not isinstance(cc, np.ndarray) or cc.ndim != 1:  # a contact law's term or masses: the JIT kernels

@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: 8da591db2b551c6e
+# numba cache stamp: 0b74bab03114f7c4
 from __future__ import annotations
 
 import numpy as np
@@ -88,21 +88,21 @@ D = np.array([
 
 @njit(**NO_NRT)
 def dense_output(rc, h, y, yn, f, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, ys, w, lo, n,
-                 has_left, lx, lv, lt, wall, t, exps, coef, cx, cc, mi):
+                 has_left, lx, lv, lt, wall, t, exps, coef, ct):
     """The order-7 dense output's rows of the step t -> t + h (stages 13-15 evaluated here; k12 = f(t + h, yn))."""
     w2 = 2 * w
     for i in range(w2):
         ys[i] = y[i] + h * (A[13, 0] * f[i] + A[13, 6] * k6[i] + A[13, 7] * k7[i] + A[13, 8] * k8[i] +
                             A[13, 9] * k9[i] + A[13, 10] * k10[i] + A[13, 11] * k11[i] + A[13, 12] * k12[i])
-    rhs(t + C[13] * h, ys, k13, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+    rhs(t + C[13] * h, ys, k13, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
     for i in range(w2):
         ys[i] = y[i] + h * (A[14, 0] * f[i] + A[14, 5] * k5[i] + A[14, 6] * k6[i] + A[14, 7] * k7[i] +
                             A[14, 10] * k10[i] + A[14, 11] * k11[i] + A[14, 12] * k12[i] + A[14, 13] * k13[i])
-    rhs(t + C[14] * h, ys, k14, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+    rhs(t + C[14] * h, ys, k14, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
     for i in range(w2):
         ys[i] = y[i] + h * (A[15, 0] * f[i] + A[15, 5] * k5[i] + A[15, 6] * k6[i] + A[15, 7] * k7[i] +
                             A[15, 8] * k8[i] + A[15, 12] * k12[i] + A[15, 13] * k13[i] + A[15, 14] * k14[i])
-    rhs(t + C[15] * h, ys, k15, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+    rhs(t + C[15] * h, ys, k15, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
     for i in range(w2):
         dy = yn[i] - y[i]
         rc[0, i] = dy
@@ -123,17 +123,17 @@ def dense_output(rc, h, y, yn, f, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, 
 
 
 @njit(cache=True)
-def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi):
+def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct):
     """Integrate until a stop rule fires; returns its code (state in y, f, fs, st for a resume), as
     compiled_kernel.run (same bookkeeping after each accepted step: compiled_track). Allocates the
     scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
     cap = ci[CAPACITY]
-    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, np.empty((18, 2 * cap)),
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct, np.empty((18, 2 * cap)),
                  np.empty((DENSE_ROWS, 2 * cap)))
 
 
 @njit(**NO_NRT)
-def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, work, rc):
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct, work, rc):
     """The steps of ``run`` (``work``: 18 rows of scratch, ``rc``: the dense output's DENSE_ROWS rows,
     each of 2 x ci[CAPACITY])."""
     n = cf[EXP]
@@ -142,7 +142,7 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, co
     k9, k10, k11, k12, k13, k14, k15 = work[11], work[12], work[13], work[14], work[15], work[16], work[17]
     ys, yn, scratch = work[6], work[7], work[8]  # start() uses rows 6-8 before the first step
     t = fs[T]
-    start(t, y, f, st, fs, cf, ci, exps, coef, cx, cc, mi, work)
+    start(t, y, f, st, fs, cf, ci, exps, coef, ct, work)
     h = fs[H]
     while True:
         h, code = next_step(t, h, st, fs, cf, ci)
@@ -152,43 +152,43 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, co
         # ---- stages
         for i in range(w2):
             ys[i] = y[i] + h * (A[1, 0] * f[i])
-        rhs(t + C[1] * h, ys, k1, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C[1] * h, ys, k1, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A[2, 0] * f[i] + A[2, 1] * k1[i])
-        rhs(t + C[2] * h, ys, k2, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C[2] * h, ys, k2, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A[3, 0] * f[i] + A[3, 2] * k2[i])
-        rhs(t + C[3] * h, ys, k3, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C[3] * h, ys, k3, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A[4, 0] * f[i] + A[4, 2] * k2[i] + A[4, 3] * k3[i])
-        rhs(t + C[4] * h, ys, k4, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C[4] * h, ys, k4, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A[5, 0] * f[i] + A[5, 3] * k3[i] + A[5, 4] * k4[i])
-        rhs(t + C[5] * h, ys, k5, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C[5] * h, ys, k5, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A[6, 0] * f[i] + A[6, 3] * k3[i] + A[6, 4] * k4[i] + A[6, 5] * k5[i])
-        rhs(t + C[6] * h, ys, k6, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C[6] * h, ys, k6, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A[7, 0] * f[i] + A[7, 3] * k3[i] + A[7, 4] * k4[i] + A[7, 5] * k5[i] +
                                 A[7, 6] * k6[i])
-        rhs(t + C[7] * h, ys, k7, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C[7] * h, ys, k7, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A[8, 0] * f[i] + A[8, 3] * k3[i] + A[8, 4] * k4[i] + A[8, 5] * k5[i] + A[8, 6] * k6[i] +
                                 A[8, 7] * k7[i])
-        rhs(t + C[8] * h, ys, k8, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C[8] * h, ys, k8, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A[9, 0] * f[i] + A[9, 3] * k3[i] + A[9, 4] * k4[i] + A[9, 5] * k5[i] + A[9, 6] * k6[i] +
                                 A[9, 7] * k7[i] + A[9, 8] * k8[i])
-        rhs(t + C[9] * h, ys, k9, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C[9] * h, ys, k9, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A[10, 0] * f[i] + A[10, 3] * k3[i] + A[10, 4] * k4[i] + A[10, 5] * k5[i] +
                                 A[10, 6] * k6[i] + A[10, 7] * k7[i] + A[10, 8] * k8[i] + A[10, 9] * k9[i])
-        rhs(t + C[10] * h, ys, k10, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C[10] * h, ys, k10, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A[11, 0] * f[i] + A[11, 3] * k3[i] + A[11, 4] * k4[i] + A[11, 5] * k5[i] +
                                 A[11, 6] * k6[i] + A[11, 7] * k7[i] + A[11, 8] * k8[i] + A[11, 9] * k9[i] +
                                 A[11, 10] * k10[i])
-        rhs(t + C[11] * h, ys, k11, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C[11] * h, ys, k11, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             yn[i] = y[i] + h * (A[12, 0] * f[i] + A[12, 5] * k5[i] + A[12, 6] * k6[i] + A[12, 7] * k7[i] +
                                 A[12, 8] * k8[i] + A[12, 9] * k9[i] + A[12, 10] * k10[i] + A[12, 11] * k11[i])
@@ -218,14 +218,14 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, co
         st[REJECTED] = 0
         t_old = t
         t = t + h
-        rhs(t, yn, k12, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)  # f at the new point: next step's f
+        rhs(t, yn, k12, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)  # f at the new point: next step's f
         st[NFEV] += 1
         if peak_in_step(y, yn, f, k12, st, ci, vpeaks):
             dense_output(rc, h, y, yn, f, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, ys, w, lo,
-                         n, has_left, lx, lv, lt, wall, t_old, exps, coef, cx, cc, mi)
+                         n, has_left, lx, lv, lt, wall, t_old, exps, coef, ct)
             st[NFEV] += 3
-        code = track_step(t_old, t, h, y, yn, rc, scratch, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi, f, k12, vpeaks)
-        code = finish_step(t, h_new, y, f, yn, k12, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code)
+        code = track_step(t_old, t, h, y, yn, rc, scratch, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, ct, f, k12, vpeaks)
+        code = finish_step(t, h_new, y, f, yn, k12, w, st, fs, cf, ci, exps, coef, ct, code)
         h = h_new
         if code != 0:
             return code

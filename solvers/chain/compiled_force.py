@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 8da591db2b551c6e
+# numba cache stamp: 0b74bab03114f7c4
 from __future__ import annotations
 
 import numpy as np
@@ -98,33 +98,34 @@ def _onsite_slopes(x, v, b0, exps, coef):
     return function
 
 
-# --- the contact law's term eps_c P_k(d, w) and the bead masses (chain/contact_force.py's ContactTable):
-# ``(cx, cc, mi)``: exponents (M, 2) [a_m, b_m], per-contact coefficients (M, L) and inverse masses (L,),
-# column min(k0, L - 1); or, for the Hertz chain of unit masses, a 1-d ``cc`` (the bare form): numba then
-# compiles each helper to exactly the arithmetic of the bare chain (same numbers, same speed).
+# --- the contact law's term eps_c P_k(d, w) and the bead masses (chain/contact_force.py's kernel_terms): one
+# array ``ct`` (1 + M, 2 + L): row 0 holds the inverse masses in columns 2.., row 1 + m the exponents a_m, b_m in
+# columns 0, 1 and the per-contact coefficients in columns 2.. (column 2 + min(k0, L - 1)); or, for the Hertz chain
+# of unit masses, a 1-d ``ct`` (the bare form): numba then compiles each helper to exactly the arithmetic of the
+# bare chain (same numbers). One array, not three: every right-hand-side call passes it.
 
 
-def contact_force(d, wd, k0, n, cx, cc):  # pragma: no cover - numba replaces it (overload below)
+def contact_force(d, wd, k0, n, ct):  # pragma: no cover - numba replaces it (overload below)
     """F(d, w) = d^n + eps_c P_k0(d, w) of contact k0 (0-based) at overlap d > 0 and its rate wd."""
     raise NotImplementedError("compiled code only")
 
 
-def contact_slopes(d, wd, k0, n, cx, cc):  # pragma: no cover - numba replaces it (overload below)
+def contact_slopes(d, wd, k0, n, ct):  # pragma: no cover - numba replaces it (overload below)
     """(dF/dd, dF/dw) of contact k0 at overlap d > 0 and rate wd."""
     raise NotImplementedError("compiled code only")
 
 
-def inverse_mass(b0, cc, mi):  # pragma: no cover - numba replaces it (overload below)
+def inverse_mass(b0, ct):  # pragma: no cover - numba replaces it (overload below)
     """1 / m of bead b0 (0-based)."""
     raise NotImplementedError("compiled code only")
 
 
-def kinetic(v, b0, cc, mi):  # pragma: no cover - numba replaces it (overload below)
+def kinetic(v, b0, ct):  # pragma: no cover - numba replaces it (overload below)
     """m v^2 / 2 of bead b0 with velocity v."""
     raise NotImplementedError("compiled code only")
 
 
-def has_terms(cc):  # pragma: no cover - numba replaces it (overload below)
+def has_terms(ct):  # pragma: no cover - numba replaces it (overload below)
     """True when the chain has a contact term or masses (the table form), a compile-time constant."""
     raise NotImplementedError("compiled code only")
 
@@ -151,34 +152,34 @@ def _hertz(d, n):
     return d**n
 
 
-def _bare(cc) -> bool:
-    return isinstance(cc, types.Array) and cc.ndim == 1
+def _bare(ct) -> bool:
+    return isinstance(ct, types.Array) and ct.ndim == 1
 
 
 @njit(cache=True)
-def _table_force(d, wd, k0, n, cx, cc):
+def _table_force(d, wd, k0, n, ct):
     """contact_force of the table form (a call, not inlined: numba inlines no loop cleanly)."""
-    col = min(k0, cc.shape[1] - 1)
+    col = 2 + min(k0, ct.shape[1] - 3)
     f = _hertz(d, n)
-    for m in range(cx.shape[0]):
-        c = cc[m, col]
+    for m in range(1, ct.shape[0]):
+        c = ct[m, col]
         if c != 0.0:
-            p = c * _pow(d, cx[m, 0])
-            for _ in range(int(cx[m, 1])):
+            p = c * _pow(d, ct[m, 0])
+            for _ in range(int(ct[m, 1])):
                 p *= wd
             f += p
     return f
 
 
 @njit(cache=True)
-def _table_slopes(d, wd, k0, n, cx, cc):
+def _table_slopes(d, wd, k0, n, ct):
     """contact_slopes of the table form."""
-    col = min(k0, cc.shape[1] - 1)
+    col = 2 + min(k0, ct.shape[1] - 3)
     sd = n * _hertz(d, n - 1.0)
     sw = 0.0
-    for m in range(cx.shape[0]):
-        c = cc[m, col]
-        a, b = cx[m, 0], int(cx[m, 1])
+    for m in range(1, ct.shape[0]):
+        c = ct[m, col]
+        a, b = ct[m, 0], int(ct[m, 1])
         if c != 0.0:
             wb1 = 1.0  # w^(b-1)
             for _ in range(b - 1):
@@ -192,35 +193,35 @@ def _table_slopes(d, wd, k0, n, cx, cc):
 
 
 @overload(contact_force)
-def _contact_force(d, wd, k0, n, cx, cc):
-    if _bare(cc):
-        return lambda d, wd, k0, n, cx, cc: _hertz(d, n)
-    return lambda d, wd, k0, n, cx, cc: _table_force(d, wd, k0, n, cx, cc)
+def _contact_force(d, wd, k0, n, ct):
+    if _bare(ct):
+        return lambda d, wd, k0, n, ct: _hertz(d, n)
+    return lambda d, wd, k0, n, ct: _table_force(d, wd, k0, n, ct)
 
 
 @overload(contact_slopes)
-def _contact_slopes(d, wd, k0, n, cx, cc):
-    if _bare(cc):
-        return lambda d, wd, k0, n, cx, cc: (n * _hertz(d, n - 1.0), 0.0)
-    return lambda d, wd, k0, n, cx, cc: _table_slopes(d, wd, k0, n, cx, cc)
+def _contact_slopes(d, wd, k0, n, ct):
+    if _bare(ct):
+        return lambda d, wd, k0, n, ct: (n * _hertz(d, n - 1.0), 0.0)
+    return lambda d, wd, k0, n, ct: _table_slopes(d, wd, k0, n, ct)
 
 
 @overload(inverse_mass, inline="always")
-def _inverse_mass(b0, cc, mi):
-    if _bare(cc):
-        return lambda b0, cc, mi: 1.0
-    return lambda b0, cc, mi: mi[min(b0, mi.shape[0] - 1)]
+def _inverse_mass(b0, ct):
+    if _bare(ct):
+        return lambda b0, ct: 1.0
+    return lambda b0, ct: ct[0, 2 + min(b0, ct.shape[1] - 3)]
 
 
 @overload(kinetic, inline="always")
-def _kinetic(v, b0, cc, mi):
-    if _bare(cc):
-        return lambda v, b0, cc, mi: 0.5 * v * v
-    return lambda v, b0, cc, mi: 0.5 * v * v / mi[min(b0, mi.shape[0] - 1)]
+def _kinetic(v, b0, ct):
+    if _bare(ct):
+        return lambda v, b0, ct: 0.5 * v * v
+    return lambda v, b0, ct: 0.5 * v * v / ct[0, 2 + min(b0, ct.shape[1] - 3)]
 
 
 @overload(has_terms, inline="always")
-def _has_terms(cc):
-    if _bare(cc):
-        return lambda cc: False
-    return lambda cc: True
+def _has_terms(ct):
+    if _bare(ct):
+        return lambda ct: False
+    return lambda ct: True

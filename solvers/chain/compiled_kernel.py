@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: 8da591db2b551c6e
+# numba cache stamp: 0b74bab03114f7c4
 from __future__ import annotations
 
 import numpy as np
@@ -29,16 +29,16 @@ from pulsemap.solvers.chain.compiled_track import finish_step, next_step, peak_i
 
 
 @njit(cache=True)
-def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi):
+def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct):
     """Integrate until a stop rule fires; returns its code (state in y, f, fs, st for a resume).
     Allocates the scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
     cap = ci[CAPACITY]
-    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, np.empty((10, 2 * cap)),
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct, np.empty((10, 2 * cap)),
                  np.empty((4, 2 * cap)))
 
 
 @njit(**NO_NRT)
-def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, work, rc):
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct, work, rc):
     """The steps of ``run`` (``work``: 10 rows of scratch, ``rc``: the dense output's 4 rows, each of
     2 x ci[CAPACITY]).
 
@@ -55,7 +55,7 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, co
     k2, k3, k4, k5, k6, k7, ys, yn = work[0], work[1], work[2], work[3], work[4], work[5], work[8], work[9]
     expo1 = 0.2 - BETA * 0.75
     t = fs[T]
-    start(t, y, f, st, fs, cf, ci, exps, coef, cx, cc, mi, work)
+    start(t, y, f, st, fs, cf, ci, exps, coef, ct, work)
     h = fs[H]
     while True:
         h, code = next_step(t, h, st, fs, cf, ci)
@@ -65,22 +65,22 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, co
         # ---- stages
         for i in range(w2):
             ys[i] = y[i] + h * A21 * f[i]
-        rhs(t + C2 * h, ys, k2, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C2 * h, ys, k2, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A31 * f[i] + A32 * k2[i])
-        rhs(t + C3 * h, ys, k3, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C3 * h, ys, k3, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A41 * f[i] + A42 * k2[i] + A43 * k3[i])
-        rhs(t + C4 * h, ys, k4, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C4 * h, ys, k4, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A51 * f[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i])
-        rhs(t + C5 * h, ys, k5, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + C5 * h, ys, k5, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             ys[i] = y[i] + h * (A61 * f[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i])
-        rhs(t + h, ys, k6, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + h, ys, k6, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             yn[i] = y[i] + h * (A71 * f[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i])
-        rhs(t + h, yn, k7, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t + h, yn, k7, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         st[NFEV] += 6
         err = 0.0
         for i in range(w2):
@@ -108,8 +108,8 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, co
         # y_old stays in y until the bookkeeping is done (dense output needs y, f = k1, k3..k7)
         if peak_in_step(y, yn, f, k7, st, ci, vpeaks):
             dopri_dense(rc, y, yn, h, f, k3, k4, k5, k6, k7, w2)
-        code = track_step(t_old, t, h, y, yn, rc, work[6], w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi, f, k7, vpeaks)
-        code = finish_step(t, h_new, y, f, yn, k7, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code)  # FSAL: f <- k7
+        code = track_step(t_old, t, h, y, yn, rc, work[6], w, st, fs, cf, ci, peaks, times, pulse_e, total_e, ct, f, k7, vpeaks)
+        code = finish_step(t, h_new, y, f, yn, k7, w, st, fs, cf, ci, exps, coef, ct, code)  # FSAL: f <- k7
         h = h_new
         if code != 0:
             return code

@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 8da591db2b551c6e
+# numba cache stamp: 0b74bab03114f7c4
 from __future__ import annotations
 
 import numpy as np
@@ -64,15 +64,15 @@ def pos_pow(d: float, n: float) -> float:
 
 
 @njit(**NO_NRT)
-def rhs(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef, cx, cc, mi):
+def rhs(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef, ct):
     """Eq. 1 on the window's w beads (interleaved), the on-site force (exps, coef), the contact law's term
-    (cx, cc) and the masses (mi) as compiled_force.py reads them:
+    and the masses (ct) as compiled_force.py reads them:
     m_j x_j'' = F(d_(j-1), w_(j-1)) - F(d_j, w_j) + F_j(x_j, v_j)."""
     prev = 0.0
     if has_left:
         d = left_x + left_v * (t - left_t) - y[0]
         if d > 0.0:
-            prev = contact_force(d, left_v - y[1], lo - 1, n, cx, cc)
+            prev = contact_force(d, left_v - y[1], lo - 1, n, ct)
     for j in range(w):
         x = y[2 * j]
         v = y[2 * j + 1]
@@ -85,21 +85,21 @@ def rhs(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef,
         else:
             d = 0.0
             wd = 0.0
-        fj = contact_force(d, wd, lo + j, n, cx, cc) if d > 0.0 else 0.0
+        fj = contact_force(d, wd, lo + j, n, ct) if d > 0.0 else 0.0
         acc = add_onsite(prev - fj, x, v, lo + j, exps, coef)
         out[2 * j] = v
-        out[2 * j + 1] = acc * inverse_mass(lo + j, cc, mi)
+        out[2 * j + 1] = acc * inverse_mass(lo + j, ct)
         prev = fj
 
 
 @njit(**NO_NRT)
-def window_energy(t, y, w, n, has_left, left_x, left_v, left_t, lo, cc, mi):
+def window_energy(t, y, w, n, has_left, left_x, left_v, left_t, lo, ct):
     """Kinetic + Hertz contact energy of the window (with the contact to the coasting left bead; the
     contact law's term P is left out: the energy is the blow-up guard's, and a drift is reported only
     for a conservative chain)."""
     e = 0.0
     for j in range(w):
-        e += kinetic(y[2 * j + 1], lo + j, cc, mi)
+        e += kinetic(y[2 * j + 1], lo + j, ct)
         if j < w - 1:
             d = y[2 * j] - y[2 * j + 2]
             if d > 0.0:
@@ -112,11 +112,11 @@ def window_energy(t, y, w, n, has_left, left_x, left_v, left_t, lo, cc, mi):
 
 
 @njit(**NO_NRT)
-def segment_energy(y, a, b, n, lo, cc, mi):
+def segment_energy(y, a, b, n, lo, ct):
     """Kinetic + contact energy of local beads a..b-1 and the contacts between them (front.py)."""
     e = 0.0
     for j in range(a, b):
-        e += kinetic(y[2 * j + 1], lo + j, cc, mi)
+        e += kinetic(y[2 * j + 1], lo + j, ct)
         if j < b - 1:
             d = y[2 * j] - y[2 * j + 2]
             if d > 0.0:

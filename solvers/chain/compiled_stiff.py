@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 8da591db2b551c6e
+# numba cache stamp: 0b74bab03114f7c4
 from __future__ import annotations
 
 import numpy as np
@@ -54,7 +54,7 @@ SAFE, FAC_MIN, FAC_MAX = 0.9, 0.2, 6.0
 
 
 @njit(**NO_NRT)
-def jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi, band):
+def jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct, band):
     """Eq. 1's Jacobian on the window: band[0, j] the stiffness dF/dd of the contact left of local bead j
     (j = 0: the coasting bead; band[0, w]: the wall), band[5, j] its damping dF/dw, band[1], band[2]
     dF/dx, dF/dv of the on-site force, band[6] the inverse masses. Returns df/dt of v_0 (the coasting
@@ -66,32 +66,32 @@ def jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi,
     if has_left:
         d = lx + lv * (t - lt) - y[0]
         if d > 0.0:
-            s[0], g[0] = contact_slopes(d, lv - y[1], lo - 1, n, cx, cc)
-            ft = s[0] * lv * inverse_mass(lo, cc, mi)
+            s[0], g[0] = contact_slopes(d, lv - y[1], lo - 1, n, ct)
+            ft = s[0] * lv * inverse_mass(lo, ct)
     for j in range(w - 1):
         d = y[2 * j] - y[2 * j + 2]
         if d > 0.0:
-            s[j + 1], g[j + 1] = contact_slopes(d, y[2 * j + 1] - y[2 * j + 3], lo + j, n, cx, cc)
+            s[j + 1], g[j + 1] = contact_slopes(d, y[2 * j + 1] - y[2 * j + 3], lo + j, n, ct)
         else:
             s[j + 1], g[j + 1] = 0.0, 0.0
     d = y[2 * w - 2] if wall else 0.0  # the wall ahead
     if d > 0.0:
-        s[w], g[w] = contact_slopes(d, y[2 * w - 1], lo + w - 1, n, cx, cc)
+        s[w], g[w] = contact_slopes(d, y[2 * w - 1], lo + w - 1, n, ct)
     else:
         s[w], g[w] = 0.0, 0.0
     for j in range(w):
         band[1, j], band[2, j] = onsite_slopes(y[2 * j], y[2 * j + 1], lo + j, exps, coef)
-        band[6, j] = inverse_mass(lo + j, cc, mi)
+        band[6, j] = inverse_mass(lo + j, ct)
     return ft
 
 
 @njit(**NO_NRT)
-def factor(hg, w, band, cc):
+def factor(hg, w, band, ct):
     """LU (Thomas) of the tridiagonal system in K_v left by eliminating K_x = hg (r_x + K_v) from
     (1/hg - J) K = r: band[3] the inverse pivots, band[4] the normalised super-diagonal.
     False when a pivot is not finite or zero (the step is then rejected). With a contact term or masses
     the couplings are (hg dF/dd + dF/dw) / m (factor_terms)."""
-    if has_terms(cc):
+    if has_terms(ct):
         return factor_terms(hg, w, band)
     s, dfx, dfv, dinv, cp = band[0], band[1], band[2], band[3], band[4]
     prev = 0.0
@@ -127,10 +127,10 @@ def factor_terms(hg, w, band):
 
 
 @njit(**NO_NRT)
-def solve(r, k, hg, w, band, cc):
+def solve(r, k, hg, w, band, ct):
     """K from (1/hg - J) K = r with factor's LU (interleaved r, K; O(w))."""
     s, dfx, dinv, cp = band[0], band[1], band[3], band[4]
-    terms = has_terms(cc)
+    terms = has_terms(ct)
     g, mi = band[5], band[6]
     prev = 0.0
     for j in range(w):
@@ -157,14 +157,14 @@ def solve(r, k, hg, w, band, cc):
 
 
 @njit(**NO_NRT)
-def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi, k, work, band):
+def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct, k, work, band):
     """One Rodas4 step from (t, y) with f = f(t, y): yn and the error estimate err (= K_6).
     False when the linear system is singular. ``k``: (STAGES, >= 2w), ``work``: (3, >= 2w) scratch."""
     w2 = 2 * w
     r, ys, fy = work[0], work[1], work[2]
     hg = GAMMA * h
-    ft = jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi, band)
-    if not factor(hg, w, band, cc):
+    ft = jacobian(t, y, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct, band)
+    if not factor(hg, w, band, ct):
         return False
     for s in range(STAGES):
         if s == 0:
@@ -176,14 +176,14 @@ def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, e
                 for j in range(s):
                     acc += A[s, j] * k[j, i]
                 ys[i] = acc
-            rhs(t + ALPHA[s] * h, ys, fy, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+            rhs(t + ALPHA[s] * h, ys, fy, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         for i in range(w2):
             acc = fy[i]
             for j in range(s):
                 acc += C[s, j] / h * k[j, i]
             r[i] = acc
         r[1] += GAMMAS[s] * h * ft
-        solve(r, k[s], hg, w, band, cc)
+        solve(r, k[s], hg, w, band, ct)
     for i in range(w2):
         acc = y[i]
         for s in range(STAGES):
@@ -194,24 +194,24 @@ def rosenbrock_step(t, h, y, f, yn, err, w, lo, n, has_left, lx, lv, lt, wall, e
 
 
 @njit(cache=True)
-def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi):
+def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct):
     """compiled_kernel.run with Rodas4 steps (same arguments, state and stop codes; st[NJEV] counts
     the Jacobians, one per attempted step). Step control: h_new = h min(6, max(0.2, 0.9 err^(-1/4))),
     no growth right after a rejection. Allocates the scratch arrays, then ``steps`` (compiled without
     reference counting) does the work."""
     cap = ci[CAPACITY]
-    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, np.empty((10, 2 * cap)),
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct, np.empty((10, 2 * cap)),
                  np.empty((7, cap + 1)), np.empty((STAGES, 2 * cap)), np.empty((4, 2 * cap)))
 
 
 @njit(**NO_NRT)
-def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, cx, cc, mi, work, band, k, rc):
+def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct, work, band, k, rc):
     """The steps of ``run`` (scratch: ``work`` 10 rows of 2 x ci[CAPACITY], ``band`` the banded
     Jacobian 7 x (ci[CAPACITY] + 1), ``k`` the stages, ``rc`` the dense output's 4 rows)."""
     n = cf[EXP]
     rtol, atol = cf[RTOL], cf[ATOL]
     yn, fn, err_v, pk = work[6], work[7], work[8], work[9]
-    start(fs[T], y, f, st, fs, cf, ci, exps, coef, cx, cc, mi, work)
+    start(fs[T], y, f, st, fs, cf, ci, exps, coef, ct, work)
     t, h = fs[T], fs[H]
     while True:
         h, code = next_step(t, h, st, fs, cf, ci)
@@ -220,7 +220,7 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, co
         st[NJEV] += 1
         lo, w, wall, has_left, w2, lx, lv, lt = window_now(st, fs, ci)
         err = np.inf
-        if rosenbrock_step(t, h, y, f, yn, err_v, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi, k, work, band):
+        if rosenbrock_step(t, h, y, f, yn, err_v, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct, k, work, band):
             st[NFEV] += STAGES - 1
             err = 0.0
             for i in range(w2):
@@ -244,12 +244,12 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, co
         h_new = h * fac
         t_old = t
         t = t + h
-        rhs(t, yn, fn, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, cx, cc, mi)
+        rhs(t, yn, fn, w, lo, n, has_left, lx, lv, lt, wall, exps, coef, ct)
         st[NFEV] += 1
         if peak_in_step(y, yn, f, fn, st, ci, vpeaks):
             hermite_dense(rc, y, yn, f, fn, h, w2)
-        code = track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi, f, fn, vpeaks)
-        code = finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code)  # fn = f(t, yn)
+        code = track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, ct, f, fn, vpeaks)
+        code = finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, ct, code)  # fn = f(t, yn)
         h = h_new
         if code != 0:
             return code

@@ -19,7 +19,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci) and return codes: compiled_layout.py.
 """
 
-# numba cache stamp: 8da591db2b551c6e
+# numba cache stamp: 0b74bab03114f7c4
 from __future__ import annotations
 
 import numpy as np
@@ -177,7 +177,7 @@ def track_velocity(y, yn, f, fn, rc, h, w, st, cf, vpeaks):
 
 
 @njit(cache=True, inline="always")
-def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, cc, mi, f, fn, vpeaks):
+def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, ct, f, fn, vpeaks):
     """After an accepted step t_old -> t (state y -> yn, dense output rc): the blow-up guard (energy
     every ci[ENERGY_EVERY] steps), the leading-edge peaks completed in the step, at each requested
     contact's peak the energies of front.FrontRecorder (``pulse_e``: beads k-8..k+8, ``total_e``:
@@ -193,7 +193,7 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
     has_left = st[HAS_LEFT] == 1
     code = 0
     if st[STEPS] % ci[ENERGY_EVERY] == 0 or not np.isfinite(yn[w2 - 1] + yn[0]):
-        e_now = window_energy(t, yn, w, n, has_left, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], lo, cc, mi) + fs[E_GONE]
+        e_now = window_energy(t, yn, w, n, has_left, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], lo, ct) + fs[E_GONE]
         fs[E_LAST] = e_now
         if not np.isfinite(e_now) or not e_now <= cf[E_LIMIT] * fs[E0]:
             return BLOWUP
@@ -218,8 +218,8 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
                 pk[i] = dense_value(theta, i, y, rc)
             kl = k - 1 - lo
             pulse_e[k - first] = segment_energy(pk, max(0, kl - PULSE_HALF_WIDTH), min(w, kl + PULSE_HALF_WIDTH + 1), n,
-                                                   lo, cc, mi)
-            total_e[k - first] = segment_energy(pk, w - w, w, n, lo, cc, mi) + fs[E_GONE]  # w - w: not a literal 0 (one compile)
+                                                   lo, ct)
+            total_e[k - first] = segment_energy(pk, w - w, w, n, lo, ct) + fs[E_GONE]  # w - w: not a literal 0 (one compile)
         fs[STALL] = cf[STALL_FAC] * (t_pk - fs[LAST_PEAK_T])
         fs[LAST_PEAK_T] = t_pk
         fs[THRESH] = cf[PEAK_FRAC] * value
@@ -246,7 +246,7 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
 
 
 @njit(cache=True, inline="always")
-def drop_behind(t, y, f, w, st, fs, cf, ci, cc, mi):
+def drop_behind(t, y, f, w, st, fs, cf, ci, ct):
     """Drop the beads more than ``behind`` behind the last peaked contact (the last one coasts, or the
     chain gets a free end); the energy they carry goes to fs[E_GONE]. Returns (w, the caller must
     re-evaluate f: the first bead lost its left contact)."""
@@ -255,7 +255,7 @@ def drop_behind(t, y, f, w, st, fs, cf, ci, cc, mi):
     drop = st[NEXT] - 1 - ci[BEHIND] - lo
     if drop <= 0:
         return w, False
-    e_before = window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], lo, cc, mi)
+    e_before = window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], lo, ct)
     j = drop - 1  # local index of the last dropped bead
     if ci[COAST] == 1:
         fs[LEFT_X], fs[LEFT_V], fs[LEFT_T] = y[2 * j], y[2 * j + 1], t
@@ -268,13 +268,13 @@ def drop_behind(t, y, f, w, st, fs, cf, ci, cc, mi):
     st[LO] = lo + drop
     w -= drop
     fs[E_GONE] += e_before - window_energy(t, y, w, n, st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T],
-                                          st[LO], cc, mi)
+                                          st[LO], ct)
     st[SHIFTS] += 1
     return w, ci[COAST] == 0
 
 
 @njit(cache=True, inline="always")
-def add_ahead(y, f, w, st, cf, ci, cx, cc, mi):
+def add_ahead(y, f, w, st, cf, ci, ct):
     """A bead at rest ahead when the last one has moved by more than the threshold (relative to
     v0^(2/(n+1)) and v0): the wall it replaces pushed exactly as it does (F(0, 0) = 0 is checked by
     the caller). Returns w; records the widest window."""
@@ -284,7 +284,7 @@ def add_ahead(y, f, w, st, cf, ci, cx, cc, mi):
         f[2 * w] = 0.0
         d = y[2 * w - 2]
         hi = st[HI]
-        f[2 * w + 1] = contact_force(d, y[2 * w - 1], hi - 1, cf[EXP], cx, cc) * inverse_mass(hi, cc, mi) if d > 0.0 else 0.0
+        f[2 * w + 1] = contact_force(d, y[2 * w - 1], hi - 1, cf[EXP], ct) * inverse_mass(hi, ct) if d > 0.0 else 0.0
         st[HI] += 1
         w += 1
     if w > st[WIDEST]:
@@ -309,29 +309,29 @@ def pause_now(st, ci) -> bool:
 
 
 @njit(cache=True, inline="always")
-def shift_window(t, y, f, w, st, fs, cf, ci, exps, coef, cx, cc, mi):
+def shift_window(t, y, f, w, st, fs, cf, ci, exps, coef, ct):
     """drop_behind (f re-evaluated when the chain got a free end), then add_ahead: the new w."""
-    w, refresh = drop_behind(t, y, f, w, st, fs, cf, ci, cc, mi)
+    w, refresh = drop_behind(t, y, f, w, st, fs, cf, ci, ct)
     if refresh:  # free: the first bead lost its left contact
         # has_left as st[HAS_LEFT] == 1 (False here), not a literal False: rhs is compiled once
-        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, 0.0, 0.0, 0.0, st[HI] < ci[BEADS], exps, coef, cx, cc, mi)
+        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, 0.0, 0.0, 0.0, st[HI] < ci[BEADS], exps, coef, ct)
         st[NFEV] += 1
-    return add_ahead(y, f, w, st, cf, ci, cx, cc, mi)
+    return add_ahead(y, f, w, st, cf, ci, ct)
 
 
 @njit(cache=True, inline="always")
-def finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, cx, cc, mi, code):
+def finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, ct, code):
     """After track_step: accept the step (y <- yn, f <- fn), then, unless ``code`` stops the run, shift
     the window and pause for a progress line when it is due. Returns the code (PAUSED, or 0: go on)."""
     accept(t, h_new, y, f, yn, fn, 2 * w, fs)
     if code != 0:
         return code
-    shift_window(t, y, f, w, st, fs, cf, ci, exps, coef, cx, cc, mi)
+    shift_window(t, y, f, w, st, fs, cf, ci, exps, coef, ct)
     return PAUSED if pause_now(st, ci) else 0
 
 
 @njit(**NO_NRT)
-def _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work):
+def _initial_step(t, y, f, w, st, fs, cf, exps, coef, ct, wall, work):
     """Hairer's HINIT for the first step."""
     w2 = 2 * w
     rtol, atol = cf[RTOL], cf[ATOL]
@@ -350,7 +350,7 @@ def _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work):
     h = min(h, cf[T_MAXC] - t)
     for i in range(w2):
         y1[i] = y[i] + h * f[i]
-    rhs(t + h, y1, f1, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, cx, cc, mi)
+    rhs(t + h, y1, f1, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, ct)
     st[NFEV] += 1
     der2 = 0.0
     for i in range(w2):
@@ -362,13 +362,13 @@ def _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work):
 
 
 @njit(**NO_NRT)
-def start(t, y, f, st, fs, cf, ci, exps, coef, cx, cc, mi, work):
+def start(t, y, f, st, fs, cf, ci, exps, coef, ct, work):
     """At a run's first call (st[STARTED] == 0): f at t and the first step size (HINIT)."""
     if st[STARTED] == 0:
         w = st[HI] - st[LO]
         wall = st[HI] < ci[BEADS]
-        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, cx, cc, mi)
+        rhs(t, y, f, w, st[LO], cf[EXP], st[HAS_LEFT] == 1, fs[LEFT_X], fs[LEFT_V], fs[LEFT_T], wall, exps, coef, ct)
         st[NFEV] += 1
-        fs[H] = _initial_step(t, y, f, w, st, fs, cf, exps, coef, cx, cc, mi, wall, work)
+        fs[H] = _initial_step(t, y, f, w, st, fs, cf, exps, coef, ct, wall, work)
         fs[FACOLD] = 1e-4
         st[STARTED] = 1

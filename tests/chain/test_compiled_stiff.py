@@ -141,9 +141,9 @@ def test_jacobian_and_linear_solve_are_eq1s(terms):
     assert np.max(np.abs(jac - fd)) < 1e-6
     assert abs(ft - (f(t + step, y0) - f(t - step, y0))[1] / (2 * step)) < 1e-6
     hg = 0.01
-    assert S.factor(hg, W, band, args[3])
+    assert S.factor(hg, W, band, args[2])
     r, k = np.random.default_rng(0).normal(size=2 * W), np.empty(2 * W)
-    S.solve(r, k, hg, W, band, args[3])
+    S.solve(r, k, hg, W, band, args[2])
     np.testing.assert_allclose((np.eye(2 * W) / hg - jac) @ k, r, atol=1e-12)
 
 
