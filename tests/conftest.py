@@ -1,8 +1,11 @@
-"""Shared test set-up: an isolated cache directory per test session; small scene files."""
+"""Shared test set-up: an isolated cache directory per test session; small scene files; a wheel installed into a
+fresh venv."""
 
 import io
 import json
 import os
+import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -81,3 +84,41 @@ class Terminal(io.StringIO):
                 lines.pop()
             lines.extend(part.splitlines())
         return lines
+
+
+ROOT = Path(__file__).resolve().parents[1]
+WHEEL_SOURCES = ("derive", "generated", "solvers", "__init__.py", "py.typed", "pyproject.toml", "README.md", "LICENSE")
+
+
+def pip(*args: str) -> subprocess.CompletedProcess:
+    """This interpreter's pip, quiet, raising on failure."""
+    return subprocess.run([sys.executable, "-m", "pip", "--disable-pip-version-check", *args], capture_output=True,
+                          text=True, timeout=600, check=True)
+
+
+def installed_wheel(tmp_path: Path) -> tuple[Path, Path]:
+    """The checkout's wheel, built from a copy (its build/ and egg-info stay out of the checkout), installed into a
+    fresh venv made without pip or network: (the venv, its site-packages). Its dependencies are this interpreter's,
+    through a .pth line that appends this interpreter's site-packages after the venv's own (the .pth files there,
+    among them this checkout's editable install, are not processed), so ``import pulsemap`` finds the wheel."""
+    import shutil
+    import sysconfig
+
+    src = tmp_path / "src"
+    src.mkdir()
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "build", "*.egg-info")
+    for name in WHEEL_SOURCES:
+        if (ROOT / name).is_dir():
+            shutil.copytree(ROOT / name, src / name, ignore=ignore)
+        elif (ROOT / name).is_file():
+            shutil.copy2(ROOT / name, src / name)
+    pip("wheel", str(src), "--no-deps", "-w", str(tmp_path / "dist"))
+    (wheel,) = (tmp_path / "dist").glob("pulsemap-*.whl")
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=300)
+    python = venv / ("Scripts/python.exe" if os.name == "nt" else "bin/python")
+    site = Path(subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                               capture_output=True, text=True, check=True).stdout.strip())
+    (site / "_test_deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n", encoding="utf-8")
+    pip("--python", str(python), "install", "--no-index", "--no-deps", str(wheel))
+    return venv, site

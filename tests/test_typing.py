@@ -6,17 +6,15 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
 import subprocess
 import sys
-import sysconfig
 from pathlib import Path
 
 import pytest
 
+from conftest import installed_wheel
+
 ROOT = Path(__file__).resolve().parents[1]
-SOURCES = ("derive", "generated", "solvers", "__init__.py", "py.typed", "pyproject.toml", "README.md", "LICENSE")
-IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "build", "*.egg-info")
 UNTYPED = ("sympy", "matplotlib", "pandas", "numba", "scipy", "mpmath")  # libraries without types of their own
 
 
@@ -49,30 +47,11 @@ def test_the_package_is_marked_typed_and_the_examples_are_found():
     assert all(compile(code, name, "exec") for name, code in found.items())  # a broken extraction fails here
 
 
-def _pip(*args: str) -> None:
-    subprocess.run([sys.executable, "-m", "pip", "--disable-pip-version-check", *args], capture_output=True,
-                   text=True, timeout=600, check=True)
-
-
 @pytest.mark.process
 def test_mypy_passes_the_examples_against_an_installed_wheel(tmp_path):
     pytest.importorskip("mypy")
-    src = tmp_path / "src"  # a copy: the build's build/ and egg-info stay out of the checkout
-    src.mkdir()
-    for name in SOURCES:
-        (shutil.copytree(ROOT / name, src / name, ignore=IGNORE) if (ROOT / name).is_dir()
-         else shutil.copy2(ROOT / name, src / name))
-    _pip("wheel", str(src), "--no-deps", "-w", str(tmp_path / "dist"))
-    (wheel,) = (tmp_path / "dist").glob("pulsemap-*.whl")
-    venv = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=300)
+    venv, site = installed_wheel(tmp_path)
     python = venv / ("Scripts/python.exe" if os.name == "nt" else "bin/python")
-    site = Path(subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
-                               capture_output=True, text=True, check=True).stdout.strip())
-    # the dependencies are this interpreter's: a .pth line appends its site-packages (its own .pth files,
-    # among them this checkout's editable install, are not processed), after the venv's own
-    (site / "_test_deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n", encoding="utf-8")
-    _pip("--python", str(python), "install", "--no-index", "--no-deps", str(wheel))
     assert (site / "pulsemap" / "py.typed").is_file()
 
     files = []

@@ -14,22 +14,12 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
-import sys
-import sysconfig
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-SOURCES = ("derive", "generated", "solvers", "__init__.py", "py.typed", "pyproject.toml", "README.md", "LICENSE")
-IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "build", "*.egg-info")
-
-
-def _pip(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "pip", "--disable-pip-version-check", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=600, check=True)
+from conftest import installed_wheel, pip
 
 
 def _files(folder: Path) -> set[str]:
@@ -38,23 +28,8 @@ def _files(folder: Path) -> set[str]:
 
 @pytest.mark.process
 def test_wheel_runs_read_only_and_uninstalls_clean(tmp_path):
-    src = tmp_path / "src"  # a copy: the build's build/ and egg-info stay out of the checkout
-    src.mkdir()
-    for name in SOURCES:
-        if (ROOT / name).is_dir():
-            shutil.copytree(ROOT / name, src / name, ignore=IGNORE)
-        elif (ROOT / name).is_file():
-            shutil.copy2(ROOT / name, src / name)
-    _pip("wheel", str(src), "--no-deps", "-w", str(tmp_path / "dist"))
-    (wheel,) = (tmp_path / "dist").glob("pulsemap-*.whl")
-
-    venv = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=300)
+    venv, site = installed_wheel(tmp_path)
     python = venv / ("Scripts/python.exe" if os.name == "nt" else "bin/python")
-    site = Path(subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
-                               capture_output=True, text=True, check=True).stdout.strip())
-    (site / "_test_deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n", encoding="utf-8")
-    _pip("--python", str(python), "install", "--no-index", "--no-deps", str(wheel))
     package = site / "pulsemap"
     installed = _files(package)
 
@@ -87,6 +62,6 @@ def test_wheel_runs_read_only_and_uninstalls_clean(tmp_path):
     numba_files = [p.name for p in (cache / "numba").rglob("*") if p.suffix in (".nbi", ".nbc")]
     assert any(n.endswith(".nbc") for n in numba_files) and any(n.endswith(".nbi") for n in numba_files)
 
-    _pip("--python", str(python), "uninstall", "-y", "pulsemap")
+    pip("--python", str(python), "uninstall", "-y", "pulsemap")
     left = sorted(p.name for p in site.iterdir() if p.name.lower().startswith("pulsemap"))
     assert left == [] and not package.exists(), left
