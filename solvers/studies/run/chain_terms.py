@@ -46,9 +46,28 @@ def refusals(scene, methods) -> dict[str, str]:
     kinds = [what for what, given in (("a contact-law term P", scene.contact is not None),
                                       ("bead masses", scene.masses is not None)) if given]
     why = (f"derived for an on-site R on a chain of unit masses; this scene has {' and '.join(kinds)}: "
-           f"energy-law, energy-map{', relaxed' if scene.masses is None else ''} and the DNS run it")
-    own = set(CHAIN_TERM_MODELS) | ({"relaxed"} if scene.masses is None else set())  # relaxed: its segment runs
+           f"energy-law, energy-map, relaxed and the DNS run it")
+    own = set(CHAIN_TERM_MODELS) | {"relaxed"}  # relaxed: segment runs with the contact term, or the mass kernel
     return {m: why for m in methods if m in MODELS and m not in own}
+
+
+def mass_relaxed(state, name: str) -> dict:
+    """``relaxed`` of a chain whose masses vary (no contact term, no R): the kernel in the local masses fitted to
+    the model's own calibration chains (models/mass_kernel.py), from the run's seed peak."""
+    from pulsemap.solvers.models.mass_kernel import MassKernelError, kernel_peaks, mass_kernel
+
+    scene, out = state.scene, state.out
+    pert = scene.perturbation
+    if scene.contact is not None or not (pert.is_zero or pert.eps == 0.0):
+        raise MassKernelError("relaxed: a chain with masses and a contact term or an on-site R has no relaxed model "
+                            "yet; energy-law and the DNS run it")
+    beads, _ = dns_span(scene)
+    kernel = mass_kernel(float(scene.exponent))
+    contacts, peaks = kernel_peaks(kernel, scene.masses.bead_masses(beads), float(out["seed"]["peak"]),
+                                   scene.first_perturbed - 1, scene.contacts[1])
+    out["peaks"][name] = on_contacts(state.contacts, contacts, peaks)
+    return {"status": "ok", "kernel": "local masses (models/mass_kernel.py)", "calibration_runs": kernel.runs,
+            "bulk_accuracy_log_ratio": kernel.residual}
 
 
 def _law_inputs(scene, beads: int):
@@ -128,4 +147,5 @@ def run_chain_term_models(state, seed_A_peak: float | None) -> None:
             state.warnings.append(f"{m}: the law ended ({run.status}) at contact index {run.ended_at:.6g}")
 
 
-__all__ = ["CHAIN_TERM_MODELS", "has_chain_terms", "refusals", "require_onsite_only", "run_chain_term_models"]
+__all__ = ["CHAIN_TERM_MODELS", "has_chain_terms", "mass_relaxed", "refusals", "require_onsite_only",
+           "run_chain_term_models"]

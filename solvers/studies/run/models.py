@@ -208,6 +208,14 @@ def run_relaxed(state: "RunState", name: str, inputs: ModelInputs) -> dict:
     from pulsemap.solvers.models.relaxed import ONSET, RelaxedError, iterate_relaxed, model_for_scene
 
     scene, out = state.scene, state.out
+    if scene.masses is not None:  # a kernel in the local masses, not segment runs (studies/run/chain_terms.py)
+        from pulsemap.solvers.models.mass_kernel import MassKernelError
+        from pulsemap.solvers.studies.run.chain_terms import mass_relaxed
+
+        try:
+            return mass_relaxed(state, name)
+        except MassKernelError as exc:
+            return refusal(state, name, str(exc))
     seed_contact, c1 = scene.first_perturbed - 1, scene.contacts[1]
     t0 = time.perf_counter()
     try:
