@@ -45,7 +45,7 @@ import numpy as np
 from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.models.onsite import onsite_force
 from pulsemap.solvers.models.relaxed_kernel import J_MAX, J_MIN, ONSET_BEADS, KernelTable
-from pulsemap.solvers.models.relaxed_table import ONSET, SegmentSpec, SegmentTable, leave_one_out
+from pulsemap.solvers.models.relaxed_table import SegmentSpec, SegmentTable, leave_one_out
 
 X_SMALL = 1e-3  # |x| below which a monomial's log-ratios are continued linearly in x
 
@@ -238,10 +238,11 @@ class RelaxedModel:
         return total
 
     def onset_ratios(self, seed_peak: float, seed_contact: int) -> list[float]:
-        """P_k/P_{k-1} for the ONSET contacts after the seed, up to the first the pulse does not reach
-        (fewer than ONSET: it dies within the onset, as the segment runs entering at seed_peak do)."""
+        """P_k/P_{k-1} for the onset's contacts after the seed (the spec's onset: ONSET for an on-site R), up to
+        the first the pulse does not reach (fewer: it dies within the onset, as the segment runs entering at
+        seed_peak do)."""
         out = []
-        for k in range(1, ONSET + 1):
+        for k in range(1, self.spec.onset + 1):
             value = self.onset_log_ratio(k, seed_contact, seed_peak)
             if value is None:
                 break
@@ -319,15 +320,16 @@ def iterate_relaxed(model: RelaxedModel, seed_peak: float, seed_contact: int, la
     status, message = "ok", f"reached contact {last_contact}"
     p = float(seed_peak)
     onset = model.onset_ratios(p, seed_contact)
+    onset_steps = model.spec.onset
     for c in range(seed_contact + 1, last_contact + 1):
         k = c - seed_contact
-        if len(onset) < k <= ONSET:
+        if len(onset) < k <= onset_steps:
             end = model.ending(seed_contact + 1, float(seed_peak))
             status, message = _ENDS[end][0], (f"the pulse {_ENDS[end][1]} within the onset after contact {c - 1} "
                                               f"(segment runs entering at peak {seed_peak:.4g} {end} within {k} "
                                               f"contact{'s' if k > 1 else ''})")
             break
-        r = onset[k - 1] if k <= ONSET else model.bulk_ratio(p, c)
+        r = onset[k - 1] if k <= onset_steps else model.bulk_ratio(p, c)
         if r is None:
             end = model.ending(c, p)
             status, message = _ENDS[end][0], (f"no relaxed pulse at peak {p:.4g} (segment runs there {end} before "

@@ -8,7 +8,7 @@ perturbed region bare, as at the scenes' contact first_perturbed - 1) through P_
 A ``SegmentTable`` holds such runs on a lattice of launch amplitudes A_j = 2^(j / LATTICE) and
 turns them into two interpolants (natural log of the per-contact ratio r = P_{k+1}/P_k):
 
-* onset: for k = 1..ONSET, log(P_k / P_{k-1}) as a function of log P_0 (a cubic spline across
+* onset: for k = 1..ONSET (CONTACT_GEOMETRY for a contact law), log(P_k / P_{k-1}) as a function of log P_0 (a cubic spline across
   the lattice): the memory of the bare entry, read off runs that enter exactly like a scene;
 * bulk: log(P_{k+1}/P_k) for k >= ONSET as a function of log P_k, pooled over all runs (a
   smoothing spline, GCV): the relaxed map P_{k+1} = F(P_k), valid once the pulse's shape is
@@ -33,6 +33,10 @@ VERSION = 2
 GAP = 6  # beads between the launch contact and the first perturbed bead (S < 1e-15 S(0) there)
 CONTACTS = 20  # contacts recorded after the entry contact
 ONSET = 5  # contacts after the entry read from the onset table; the bulk map from then on
+#: (CONTACTS, ONSET) of a contact law's tables: a damped contact's pulse keeps reshaping for about ten contacts
+#: after it enters, so a bulk map read from 5 contacts on decays too fast by a constant share per contact
+#: (docs/contact.rst, "What runs them")
+CONTACT_GEOMETRY = (40, 10)
 LATTICE = 3  # lattice points per factor 2 in the launch amplitude
 DEATH = 1e-3  # a segment stops when its peak falls below this fraction of P_0
 MAX_RUNS = 80  # segment runs one table may hold (a bound on the build cost)
@@ -65,6 +69,16 @@ class SegmentSpec:
     bump: tuple = ()
     contact: tuple = ()
 
+    @property
+    def recorded(self) -> int:
+        """Contacts a segment run records after its entry (CONTACTS; a contact law's: CONTACT_GEOMETRY)."""
+        return CONTACT_GEOMETRY[0] if self.contact else CONTACTS
+
+    @property
+    def onset(self) -> int:
+        """Contacts after the entry read from the onset table (ONSET; a contact law's: CONTACT_GEOMETRY)."""
+        return CONTACT_GEOMETRY[1] if self.contact else ONSET
+
     def geometry(self) -> tuple[int, int, int]:
         """(launch contact, first perturbed bead, entry contact) of the segment runs."""
         from pulsemap.solvers.chain.launch import min_centre
@@ -76,7 +90,7 @@ class SegmentSpec:
         prm = ",".join(f"{k}={v!r}" for k, v in self.params)
         centre, fp, entry = self.geometry()
         return (f"relaxed-segment|v{VERSION}|R={self.R}|params={prm}|eps={self.eps!r}|n={self.n!r}"
-                f"|A=2^({j}/{LATTICE})|centre={centre}|fp={fp}|contacts={entry}..{entry + CONTACTS}"
+                f"|A=2^({j}/{LATTICE})|centre={centre}|fp={fp}|contacts={entry}..{entry + self.recorded}"
                 f"|death={DEATH}|rtol={self.rtol!r}|atol=rtol/100*scale|dns=simulate-auto"
                 f"|window={self.window_accuracy!r}:{self.window_rule()}"
                 + ("|bump=" + ";".join(f"bead fp+{b}:{name or 'R'}:{d!r}" for b, d, name in self.bump)
@@ -117,7 +131,7 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
 
     names = tuple(k for k, _ in spec.params)
     centre, fp, entry = spec.geometry()
-    beads = entry + CONTACTS + 12
+    beads = entry + spec.recorded + 12
     eps, values = np.full(beads, float(spec.eps)), dict(spec.params)
     for bead, delta, name in spec.bump:
         if name:
@@ -128,7 +142,7 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     force = None if spec.R == "0" else onsite_force(force_module(spec.R, names), beads, fp, eps, values)
     scale = min(1.0, amplitude, amplitude ** ((spec.n + 1.0) / 2.0))
     chain = Chain(beads, spec.n, 1.0, force, launch=Launch(float(amplitude), centre), contact=_contact(spec, beads, fp))
-    res = simulate(chain, (entry, entry + CONTACTS),
+    res = simulate(chain, (entry, entry + spec.recorded),
                    integrator=Integrator(rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale),
                    window=WindowSpec("auto", spec.window_accuracy), stop=StopRules(death_fraction=DEATH))
     if not res.stop_reason.startswith(PULSE_ENDS):
@@ -219,7 +233,7 @@ class SegmentTable:
                 continue
             lo, hi = self.span()
             peaks = self.add(hi + 1 if side == "high" else lo - 1)
-            if len(peaks) <= ONSET + 1:
+            if len(peaks) <= self.spec.onset + 1:
                 self.closed.add(side)
 
     def dying_step(self, log_p: float) -> bool:
@@ -233,13 +247,14 @@ class SegmentTable:
 
     # ------------------------------------------------------------ data
     def bulk_points(self, runs: dict[int, list[float]] | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """(log P_k, log P_{k+1}/P_k) for k >= ONSET over the runs, sorted by log P_k."""
+        """(log P_k, log P_{k+1}/P_k) for k >= the spec's onset over the runs, sorted by log P_k."""
         xs, ys = [], []
+        onset = self.spec.onset
         for peaks in (self.runs if runs is None else runs).values():
             p = np.asarray(peaks)
-            if len(p) > ONSET + 1:
-                xs.append(np.log(p[ONSET:-1]))
-                ys.append(np.log(p[ONSET + 1:] / p[ONSET:-1]))
+            if len(p) > onset + 1:
+                xs.append(np.log(p[onset:-1]))
+                ys.append(np.log(p[onset + 1:] / p[onset:-1]))
         if not xs:
             return np.zeros(0), np.zeros(0)
         x, y = np.concatenate(xs), np.concatenate(ys)
@@ -259,12 +274,12 @@ class SegmentTable:
         return self._bulk
 
     def onset(self) -> list:
-        """For k = 1..ONSET: (log P_0 of the runs alive at k, log P_k/P_{k-1}, their cubic spline or None)."""
+        """For k = 1..the spec's onset: (log P_0 of the runs alive at k, log P_k/P_{k-1}, their cubic spline or None)."""
         from scipy.interpolate import CubicSpline
 
         if self._onset is None:
             out = []
-            for k in range(1, ONSET + 1):
+            for k in range(1, self.spec.onset + 1):
                 pts = sorted((math.log(p[0]), math.log(p[k] / p[k - 1])) for p in self.runs.values() if len(p) > k)
                 x, y = np.array([a for a, _ in pts]), np.array([b for _, b in pts])
                 out.append((x, y, CubicSpline(x, y) if x.size >= 4 else None))
@@ -375,7 +390,7 @@ def leave_one_out(table: SegmentTable) -> float:
     import scipy
 
     data = ";".join(f"{j}:" + ",".join(repr(v) for v in p) for j, p in sorted(table.runs.items()))
-    key = (f"relaxed-leave-one-out|v1|scipy={scipy.__version__}|onset={ONSET}|bin={BIN!r}"
+    key = (f"relaxed-leave-one-out|v1|scipy={scipy.__version__}|onset={table.spec.onset}|bin={BIN!r}"
            f"|runs={hashlib.sha256(data.encode()).hexdigest()}")
     hit = cache.load(NAMESPACE, key, lambda v: None if cache.finite_number(v) and v >= 0 else "not a number >= 0")
     if hit is not None:

@@ -88,12 +88,19 @@ def test_an_elastic_correction_keeps_the_plateau_the_law_transmits():
 
 
 def test_relaxed_takes_a_uniform_contact_term_and_beats_the_first_order_law():
-    """The relaxed map built from segment runs of the same contact law (no scene data): within a few percent of
-    the DNS where the first-order law is off by more, on a dashpot and a Kuwabara-Kono contact."""
-    for contact, bound in (({"P": "w", "eps": 0.035}, 3.0), ({"P": "d^(1/2)*w", "eps": 0.05}, 1.5)):
-        result = pulsemap.run(scene(contact, methods=("dns", "energy-law", "relaxed")))
+    """The relaxed map built from segment runs of the same contact law (no scene data), over the contacts where the
+    DNS peak keeps >= 10 % of the entry peak: within 2 % on a dashpot at eps c 0.035 (the first-order law is off by
+    tens of percent there) and on a Kuwabara-Kono contact."""
+    for contact, last in (({"P": "w", "eps": 0.035}, 160), ({"P": "d^(1/2)*w", "eps": 0.05}, 120)):
+        result = pulsemap.run(scene(contact, last=last, methods=("dns", "energy-law", "relaxed")))
         assert result.data["relaxed"]["status"] == "ok"
-        assert result.errors["relaxed"]["rms_pct"] < bound < result.errors["energy-law"]["rms_pct"]
+        dns = np.array([np.nan if p is None else p for p in result.peaks["dns"]], float)
+        kept = dns >= 0.1 * dns[0]
+        errors = {}
+        for model in ("relaxed", "energy-law"):
+            peaks = np.array([np.nan if p is None else p for p in result.peaks[model]], float)
+            errors[model] = np.sqrt(np.mean(((peaks - dns) / dns)[kept] ** 2))
+        assert errors["relaxed"] < 0.02 and 5 * errors["relaxed"] < errors["energy-law"], errors
 
 
 def test_relaxed_refuses_masses_with_a_contact_term_and_a_graded_contact_term_naming_what_runs_them():

@@ -205,7 +205,7 @@ def run_longwave(state: "RunState", name: str, inputs: ModelInputs) -> dict:
 def run_relaxed(state: "RunState", name: str, inputs: ModelInputs) -> dict:
     """The relaxed transfer map with its onset (solvers/models/relaxed.py) from the seed peak; refused
     (reported, not raised) for an R it cannot take."""
-    from pulsemap.solvers.models.relaxed import ONSET, RelaxedError, iterate_relaxed, model_for_scene
+    from pulsemap.solvers.models.relaxed import RelaxedError, iterate_relaxed, model_for_scene
 
     scene, out = state.scene, state.out
     if scene.masses is not None:  # a kernel in the local masses, not segment runs (studies/run/chain_terms.py)
@@ -227,7 +227,7 @@ def run_relaxed(state: "RunState", name: str, inputs: ModelInputs) -> dict:
         return refusal(state, name, str(exc))
     state.timings[name] = time.perf_counter() - t0
     out["peaks"][name] = on_contacts(state.contacts, run.contacts, run.peaks)
-    info = {"status": run.status, "message": run.message, "onset_contacts": ONSET, "segment_runs": model.segment_runs(),
+    info = {"status": run.status, "message": run.message, "onset_contacts": model.spec.onset, "segment_runs": model.segment_runs(),
             "tables": [t.spec.R for t in model.tables.values()], "scaling_exponent": model.e}
     if accuracy is not None:
         info["bulk_accuracy_log_ratio"] = accuracy
