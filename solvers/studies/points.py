@@ -10,9 +10,9 @@ they load the generated modules by name, check their hash, and never import symp
 
 from __future__ import annotations
 
-import itertools
-import math
 from typing import Any, Mapping, Sequence
+
+import numpy as np
 
 from pulsemap.symbolic.param_forms import RandomDraw
 from pulsemap.solvers.chain.dns import Chain, Integrator, chain_length_for, simulate
@@ -96,10 +96,36 @@ def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, va
 def on_contacts(contacts: Sequence[int], at: Sequence[int], values: Sequence[float | None],
                 alive: Sequence[bool] | None = None) -> list[float | None]:
     """``values`` given at contacts ``at`` (a DNS, a baseline or a model run) on ``contacts``:
-    None where there is no value, it is not finite, or ``alive`` (a DNS's live flags) is False."""
-    flags = itertools.repeat(True) if alive is None else alive
-    got = {int(c): float(v) for c, v, a in zip(at, values, flags) if a and v is not None and math.isfinite(v)}
-    return [got.get(int(c)) for c in contacts]
+    None where there is no value, it is not finite, or ``alive`` (a DNS's live flags) is False; a
+    contact given twice takes its last such value."""
+    n = min(len(at), len(values), len(alive) if alive is not None else len(at))
+    vals = np.asarray(values, dtype=float)[:n]  # None -> NaN
+    valid = np.isfinite(vals) if alive is None else np.isfinite(vals) & np.asarray(alive, dtype=bool)[:n]
+    found, index = contact_slots(contacts, np.asarray(at)[:n][valid])
+    return listed(vals[valid], found, index)
+
+
+def contact_slots(contacts: Sequence[int], at: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """(found, index): whether each of ``contacts`` occurs in ``at`` and where (its last occurrence; 0
+    where absent), contacts compared as integers (``int(c)``); arrays in, no per-contact dict."""
+    have = np.asarray(at).astype(np.int64).reshape(-1)
+    want = np.asarray(contacts).astype(np.int64).reshape(-1)
+    order = np.argsort(have, kind="stable")  # equal contacts keep their order: the last one is found
+    ranked = have[order]
+    pos = np.searchsorted(ranked, want, side="right") - 1
+    found = pos >= 0
+    found[found] = ranked[pos[found]] == want[found]
+    index = np.zeros(want.size, dtype=np.intp)
+    index[found] = order[pos[found]]
+    return found, index
+
+
+def listed(values: np.ndarray, keep: np.ndarray, index: np.ndarray) -> list[float | None]:
+    """[values[index[k]] where keep[k], else None] as Python floats."""
+    out: list[float | None] = (values[index] if values.size else np.zeros(index.size)).tolist()
+    for k in np.flatnonzero(~keep).tolist():
+        out[k] = None
+    return out
 
 
 def _dns(chain: Mapping[str, Any], values: Mapping[str, Any]) -> dict:

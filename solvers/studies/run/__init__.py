@@ -21,6 +21,8 @@ import numbers
 import time
 from typing import Sequence
 
+import numpy as np
+
 from pulsemap.symbolic.provenance import provenance
 from pulsemap.solvers import __version__
 from pulsemap.solvers.chain.front import Snapshots
@@ -30,7 +32,7 @@ from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import force_failure, make_force
 from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
 from pulsemap.solvers.studies.run import chain_terms
-from pulsemap.solvers.studies.points import dns_span, dns_window_of, on_contacts
+from pulsemap.solvers.studies.points import contact_slots, dns_span, dns_window_of, listed, on_contacts
 from pulsemap.solvers.studies.run.state import RunState
 
 __all__ = ["derive_models", "derive_while_kernels_build", "dns_kernel", "run_scene"]
@@ -212,12 +214,14 @@ def front_outputs(res, contacts: list[int], alive: list[bool]) -> dict:
     time of the peak, pulse speed (contacts per unit time), energy of the pulse and of the chain;
     None where the primary pulse is not alive. The energy drift is the accuracy check of a chain
     without R (None with R: its energy is not conserved)."""
+    found, index = contact_slots(contacts, res.contacts)  # once for the four measures
+    live = found & np.asarray(alive, dtype=bool)
+
     def per_contact(values) -> list:
         if values is None:
             return [None] * len(contacts)
-        got = dict(zip((int(c) for c in res.contacts), (float(v) for v in values)))
-        return [got.get(c) if a and got.get(c) is not None and math.isfinite(got[c]) else None
-                for c, a in zip(contacts, alive)]
+        got = np.asarray(values, dtype=float)
+        return listed(got, live & np.isfinite(got[index]) if got.size else np.zeros_like(live), index)
 
     return {
         "arrival_times": per_contact(res.peak_times),
