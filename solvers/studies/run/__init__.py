@@ -182,7 +182,11 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
         raise RunError(force_failure(scene, beads, exc, "DNS")) from None
     state.timings["dns_compile"] = res.compile_s  # numba compiling or loading the kernel, apart from integrating
     state.timings["dns"] = time.perf_counter() - t0 - res.compile_s
-    dns_peaks = on_contacts(contacts, res.contacts, res.peaks, res.alive)
+    seed_contact = scene.first_perturbed - 1
+    first, last = min(contacts[0], seed_contact), max(contacts[-1], seed_contact)
+    slots = contact_slots(np.arange(first, last + 1), res.contacts)  # once for the peaks, the seed and front_outputs
+    peaks = at_contacts(res.peaks, slots, res.alive)
+    dns_peaks = peaks[contacts[0] - first: contacts[-1] - first + 1]
     dns_alive = [p is not None for p in dns_peaks]
     state.dns_peaks, state.dns_alive = dns_peaks, dns_alive
     out["peaks"]["dns"] = dns_peaks
@@ -195,7 +199,9 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
         "alive": dns_alive,
         "live_contacts": [c for c, a in zip(contacts, dns_alive) if a],
     }
-    out["dns"].update(front_outputs(res, contacts, dns_alive))
+    found, index = slots
+    reported = slice(contacts[0] - first, contacts[-1] - first + 1)
+    out["dns"].update(front_outputs(res, (found[reported], index[reported]), dns_alive))
     if res.velocity_peaks is not None:  # a chain with masses: each bead's first velocity maximum
         beads = [c for c in contacts if c <= res.velocity_peaks.size]
         out["dns"]["velocity_peaks"] = {"beads": beads, "peaks": on_contacts(
@@ -203,25 +209,38 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     if not all(dns_alive):
         dead = [c for c, a in zip(contacts, dns_alive) if not a]
         state.warnings.append(f"DNS: no live primary pulse at contacts {dead[0]}..{dead[-1]} ({res.stop_reason})")
-    dns_seed = on_contacts([scene.first_perturbed - 1], res.contacts, res.peaks, res.alive)[0]
+    dns_seed = peaks[seed_contact - first]
     if dns_seed is not None:
         state.seed_peak = dns_seed
         out["dns"]["seed_peak"] = dns_seed  # peak at first_perturbed - 1, seeds map and law
 
 
-def front_outputs(res, contacts: list[int], alive: list[bool]) -> dict:
-    """What the DNS measured at each reported contact besides the peak (chain/front.py): arrival
-    time of the peak, pulse speed (contacts per unit time), energy of the pulse and of the chain;
-    None where the primary pulse is not alive. The energy drift is the accuracy check of a chain
-    without R (None with R: its energy is not conserved)."""
-    found, index = contact_slots(contacts, res.contacts)  # once for the four measures
-    live = found & np.asarray(alive, dtype=bool)
+def at_contacts(values, slots: tuple, alive=None) -> list:
+    """A DNS measure (an array over ``res.contacts``) at the contacts ``slots`` locates
+    (studies/points.contact_slots): None where it was not measured, is not finite or, with ``alive``
+    (over ``res.contacts`` too), the primary pulse was not alive."""
+    found, index = slots
+    if values is None:
+        return [None] * found.size
+    got = np.asarray(values, dtype=float)
+    if not got.size:
+        return [None] * found.size
+    keep = found & np.isfinite(got[index])
+    if alive is not None:
+        keep &= np.asarray(alive, dtype=bool)[index]
+    return listed(got, keep, index)
+
+
+def front_outputs(res, slots: tuple, alive: list[bool]) -> dict:
+    """What the DNS measured at each reported contact (``slots``: where they are in ``res.contacts``)
+    besides the peak (chain/front.py): arrival time of the peak, pulse speed (contacts per unit time),
+    energy of the pulse and of the chain; None where the primary pulse is not ``alive``. The energy
+    drift is the accuracy check of a chain without R (None with R: its energy is not conserved)."""
+    found, index = slots
+    live = (found & np.asarray(alive, dtype=bool), index)
 
     def per_contact(values) -> list:
-        if values is None:
-            return [None] * len(contacts)
-        got = np.asarray(values, dtype=float)
-        return listed(got, live & np.isfinite(got[index]) if got.size else np.zeros_like(live), index)
+        return at_contacts(values, live)
 
     return {
         "arrival_times": per_contact(res.peak_times),
@@ -290,7 +309,8 @@ def run_scene(
     state = start_run(scene, methods, profile, variant, seed_peak, snapshots)
     state.stated_accuracy = stated_accuracy
     if "dns" in state.methods:
-        derive_while_kernels_build([(scene, state.methods, profile, variant)])
+        if any(m != "dns" for m in state.methods):  # models to derive while a missing kernel builds
+            derive_while_kernels_build([(scene, state.methods, profile, variant)])
         run_dns(state, progress, dns_window)
     if reuse_dns is not None and "dns" not in state.methods:
         reuse_dns_run(state, reuse_dns)
