@@ -131,6 +131,7 @@ def test_run_output_records_what_produced_it(scene_file):
     assert data["seed"]["contact"] == 5 and data["seed"]["from"] == "DNS peak at contact 5"
 
 
+@pytest.mark.process
 def test_provenance_reads_the_installed_versions_without_importing_the_libraries():
     """The versions recorded are importlib.metadata's, read in a process that loads neither sympy nor scipy."""
     code = ("import json, sys; from pulsemap.symbolic.provenance import provenance; p = provenance(); "

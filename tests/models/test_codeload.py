@@ -99,6 +99,7 @@ def test_the_cli_reports_a_damaged_shipped_module_in_one_line(cache, tmp_path, m
     assert os.path.getsize(path) > 0
 
 
+@pytest.mark.process
 def test_a_refused_balance_model_is_refused_again_without_sympy(tmp_path):
     """Momentum balance with a foundation term (-u) is undefined (derive/balance.py): the second process
     finds the reason in the cache and raises the same BalanceError without importing sympy."""
