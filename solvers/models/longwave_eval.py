@@ -2,7 +2,7 @@
 
 A single power of B has a closed form (generated ``longwave_law``); several powers are solved as
 the ODE dB/di = rhs(B) (equivalent to the quadrature of Eq. 31a): marched from contact to contact
-by extrapolated midpoint steps (numpy-free arithmetic, no scipy) while B stays within its bounds,
+by extrapolated midpoint steps (plain float arithmetic, no scipy) while B stays within its bounds,
 else with scipy's LSODA and events for extinction (B -> 0) and blow-up. Contacts past the end of
 the law carry no value (None), and the result says where and why the law ended, never a NaN.
 """
@@ -85,8 +85,11 @@ MARCH_RTOL = 1e-14
 #: Substeps of the modified midpoint rule per march step (Bulirsch-Stoer's even sequence).
 MIDPOINT_STEPS = (2, 4, 6, 8, 10, 12, 14, 16, 18, 20)
 EPS = float(np.finfo(float).eps)
-#: Smallest march step, in contacts: below it the law is not smooth enough to march (LSODA takes over).
+#: Smallest march step, in contacts: below it the law is too stiff or not smooth enough to march
+#: (LSODA, a stiff solver, takes over).
 MIN_MARCH_STEP = 2.0**-10
+#: March steps allowed per contact of the law's span (and 256 more): past them LSODA takes over.
+MARCH_STEPS_PER_CONTACT = 64
 #: A march step changes B by at most this fraction (by its slope) and spans at most one time scale
 #: 1/|d rhs/dB|: where the midpoint rule is stable and its extrapolation settles for real.
 MAX_STEP_CHANGE = 0.2
@@ -111,15 +114,21 @@ def march_law(rhs: Callable[[float], float], B0: float, i0: float, contacts: np.
     """B at each contact (ascending, >= i0) of dB/di = rhs(B) from B(i0) = B0, stepped from contact to
     contact by extrapolated midpoint steps (Gragg-Bulirsch-Stoer), a step halved while its
     extrapolation does not settle, and bounded by :func:`_step_bound`; None when a contact lies before
-    i0, B leaves LAW_BAND * B0 (the law ends: LSODA locates where) or a step falls below MIN_MARCH_STEP."""
+    i0, B leaves LAW_BAND * B0 (the law ends: LSODA locates where), a step falls below MIN_MARCH_STEP
+    or the steps exceed MARCH_STEPS_PER_CONTACT (a stiff law: LSODA's)."""
     lo, hi = LAW_BAND[0] * B0, LAW_BAND[1] * B0
     out: list[float] = []
     i, B = float(i0), float(B0)
+    budget = MARCH_STEPS_PER_CONTACT * (float(max(contacts, default=i0)) - i) + 256
     for c in (float(c) for c in contacts):
         if c < i:
             return None
         while i < c:
-            H = (c - i) / math.ceil((c - i) / _step_bound(rhs, B))  # equal steps to the contact
+            bound = _step_bound(rhs, B)
+            budget -= 1
+            if bound < MIN_MARCH_STEP or budget < 0:
+                return None
+            H = (c - i) / math.ceil((c - i) / bound)  # equal steps to the contact
             while True:
                 nxt = _extrapolated_step(rhs, B, H)
                 if nxt is not None:

@@ -83,3 +83,13 @@ def test_solve_law_returns_amplitudes_a_equal_b_to_the_one_over_power():
     assert law.ended_at is None and law.failure is None and law.solver.startswith("extrapolated midpoint")
     np.testing.assert_allclose(law.A, exact(CONTACTS) ** (1 / 1.25), rtol=1e-12)
     assert math.isclose(law.A[0] ** 1.25, float(exact(np.array([16.0]))[0]), rel_tol=1e-12)
+
+
+def test_a_stiff_law_is_left_to_lsoda():
+    """A time scale far below a contact (d rhs/dB = -5000): no march, LSODA's stiff solution, which decays
+    onto the stationary amplitude as the closed form does."""
+    rhs, exact = bernoulli(5000.0, -5000.0, 2.0, 0.5)  # logistic onto B = 1 within a thousandth of a contact
+    assert march_law(rhs, 0.5, I0, CONTACTS) is None
+    law = solve_law(rhs, 0.5, I0, CONTACTS, 1.0)
+    assert law.solver.startswith("LSODA")
+    np.testing.assert_allclose(law.A, exact(CONTACTS), rtol=1e-9)
