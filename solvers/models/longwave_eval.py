@@ -2,9 +2,10 @@
 
 A single power of B has a closed form (generated ``longwave_law``); several powers are solved as
 the ODE dB/di = rhs(B) (equivalent to the quadrature of Eq. 31a): marched from contact to contact
-by extrapolated midpoint steps (plain float arithmetic, no scipy) while B stays within its bounds,
-else with scipy's LSODA and events for extinction (B -> 0) and blow-up. Contacts past the end of
-the law carry no value (None), and the result says where and why the law ended, never a NaN.
+by extrapolated midpoint steps (plain float arithmetic, no scipy), its end (extinction, B -> 0, or
+blow-up) located by the quadrature itself; scipy's LSODA, with events for the end, where neither
+settles (a stiff law, an end close to a contact). Contacts past the end of the law carry no value
+(None), and the result says where and why the law ended, never a NaN.
 """
 
 from __future__ import annotations
@@ -99,48 +100,82 @@ LAW_BAND = (1e-12, 1e12)
 
 def solve_law(rhs: Callable[[float], float], A0: float, i0: float, contacts: np.ndarray, power: float) -> LawSolution:
     """dB/di = rhs(B), B = A^power, from A(i0) = A0 at ``contacts``: marched (:func:`march_law`) while
-    B stays within LAW_BAND, else LSODA (:func:`integrate_law`), which locates where the law ends."""
+    B stays within LAW_BAND, the law's end where it leaves the band by the quadrature of Eq. 31a
+    (:func:`law_end`) when no contact lies between the march's last step and that end; else LSODA
+    (:func:`integrate_law`), which locates where the law ends with its events."""
     B0 = A0**power
     marched = march_law(rhs, B0, i0, contacts)
     if marched is not None:
-        return LawSolution([B ** (1.0 / power) for B in marched], None, "",
-                           f"extrapolated midpoint, rtol {MARCH_RTOL:g}", None)
+        reached, i, B = marched
+        values = [b ** (1.0 / power) for b in reached]
+        solver = f"extrapolated midpoint, rtol {MARCH_RTOL:g}"
+        if len(values) == len(contacts):
+            return LawSolution(values, None, "", solver, None)
+        end = law_end(rhs, i, B, LAW_BAND[0] * B0, LAW_BAND[1] * B0)
+        if end is not None and float(contacts[len(values)]) > end[0] + 1e-12:
+            return LawSolution(values + [None] * (len(contacts) - len(values)), *end,
+                               solver + ", its end by quadrature", None)
     sol, ended_at, ended = integrate_law(rhs, B0, i0, contacts)
     return LawSolution(law_values(sol, contacts, power), ended_at, ended, "LSODA, rtol 1e-11",
                        sol.message if sol.status < 0 else None)
 
 
-def march_law(rhs: Callable[[float], float], B0: float, i0: float, contacts: np.ndarray) -> list[float] | None:
-    """B at each contact (ascending, >= i0) of dB/di = rhs(B) from B(i0) = B0, stepped from contact to
-    contact by extrapolated midpoint steps (Gragg-Bulirsch-Stoer), a step halved while its
-    extrapolation does not settle, and bounded by :func:`_step_bound`; None when a contact lies before
-    i0, B leaves LAW_BAND * B0 (the law ends: LSODA locates where), a step falls below MIN_MARCH_STEP
-    or the steps exceed MARCH_STEPS_PER_CONTACT (a stiff law: LSODA's)."""
+def march_law(rhs: Callable[[float], float], B0: float, i0: float,
+              contacts: np.ndarray) -> tuple[list[float], float, float] | None:
+    """(B at the contacts reached, and the contact index and B where the march stopped) of dB/di = rhs(B)
+    from B(i0) = B0, stepped from contact to contact (ascending, >= i0; None otherwise) by extrapolated
+    midpoint steps (Gragg-Bulirsch-Stoer), a step halved while its extrapolation does not settle and
+    bounded by :func:`_step_bound`. It stops short of the last contact where B would leave LAW_BAND * B0
+    (the law ends), a step falls below MIN_MARCH_STEP or the steps exceed MARCH_STEPS_PER_CONTACT."""
     lo, hi = LAW_BAND[0] * B0, LAW_BAND[1] * B0
     out: list[float] = []
     i, B = float(i0), float(B0)
     budget = MARCH_STEPS_PER_CONTACT * (float(max(contacts, default=i0)) - i) + 256
+    if any(float(c) < i for c in contacts[:1]) or np.any(np.diff(np.asarray(contacts, dtype=float)) < 0):
+        return None
     for c in (float(c) for c in contacts):
-        if c < i:
-            return None
         while i < c:
             bound = _step_bound(rhs, B)
             budget -= 1
-            if bound < MIN_MARCH_STEP or budget < 0:
-                return None
+            if not bound >= MIN_MARCH_STEP or budget < 0:
+                return out, i, B
             H = (c - i) / math.ceil((c - i) / bound)  # equal steps to the contact
-            while True:
-                nxt = _extrapolated_step(rhs, B, H)
-                if nxt is not None:
-                    break
+            nxt = _extrapolated_step(rhs, B, H)
+            while nxt is None and H >= 2 * MIN_MARCH_STEP:
                 H *= 0.5
-                if H < MIN_MARCH_STEP:
-                    return None
-            if not lo < nxt < hi:  # also NaN
-                return None
+                nxt = _extrapolated_step(rhs, B, H)
+            if nxt is None or not lo < nxt < hi:  # also NaN
+                return out, i, B
             i, B = (c if H == c - i else i + H), nxt
         out.append(B)
-    return out
+    return out, i, B
+
+
+def law_end(rhs: Callable[[float], float], i: float, B: float, lo: float, hi: float) -> tuple[float, str] | None:
+    """(contact index, "extinction" or "blow-up") where dB/di = rhs(B) takes B from B at contact index i
+    to lo or hi: i plus the quadrature of Eq. 31a, the integral of dB / rhs(B) = B / rhs(B) d(ln B), on
+    Gauss-Legendre panels in ln B (smooth where B -> 0 as B^(3/5) does); None when rhs vanishes or
+    changes sign on the way (the law does not end there) or two resolutions disagree beyond 1e-10."""
+    slope = rhs(B)
+    if not (math.isfinite(slope) and slope != 0.0):
+        return None
+    edge, how = (lo, "extinction") if slope < 0 else (hi, "blow-up")
+    nodes, weights = np.polynomial.legendre.leggauss(8)
+
+    def integral(panels: int) -> float | None:
+        cuts = np.linspace(math.log(B), math.log(edge), panels + 1)
+        half = 0.5 * np.diff(cuts)
+        x = (0.5 * (cuts[:-1] + cuts[1:]))[:, None] + half[:, None] * nodes
+        Bx = np.exp(x)
+        r = np.array([[rhs(float(b)) for b in row] for row in Bx])
+        if not np.all(np.isfinite(r)) or np.any(np.sign(r) != np.sign(slope)):
+            return None
+        return float(np.sum(half[:, None] * weights * Bx / r))
+
+    coarse, fine = integral(32), integral(64)
+    if coarse is None or fine is None or not abs(fine - coarse) <= 1e-10 * abs(fine):
+        return None
+    return i + fine, how
 
 
 def _step_bound(rhs: Callable[[float], float], B: float) -> float:

@@ -34,14 +34,15 @@ def bernoulli(a: float, b: float, q: float, B0: float):
 ])
 def test_march_matches_closed_forms_to_1e_12(a, b, q, B0):
     rhs, exact = bernoulli(a, b, q, B0)
-    got = np.array(march_law(rhs, B0, I0, CONTACTS))
+    got, i, _ = march_law(rhs, B0, I0, CONTACTS)
+    assert i == CONTACTS[-1]
     np.testing.assert_allclose(got, exact(CONTACTS), rtol=1e-12, atol=0)
 
 
 def test_march_matches_a_single_power_closed_form():
     """dB/di = -c B^p: B = (B0^(1-p) - (1-p) c t)^(1/(1-p)), p = 3/5 as the long-wave law's R = -mu v term."""
     c, p, B0 = 0.004, 0.6, 1.3
-    got = np.array(march_law(lambda B: -c * B**p, B0, I0, CONTACTS))
+    got = march_law(lambda B: -c * B**p, B0, I0, CONTACTS)[0]
     want = (B0 ** (1 - p) - (1 - p) * c * (CONTACTS - I0)) ** (1 / (1 - p))
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
 
@@ -50,27 +51,33 @@ def test_march_agrees_with_lsoda_to_its_tolerance():
     rhs, _ = bernoulli(0.08, -0.05, 12 / 5, 0.9)
     sol, ended_at, ended = integrate_law(rhs, 0.9, I0, CONTACTS)
     lsoda = np.array(law_values(sol, CONTACTS, 1.0))
-    np.testing.assert_allclose(march_law(rhs, 0.9, I0, CONTACTS), lsoda, rtol=1e-9)
+    np.testing.assert_allclose(march_law(rhs, 0.9, I0, CONTACTS)[0], lsoda, rtol=1e-9)
     assert (ended_at, ended) == (None, "")
 
 
-def test_a_law_that_ends_is_left_to_lsoda_which_locates_the_end():
-    """dB/di = -c B^p reaches zero at t = B0^(1-p) / ((1-p) c): the march stops, LSODA reports extinction there."""
+def test_an_extinction_is_located_by_the_quadrature():
+    """dB/di = -c B^p falls to the band's floor 1e-12 B0 at t = (B0^(1-p) - (1e-12 B0)^(1-p)) / ((1-p) c):
+    the march stops short of it, Eq. 31a's quadrature locates it; LSODA's events agree to its tolerance."""
     c, p, B0 = 0.05, 0.6, 1.0
     rhs = lambda B: -c * max(B, 0.0) ** p  # noqa: E731
-    assert march_law(rhs, B0, I0, CONTACTS) is None
     law = solve_law(rhs, B0, I0, CONTACTS, 1.0)
-    end = I0 + B0 ** (1 - p) / ((1 - p) * c)
-    assert law.ended == "extinction" and law.solver.startswith("LSODA")
-    assert law.ended_at == pytest.approx(end, abs=0.05)
-    assert all(v is None for v, i in zip(law.A, CONTACTS) if i > end + 0.05)
-    assert all(v is not None and v > 0 for v, i in zip(law.A, CONTACTS) if i < end - 0.05)
+    end = I0 + (B0 ** (1 - p) - (1e-12 * B0) ** (1 - p)) / ((1 - p) * c)
+    assert law.ended == "extinction" and "quadrature" in law.solver
+    assert law.ended_at == pytest.approx(end, rel=1e-10)
+    assert integrate_law(rhs, B0, I0, CONTACTS)[1] == pytest.approx(end, rel=1e-6)
+    live = CONTACTS < end
+    assert all(v is None for v in np.array(law.A, dtype=object)[~live])
+    np.testing.assert_allclose(np.array(law.A, dtype=object)[live].astype(float),
+                               (B0 ** (1 - p) - (1 - p) * c * (CONTACTS[live] - I0)) ** (1 / (1 - p)), rtol=1e-11)
 
 
-def test_a_blow_up_is_left_to_lsoda():
-    rhs, _ = bernoulli(0.0001, 0.02, 2.0, 1.0)  # dB/di ~ 0.02 B^2: infinite at t ~ 50
-    law = solve_law(rhs, 1.0, I0, CONTACTS, 1.0)
-    assert law.ended == "blow-up" and 60 < law.ended_at < 70
+def test_a_blow_up_is_located_by_the_quadrature():
+    a, b, B0 = 0.0001, 0.02, 1.0  # dB/di = a B + b B^2: 1/B = (1/B0 + b/a) e^(-a t) - b/a reaches 1e-12
+    rhs, _ = bernoulli(a, b, 2.0, B0)
+    law = solve_law(rhs, B0, I0, CONTACTS, 1.0)
+    end = I0 - math.log((1e-12 / B0 + b / a) / (1 / B0 + b / a)) / a
+    assert law.ended == "blow-up" and "quadrature" in law.solver
+    assert law.ended_at == pytest.approx(end, rel=1e-10)
 
 
 def test_contacts_before_the_start_are_not_marched():
@@ -89,7 +96,7 @@ def test_a_stiff_law_is_left_to_lsoda():
     """A time scale far below a contact (d rhs/dB = -5000): no march, LSODA's stiff solution, which decays
     onto the stationary amplitude as the closed form does."""
     rhs, exact = bernoulli(5000.0, -5000.0, 2.0, 0.5)  # logistic onto B = 1 within a thousandth of a contact
-    assert march_law(rhs, 0.5, I0, CONTACTS) is None
+    assert march_law(rhs, 0.5, I0, CONTACTS)[0] == []
     law = solve_law(rhs, 0.5, I0, CONTACTS, 1.0)
     assert law.solver.startswith("LSODA")
     np.testing.assert_allclose(law.A, exact(CONTACTS), rtol=1e-9)
