@@ -25,7 +25,7 @@ import sympy
 
 from pulsemap.symbolic.errors import closest
 from pulsemap.symbolic.expression import (SYMBOLS, ExpressionError, bound_size, check_parameter_name, formula,
-                                          parse_expression, symbol)
+                                          is_polynomial_in_state, parse_expression, symbol)
 from pulsemap.symbolic.expression.tokens import tokenize
 from pulsemap.symbolic.param_values import (DRAW_KEYS, IndexExpression, ParamMap, ParamValue, PerturbationError,
                                           RandomDraw, check_beads, check_name, evaluate_per_bead, exact, finite_float,
@@ -67,6 +67,11 @@ class Perturbation:
     def is_zero(self) -> bool:
         """R = 0: the bare chain of Eq. 1 (no on-site force)."""
         return self.R == 0
+
+    @property
+    def is_polynomial(self) -> bool:
+        """R is a polynomial in u, v (Eq. 10's monomials: what the map and the long-wave law integrate)."""
+        return is_polynomial_in_state(self.R)
 
     @property
     def unused_parameters(self) -> tuple[str, ...]:

@@ -131,6 +131,20 @@ def test_run_output_records_what_produced_it(scene_file):
     assert data["seed"]["contact"] == 5 and data["seed"]["from"] == "DNS peak at contact 5"
 
 
+@pytest.mark.process
+def test_provenance_reads_the_installed_versions_without_importing_the_libraries():
+    """The versions recorded are importlib.metadata's, read in a process that loads neither sympy nor scipy."""
+    code = ("import json, sys; from pulsemap.symbolic.provenance import provenance; p = provenance(); "
+            "print(json.dumps([p, sorted(m for m in ('sympy', 'scipy', 'importlib.metadata') if m in sys.modules)]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    versions, loaded = json.loads(out)
+    from importlib import metadata
+
+    assert {name: versions[name] for name in ("numpy", "scipy", "sympy", "mpmath")} == \
+           {name: metadata.version(name) for name in ("numpy", "scipy", "sympy", "mpmath")}
+    assert loaded == []
+
+
 def test_derive_and_profile_outputs_record_what_produced_them():
     from pulsemap.symbolic.balance import derive_balance
     from pulsemap.symbolic.derivation import derive_all, to_json

@@ -3,8 +3,8 @@
 Map: K A_i^Q = K A_{i-1}^Q + rate(A_{i-1}) with bead i's parameters (generated ``balance_step``);
 the pulse dies where the right-hand side reaches zero (all the wave's energy or momentum spent),
 or where A falls below ``death_fraction`` of its seed. Law: K dB/di = eps sum C_p B^p, B = A^Q,
-in closed form for one power (generated ``law_closed``), else solved as an ODE with scipy, with
-events for extinction and blow-up. Contacts past a model's end carry None, never a NaN.
+in closed form for one power (generated ``law_closed``), else solved as an ODE (longwave_eval.py:
+``solve_law``, scipy only where the law ends). Contacts past a model's end carry None, never a NaN.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from typing import Mapping
 import numpy as np
 
 from pulsemap.symbolic.errors import PulsemapError
-from pulsemap.solvers.models.longwave_eval import integrate_law, law_values
+from pulsemap.solvers.models.longwave_eval import solve_law
 from pulsemap.solvers.models.map_iteration import check_seed, contact_params
 
 
@@ -119,11 +119,10 @@ def evaluate_balance_law(module: ModuleType, A0: float, i0: float, contacts, eps
                           [v * S0 if v is not None else None for v in vals],
                           status if ended_at is not None and ended_at <= contacts.max(initial=i0) else "ok",
                           msg, ended_at, module.LAW_KIND, module.SOURCE["profile"])
-    sol, ended_at, ended = integrate_law(lambda B: module.law_rhs(B, eps, *args), A0**Q, i0, contacts)
-    if sol.status < 0:
-        raise BalanceEvalError(f"the {module.MODEL}-balance law could not be integrated: {sol.message}")
-    status = ended or "ok"
-    vals = law_values(sol, contacts, Q)
-    msg = f"{status} at contact index {ended_at:.6g}" if ended_at is not None else "ODE solved (LSODA, rtol 1e-11)"
+    law = solve_law(lambda B: module.law_rhs(B, eps, *args), A0, i0, contacts, Q)
+    if law.failure is not None:
+        raise BalanceEvalError(f"the {module.MODEL}-balance law could not be integrated: {law.failure}")
+    status, vals, ended_at = law.ended or "ok", law.A, law.ended_at
+    msg = f"{status} at contact index {ended_at:.6g}" if ended_at is not None else f"ODE solved ({law.solver})"
     return BalanceRun(module.MODEL, "law", contacts.astype(int), vals, [v * S0 if v is not None else None for v in vals],
                       status, msg, ended_at, "quadrature", module.SOURCE["profile"])

@@ -2,7 +2,8 @@
 
 Looking a module up never imports sympy; only when the module is missing is ``derive`` called to
 write it (opty's habit: generated code carries the hash of its source, so stale code is never
-used and never silently rebuilt).
+used and never silently rebuilt). A balance model the derivation found undefined for R is kept
+too, as its reason, so asking again refuses it without sympy.
 """
 
 from __future__ import annotations
@@ -13,12 +14,15 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+from pulsemap.symbolic import __version__
 from pulsemap.symbolic.errors import PulsemapError
-from pulsemap.symbolic.cache import cache_dir
+from pulsemap.symbolic.cache import cache_dir, load, store
 from pulsemap.symbolic.sources import (BALANCE_MODELS, PROFILE_KINDS, VARIANTS, BalanceSource, ForceSource, GeneratedCodeError,
                             JitForceSource, MapSource, module_name, source_from_dict, verify_generated)
 
 PACKAGE_DIR = Path(__file__).resolve().parents[2] / "generated"
+#: Cache namespace of the refusals: a generated module's name -> why its model is undefined for R.
+REFUSALS = "refusals"
 
 
 class GeneratedModuleError(PulsemapError):
@@ -110,15 +114,46 @@ def _ensure(source) -> ModuleType:
         except GeneratedCodeError as exc:
             print(f"pulsemap: note: cached module {cached} was damaged ({_reason(exc)}): regenerating it",
                   file=sys.stderr, flush=True)
-    from pulsemap.symbolic import codegen  # only now: the code is missing or damaged and must be generated
+    refused = _refusal(name)
+    if refused is not None:
+        from pulsemap.symbolic.balance_constants import BalanceError  # mpmath, not sympy
 
-    path = codegen.write(source)
+        raise BalanceError(refused)
+    from pulsemap.symbolic import codegen  # only now: the code is missing or damaged and must be generated
+    from pulsemap.symbolic.balance_constants import BalanceError
+
+    try:
+        path = codegen.write(source)
+    except BalanceError as exc:  # undefined for this source, whenever asked: kept with its reason
+        try:
+            store(REFUSALS, _refusal_key(name), {"reason": str(exc)})
+        except OSError:  # no usable cache: the next run derives it again
+            pass
+        raise
     if path == cached:
         return _load_path(path)
     try:  # its place in the cache is taken: built in a private temporary folder, removed once loaded
         return _load_path(path)
     finally:
         shutil.rmtree(path.parent, ignore_errors=True)
+
+
+def _refusal_key(name: str) -> str:
+    return f"refusal {__version__} {name}"
+
+
+def _refusal(name: str) -> str | None:
+    """Why the model of generated module ``name`` was found undefined for its R, if it was."""
+    try:
+        value = load(REFUSALS, _refusal_key(name), _check_refusal, quiet=True)
+    except OSError:
+        return None
+    return None if value is None else value["reason"]
+
+
+def _check_refusal(value) -> str | None:
+    ok = isinstance(value, dict) and isinstance(value.get("reason"), str) and value["reason"]
+    return None if ok else "not a refusal"
 
 
 def _check_profile(profile: str) -> None:

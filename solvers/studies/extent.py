@@ -8,14 +8,14 @@ point's copy of it, with the schema's defaults) and :func:`on_contacts` (values 
 
 from __future__ import annotations
 
-import itertools
-import math
 from typing import Any, Mapping, Sequence
+
+import numpy as np
 
 from pulsemap.solvers.chain.dns import Integrator, chain_length_for
 from pulsemap.solvers.data.scene.schema import DNS_DEFAULTS
 
-__all__ = ["dns_integrator", "dns_span", "dns_window_of", "on_contacts"]
+__all__ = ["contact_slots", "dns_integrator", "dns_span", "dns_window_of", "listed", "on_contacts"]
 
 
 def dns_span(scene) -> tuple[int, tuple[int, int]]:
@@ -45,7 +45,33 @@ def dns_integrator(dns: Mapping[str, Any]) -> Integrator:
 def on_contacts(contacts: Sequence[int], at: Sequence[int], values: Sequence[float | None],
                 alive: Sequence[bool] | None = None) -> list[float | None]:
     """``values`` given at contacts ``at`` (a DNS, a baseline or a model run) on ``contacts``:
-    None where there is no value, it is not finite, or ``alive`` (a DNS's live flags) is False."""
-    flags = itertools.repeat(True) if alive is None else alive
-    got = {int(c): float(v) for c, v, a in zip(at, values, flags) if a and v is not None and math.isfinite(v)}
-    return [got.get(int(c)) for c in contacts]
+    None where there is no value, it is not finite, or ``alive`` (a DNS's live flags) is False; a
+    contact given twice takes its last such value."""
+    n = min(len(at), len(values), len(alive) if alive is not None else len(at))
+    vals = np.asarray(values, dtype=float)[:n]  # None -> NaN
+    valid = np.isfinite(vals) if alive is None else np.isfinite(vals) & np.asarray(alive, dtype=bool)[:n]
+    found, index = contact_slots(contacts, np.asarray(at)[:n][valid])
+    return listed(vals[valid], found, index)
+
+
+def contact_slots(contacts: Sequence[int], at: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """(found, index): whether each of ``contacts`` occurs in ``at`` and where (its last occurrence; 0
+    where absent), contacts compared as integers (``int(c)``); arrays in, no per-contact dict."""
+    have = np.asarray(at).astype(np.int64).reshape(-1)
+    want = np.asarray(contacts).astype(np.int64).reshape(-1)
+    order = np.argsort(have, kind="stable")  # equal contacts keep their order: the last one is found
+    ranked = have[order]
+    pos = np.searchsorted(ranked, want, side="right") - 1
+    found = pos >= 0
+    found[found] = ranked[pos[found]] == want[found]
+    index = np.zeros(want.size, dtype=np.intp)
+    index[found] = order[pos[found]]
+    return found, index
+
+
+def listed(values: np.ndarray, keep: np.ndarray, index: np.ndarray) -> list[float | None]:
+    """[values[index[k]] where keep[k], else None] as Python floats."""
+    out: list[float | None] = (values[index] if values.size else np.zeros(index.size)).tolist()
+    for k in np.flatnonzero(~keep).tolist():
+        out[k] = None
+    return out

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
+
 from pulsemap.symbolic.param_forms import RandomDraw
 from pulsemap.solvers.chain.dns import Chain, simulate
 from pulsemap.solvers.studies.extent import dns_integrator, dns_span, dns_window_of, on_contacts

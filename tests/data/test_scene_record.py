@@ -24,12 +24,34 @@ def test_second_load_is_the_record_and_the_same_scene(tmp_path):
     assert second == first and first == second
     assert second.as_dict() == first.as_dict()
     pf, ps = first.perturbation, second.perturbation
-    assert (ps.used_parameters, ps.site_dependent, ps.is_uniform, ps.is_zero) == \
-           (pf.used_parameters, pf.site_dependent, pf.is_uniform, pf.is_zero)
+    assert (ps.used_parameters, ps.site_dependent, ps.is_uniform, ps.is_zero, ps.is_polynomial) == \
+           (pf.used_parameters, pf.site_dependent, pf.is_uniform, pf.is_zero, pf.is_polynomial)
     assert ps.R == pf.R  # parsed on demand, the same expression
     a = run_scene(first, methods=["dns", "map"])
     b = run_scene(second, methods=["dns", "map"])
     assert a["peaks"] == b["peaks"]  # bit for bit
+
+
+def test_the_record_is_keyed_by_the_scene_not_the_file_text(tmp_path):
+    """Comments, spacing and key order do not make a new scene; a changed value does."""
+    text = scene_toml("rec6", contacts=(16, 30))
+    load_scene(write_scene(tmp_path, text))
+    again = load_scene(write_scene(tmp_path, "# the same scene, written otherwise\n" + text.replace(" = ", "=")))
+    assert isinstance(again.perturbation, CachedPerturbation)
+
+
+def test_an_overridden_scene_is_recorded_like_a_file(tmp_path):
+    """--set and scene(name, **kw) rebuild the scene from its table: the second time from its record."""
+    from pulsemap.solvers.data.scene.overrides import with_sets
+
+    base = load_scene(write_scene(tmp_path, scene_toml("rec7", contacts=(16, 30))))
+    first, second = (with_sets(base, ["dns.rtol=1e-5", "perturbation.params.mu=0.4"]) for _ in range(2))
+    assert not isinstance(first.perturbation, CachedPerturbation)
+    assert isinstance(second.perturbation, CachedPerturbation)
+    assert second == first and second.as_dict() == first.as_dict()
+    assert (second.dns["rtol"], second.perturbation.params["mu"]) == (1e-5, 0.4)
+    other = with_sets(base, ["dns.rtol=1e-6"])  # another table: parsed, not the record of the first
+    assert not isinstance(other.perturbation, CachedPerturbation) and other.dns["rtol"] == 1e-6
 
 
 def test_an_edited_file_is_parsed_again(tmp_path):

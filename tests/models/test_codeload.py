@@ -97,3 +97,20 @@ def test_the_cli_reports_a_damaged_shipped_module_in_one_line(cache, tmp_path, m
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("pulsemap: error: generated module ") and str(path) in err
     assert os.path.getsize(path) > 0
+
+
+@pytest.mark.process
+def test_a_refused_balance_model_is_refused_again_without_sympy(tmp_path):
+    """Momentum balance with a foundation term (-u) is undefined (derive/balance.py): the second process
+    finds the reason in the cache and raises the same BalanceError without importing sympy."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom pulsemap.solvers.models.codeload import balance_module\n"
+            "try:\n    balance_module('-u + mu*v', ['mu'], 1.5, 'exact', 'momentum')\n"
+            "except Exception as exc:\n    print(type(exc).__name__, 'sympy' in sys.modules, exc)\n")
+    env = {**os.environ, "PULSEMAP_CACHE_DIR": str(tmp_path / "cache")}
+    first, second = (subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                                    check=True).stdout.strip() for _ in range(2))
+    assert first.startswith("BalanceError True ") and "undefined" in first
+    assert second == first.replace("BalanceError True ", "BalanceError False ", 1)

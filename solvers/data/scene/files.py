@@ -12,8 +12,8 @@ try:  # Python >= 3.11
 except ModuleNotFoundError:  # pragma: no cover - Python 3.10 (pyproject pulls in tomli)
     import tomli as tomllib  # type: ignore[no-redef]
 
-from pulsemap.solvers.data.scene.parse import parse_scene, suggest
-from pulsemap.solvers.data.scene.record import load_record, save_record
+from pulsemap.solvers.data.scene.parse import suggest
+from pulsemap.solvers.data.scene.record import recorded_scene
 from pulsemap.solvers.data.scene.schema import ALIASES, SceneError
 from pulsemap.solvers.data.scene.spec import Scene
 from pulsemap.solvers.data.scene.toml_bounds import MAX_SCENE_BYTES, TomlBoundsError, check_size, check_toml_bounds
@@ -96,13 +96,9 @@ def load_scene(ref: str | Path) -> Scene:
 
 
 def _parse_file(data: bytes, source: str) -> Scene:
-    """The Scene of a scene file's bytes: its record when this text was parsed before (no sympy,
+    """The Scene of a scene file's bytes: its record when this scene was parsed before (no sympy,
     data/scene/record.py), else parsed, validated and recorded."""
-    scene = load_record(data, source)
-    if scene is None:
-        scene = parse_scene(_decode(data, source), source)
-        save_record(data, source, scene)
-    return scene
+    return recorded_scene(_decode(data, source), source)
 
 
 def _decode(data: bytes, source: str) -> dict:

@@ -20,7 +20,8 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 from pulsemap.symbolic.errors import closest
-from pulsemap.solvers.data.scene.parse import override_changes, parse_scene
+from pulsemap.solvers.data.scene.parse import override_changes
+from pulsemap.solvers.data.scene.record import recorded_scene
 from pulsemap.solvers.data.scene.schema import SceneError
 from pulsemap.solvers.data.scene.spec import Scene
 
@@ -101,7 +102,8 @@ def apply_overrides(scene: Scene, changes: Iterable[tuple[str, Any]]) -> Scene:
 
     Keys are checked against the scene file's (:func:`check_key`); a text key given a number keeps it as
     written (R = 0); tuples are arrays; a new R keeps the parameters it names and those given with it
-    and drops the others; the result is rebuilt by ``parse_scene``. SceneError names the problem.
+    and drops the others; the result is rebuilt by ``parse_scene``, or read back from the record of the
+    same table (data/scene/record.py). SceneError names the problem.
     """
     items = [(key, list(value) if isinstance(value, tuple) else value) for key, value in changes]
     if not items:
@@ -120,7 +122,7 @@ def apply_overrides(scene: Scene, changes: Iterable[tuple[str, Any]]) -> Scene:
         data["perturbation"]["params"] = {k: v for k, v in data["perturbation"].get("params", {}).items()
                                           if k in named or k in given}
     data.pop("source", None)
-    return parse_scene(data, scene.source or scene.name)
+    return recorded_scene(data, scene.source or scene.name)
 
 
 def with_overrides(scene: Scene, **kw: Any) -> Scene:

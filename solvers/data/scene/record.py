@@ -3,8 +3,10 @@
 Parsing R goes through sympy (:mod:`pulsemap.symbolic.expression`), whose import and parse cost a
 few tenths of a second per process. Once a scene file has been parsed and validated, its resolved
 form (:meth:`Scene.as_dict`) and the facts a run needs about R (which parameters it uses, whether
-it contains i or is zero) are kept in the pulsemap cache, keyed by a hash of the file's text and
-where it came from. Loading the same text again builds the Scene from that record: its perturbation
+it contains i or is zero, whether it is a polynomial in u, v) are kept in the pulsemap cache, keyed
+by a hash of the scene's table in canonical form (keys sorted) and where it came from, so the same
+scene read from its file or rebuilt with overrides (``--set``, ``pulsemap.scene(name, **kw)``) finds
+the same record. Loading the same scene again builds the Scene from that record: its perturbation
 is a :class:`CachedPerturbation`, which answers what a run asks from those facts and parses R with
 sympy only when something needs the expression itself.
 
@@ -15,10 +17,11 @@ Scenes with a parameter given as an expression of i, a contact law's term or mas
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Mapping
 
 from pulsemap.symbolic import __version__
 from pulsemap.symbolic.cache import load, note_damaged, store
@@ -31,12 +34,19 @@ if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
 
 NAMESPACE = "scenes"
-FORMAT = 2  # the record's layout; a new one ignores older records (2: scenes with [contact] or [masses] are not recorded)
+FORMAT = 3  # the record's layout; a new one ignores older records (3: keyed by the table, R's polynomial fact)
 
 
-def record_key(text: bytes, source: str) -> str:
-    """What a record depends on: the scene file's bytes, its source and the pulsemap version."""
-    return f"scene-record {FORMAT} {__version__} {source!r} {hashlib.sha256(text).hexdigest()}"
+def record_key(data: Mapping[str, Any], source: str) -> str | None:
+    """What a record depends on: the scene's table in canonical form (JSON, keys sorted: a file's
+    spacing, comments and key order do not matter), its source and the pulsemap version; None for a
+    table JSON cannot hold exactly (a TOML date, a NaN): such a scene is parsed every time."""
+    try:
+        canonical = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    except (TypeError, ValueError):
+        return None
+    digest = hashlib.sha256(canonical.encode("utf-8")).hexdigest()
+    return f"scene-record {FORMAT} {__version__} {source!r} {digest}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,6 +61,7 @@ class CachedPerturbation:
     used_parameters: tuple[str, ...]
     uses_i: bool
     is_zero: bool
+    is_polynomial: bool  # R is a polynomial in u, v (derive/perturbation.py: Perturbation.is_polynomial)
 
     @cached_property
     def parsed(self):
@@ -110,10 +121,25 @@ def _param_value(data: Any) -> Any:
     return float(data)
 
 
-def load_record(text: bytes, source: str) -> Scene | None:
-    """The Scene recorded for this scene file text, or None (no record yet, or an unreadable one)."""
+def recorded_scene(data: Mapping[str, Any], source: str) -> Scene:
+    """The Scene of a scene table (a decoded file, or a scene's table with overrides applied): its
+    record when this table was parsed before (no sympy), else parsed and validated by ``parse_scene``
+    (the one place scene input is checked) and recorded."""
+    from pulsemap.solvers.data.scene.parse import parse_scene
+
+    key = record_key(data, source)
+    scene = None if key is None else load_record(key)
+    if scene is None:
+        scene = parse_scene(data, source)
+        if key is not None:
+            save_record(key, scene)
+    return scene
+
+
+def load_record(key: str) -> Scene | None:
+    """The Scene recorded under ``key`` (:func:`record_key`), or None (no record yet, or an unreadable one)."""
     try:
-        value = load(NAMESPACE, record_key(text, source), _check, quiet=True)
+        value = load(NAMESPACE, key, _check, quiet=True)
     except OSError:  # no usable cache directory: parse the scene as without one
         value = None
     if value is None:
@@ -122,7 +148,7 @@ def load_record(text: bytes, source: str) -> Scene | None:
     try:  # a record is re-validated as the scene file would be: a forged one is read as damaged
         fields = check_recorded_scene(d)
     except SceneError as exc:
-        note_damaged(NAMESPACE, record_key(text, source), f"refused as a scene file would be: {exc}")
+        note_damaged(NAMESPACE, key, f"refused as a scene file would be: {exc}")
         return None
     pert = d["perturbation"]
     return Scene(
@@ -131,11 +157,11 @@ def load_record(text: bytes, source: str) -> Scene | None:
             text=pert["R"], eps=float(pert["eps"]),
             params=ParamMap.of({k: _param_value(v) for k, v in pert["params"].items()}),
             used_parameters=tuple(facts["used_parameters"]), uses_i=bool(facts["uses_i"]),
-            is_zero=bool(facts["is_zero"])),
+            is_zero=bool(facts["is_zero"]), is_polynomial=bool(facts["is_polynomial"])),
     )
 
 
-def save_record(text: bytes, source: str, scene: Scene) -> None:
+def save_record(key: str, scene: Scene) -> None:
     """Record a parsed, validated scene (not one with an expression of i; a cache that cannot be
     written is skipped: the record only saves time)."""
     from pulsemap.symbolic.expression import symbol
@@ -146,9 +172,9 @@ def save_record(text: bytes, source: str, scene: Scene) -> None:
     if scene.contact is not None or scene.masses is not None:  # their tables are evaluated through sympy anyway
         return
     facts = {"used_parameters": list(pert.used_parameters), "uses_i": symbol("i") in pert.R.free_symbols,
-             "is_zero": bool(pert.is_zero)}
+             "is_zero": bool(pert.is_zero), "is_polynomial": bool(pert.is_polynomial)}
     try:
-        store(NAMESPACE, record_key(text, source), {"scene": scene.as_dict(), "facts": facts})
+        store(NAMESPACE, key, {"scene": scene.as_dict(), "facts": facts})
     except OSError:
         pass
 
@@ -162,7 +188,8 @@ def _check(value: Any) -> str | None:
         ok = (all(isinstance(x, (int, float)) and math.isfinite(x) for x in numbers)
               and isinstance(d["perturbation"]["R"], str) and isinstance(used, list)
               and all(isinstance(p, str) and p in d["perturbation"]["params"] for p in used)
-              and isinstance(facts["uses_i"], bool) and isinstance(facts["is_zero"], bool))
+              and isinstance(facts["uses_i"], bool) and isinstance(facts["is_zero"], bool)
+              and isinstance(facts["is_polynomial"], bool))
     except (KeyError, TypeError, IndexError):
         return "not a scene record"
     return None if ok else "not a scene record"

@@ -21,6 +21,8 @@ import numbers
 import time
 from typing import Sequence
 
+import numpy as np
+
 from pulsemap.symbolic.provenance import provenance
 from pulsemap.solvers import __version__
 from pulsemap.solvers.chain.front import Snapshots
@@ -30,7 +32,8 @@ from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import force_failure, make_force
 from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
 from pulsemap.solvers.studies.run import chain_terms
-from pulsemap.solvers.studies.extent import dns_integrator, dns_span, dns_window_of, on_contacts
+from pulsemap.solvers.studies.extent import (contact_slots, dns_integrator, dns_span, dns_window_of, listed,
+                                            on_contacts)
 from pulsemap.solvers.studies.run.state import RunState
 
 __all__ = ["derive_models", "derive_while_kernels_build", "dns_kernel", "run_scene"]
@@ -174,7 +177,11 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
         raise RunError(force_failure(scene, beads, exc, "DNS")) from None
     state.timings["dns_compile"] = res.compile_s  # numba compiling or loading the kernel, apart from integrating
     state.timings["dns"] = time.perf_counter() - t0 - res.compile_s
-    dns_peaks = on_contacts(contacts, res.contacts, res.peaks, res.alive)
+    seed_contact = scene.first_perturbed - 1
+    first, last = min(contacts[0], seed_contact), max(contacts[-1], seed_contact)
+    slots = contact_slots(np.arange(first, last + 1), res.contacts)  # once for the peaks, the seed and front_outputs
+    peaks = at_contacts(res.peaks, slots, res.alive)
+    dns_peaks = peaks[contacts[0] - first: contacts[-1] - first + 1]
     dns_alive = [p is not None for p in dns_peaks]
     state.dns_peaks, state.dns_alive = dns_peaks, dns_alive
     out["peaks"]["dns"] = dns_peaks
@@ -187,7 +194,9 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
         "alive": dns_alive,
         "live_contacts": [c for c, a in zip(contacts, dns_alive) if a],
     }
-    out["dns"].update(front_outputs(res, contacts, dns_alive))
+    found, index = slots
+    reported = slice(contacts[0] - first, contacts[-1] - first + 1)
+    out["dns"].update(front_outputs(res, (found[reported], index[reported]), dns_alive))
     if res.velocity_peaks is not None:  # a chain with masses: each bead's first velocity maximum
         beads = [c for c in contacts if c <= res.velocity_peaks.size]
         out["dns"]["velocity_peaks"] = {"beads": beads, "peaks": on_contacts(
@@ -195,23 +204,38 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     if not all(dns_alive):
         dead = [c for c, a in zip(contacts, dns_alive) if not a]
         state.warnings.append(f"DNS: no live primary pulse at contacts {dead[0]}..{dead[-1]} ({res.stop_reason})")
-    dns_seed = on_contacts([scene.first_perturbed - 1], res.contacts, res.peaks, res.alive)[0]
+    dns_seed = peaks[seed_contact - first]
     if dns_seed is not None:
         state.seed_peak = dns_seed
         out["dns"]["seed_peak"] = dns_seed  # peak at first_perturbed - 1, seeds map and law
 
 
-def front_outputs(res, contacts: list[int], alive: list[bool]) -> dict:
-    """What the DNS measured at each reported contact besides the peak (chain/front.py): arrival
-    time of the peak, pulse speed (contacts per unit time), energy of the pulse and of the chain;
-    None where the primary pulse is not alive. The energy drift is the accuracy check of a chain
-    without R (None with R: its energy is not conserved)."""
+def at_contacts(values, slots: tuple, alive=None) -> list:
+    """A DNS measure (an array over ``res.contacts``) at the contacts ``slots`` locates
+    (studies/points.contact_slots): None where it was not measured, is not finite or, with ``alive``
+    (over ``res.contacts`` too), the primary pulse was not alive."""
+    found, index = slots
+    if values is None:
+        return [None] * found.size
+    got = np.asarray(values, dtype=float)
+    if not got.size:
+        return [None] * found.size
+    keep = found & np.isfinite(got[index])
+    if alive is not None:
+        keep &= np.asarray(alive, dtype=bool)[index]
+    return listed(got, keep, index)
+
+
+def front_outputs(res, slots: tuple, alive: list[bool]) -> dict:
+    """What the DNS measured at each reported contact (``slots``: where they are in ``res.contacts``)
+    besides the peak (chain/front.py): arrival time of the peak, pulse speed (contacts per unit time),
+    energy of the pulse and of the chain; None where the primary pulse is not ``alive``. The energy
+    drift is the accuracy check of a chain without R (None with R: its energy is not conserved)."""
+    found, index = slots
+    live = (found & np.asarray(alive, dtype=bool), index)
+
     def per_contact(values) -> list:
-        if values is None:
-            return [None] * len(contacts)
-        got = dict(zip((int(c) for c in res.contacts), (float(v) for v in values)))
-        return [got.get(c) if a and got.get(c) is not None and math.isfinite(got[c]) else None
-                for c, a in zip(contacts, alive)]
+        return at_contacts(values, live)
 
     return {
         "arrival_times": per_contact(res.peak_times),
@@ -280,7 +304,8 @@ def run_scene(
     state = start_run(scene, methods, profile, variant, seed_peak, snapshots)
     state.stated_accuracy = stated_accuracy
     if "dns" in state.methods:
-        derive_while_kernels_build([(scene, state.methods, profile, variant)])
+        if any(m != "dns" for m in state.methods):  # models to derive while a missing kernel builds
+            derive_while_kernels_build([(scene, state.methods, profile, variant)])
         run_dns(state, progress, dns_window)
     if reuse_dns is not None and "dns" not in state.methods:
         reuse_dns_run(state, reuse_dns)

@@ -58,9 +58,7 @@ def derive_models(state: "RunState") -> tuple[ModuleType | None, dict[str, Modul
     balance: dict[str, ModuleType] = {}
     if not any(m in ("map", "longwave") or m in BALANCE_METHODS for m in methods):
         return mod, balance  # no generated model module needed (R is not parsed for a DNS alone)
-    from pulsemap.symbolic.expression import is_polynomial_in_state  # sympy: the models derive from R
-
-    polynomial = is_polynomial_in_state(pert.R)
+    polynomial = pert.is_polynomial  # a scene record's fact, or sympy when the scene was parsed here
     if "map" in methods or "longwave" in methods:
         if not polynomial:  # Eq. 23 and Eq. 30 integrate R monomial by monomial (Eq. 10)
             why = (f"R = {pert.R} is not a polynomial in u, v: the map (Eq. 23) and the long-wave law (Eq. 30) "
