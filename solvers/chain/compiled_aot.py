@@ -173,6 +173,7 @@ def build(method: str, form: str, name: str, path: Path) -> None:
         cc = CC(name)  # raises here when there is no C compiler
         print(f"pulsemap: compiling the chain kernels ({method}, {form} force) ahead of time, once per machine: "
               f"~{BUILD_ESTIMATE_S} s", file=sys.stderr, flush=True)
+        started = time.perf_counter()
         cc.output_dir, cc.output_file, cc.target_cpu, cc.verbose = work, path.name, "host", False
         if isinstance(getattr(cc, "_extra_cflags", None), dict):  # numba's C runtime: halves the C compile
             cc._extra_cflags = {"posix": QUICK_CFLAGS}
@@ -197,6 +198,7 @@ def build(method: str, form: str, name: str, path: Path) -> None:
         digest_file.write_text(hashlib.sha256(built.read_bytes()).hexdigest() + "\n", encoding="utf-8")
         os.replace(digest_file, _digest_path(path))  # first the digest: a reader never meets a module unchecked
         os.replace(built, path)
+        elapsed = time.perf_counter() - started
     finally:
         os.dup2(out_fd, 1)
         os.dup2(err_fd, 2)
@@ -204,6 +206,8 @@ def build(method: str, form: str, name: str, path: Path) -> None:
         os.close(err_fd)
         tempfile.tempdir = saved_tmp
         shutil.rmtree(work, ignore_errors=True)
+    print(f"pulsemap: compiled the chain kernels ({method}, {form} force) in {elapsed:.1f} s", file=sys.stderr,
+          flush=True)
 
 
 def _low_priority(step, *args):

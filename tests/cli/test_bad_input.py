@@ -43,13 +43,14 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def error_line(stderr: str) -> str:
     """The one line 'pulsemap: error: ...' of a refused command, wherever it stands in stderr: before it may
-    come what a slow machine prints first (progress lines '[what] ...', the once-per-process note that
-    numba compiles the chain kernels), never a second error or a traceback."""
+    come what a slow machine prints first (progress lines '[what] ...', the once-per-machine notes that the chain
+    kernels are being compiled and how long it took), never a second error or a traceback."""
     lines = stderr.splitlines(keepends=True)
     errors = [line for line in lines if line.startswith("pulsemap: error: ")]
     assert len(errors) == 1 and errors[0].endswith("\n"), stderr
     others = [line for line in lines if line is not errors[0]]
-    assert all(line.startswith(("[", "pulsemap: compiling the chain kernels")) for line in others), stderr
+    assert all(line.startswith(("[", "pulsemap: compiling the chain kernels", "pulsemap: compiled the chain kernels"))
+               for line in others), stderr
     assert "Traceback" not in stderr
     return errors[0]
 

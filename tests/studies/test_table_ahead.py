@@ -4,6 +4,7 @@ child process, the models derived into the cache, and table rows computed in for
 from __future__ import annotations
 
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -168,12 +169,16 @@ def test_models_are_derived_while_a_missing_kernel_builds(tmp_path, monkeypatch)
     class Child:
         def wait(self):
             waited.append(True)
+            time.sleep(0.05)  # the build: the run reports the time it waited for it
             return 0
 
     monkeypatch.setattr(compiled_aot, "build_in_background", lambda kernels: asked.append(list(kernels)) or Child())
     scene = with_overrides(load_scene("fig8-eps0.1"), R="-mu*v - 0.41*mu*v^3")  # v^3: the general table
-    assert derive_while_kernels_build([(scene, ["dns", "map"], "exact", "corrected")], say=said.append)
+    timings: dict = {}
+    assert derive_while_kernels_build([(scene, ["dns", "map"], "exact", "corrected")], say=said.append,
+                                      timings=timings)
     assert asked == [[("RK45", "table")]] and waited == [True] and said
+    assert timings["dns_build"] >= 0.05
     assert list((tmp_path / "generated").glob("map_*.py"))  # the map's module, derived meanwhile
 
 
@@ -183,8 +188,9 @@ def test_nothing_is_derived_ahead_when_no_kernel_is_missing(tmp_path, monkeypatc
     monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(compiled_aot, "build_in_background", lambda kernels: None)
     scene = with_overrides(load_scene("fig8-eps0.1"), R="-mu*v - 0.43*mu*v^3")
-    assert not derive_while_kernels_build([(scene, ["dns", "map"], "exact", "corrected")])
-    assert not list((tmp_path / "generated").glob("map_*.py"))
+    timings: dict = {}
+    assert not derive_while_kernels_build([(scene, ["dns", "map"], "exact", "corrected")], timings=timings)
+    assert not list((tmp_path / "generated").glob("map_*.py")) and "dns_build" not in timings
 
 
 def test_no_child_process_means_the_run_builds_its_own(monkeypatch):

@@ -130,15 +130,17 @@ def _ahead(step, *args):
         return None
 
 
-def derive_while_kernels_build(jobs: Sequence[tuple], say=None) -> bool:
+def derive_while_kernels_build(jobs: Sequence[tuple], say=None, timings: dict | None = None) -> bool:
     """Build the chain kernels the DNS of the jobs' scenes need, each in a child process started as soon as a
     scene needs it (chain/compiled_aot.build_in_background), while this process derives the jobs' models
     ``(scene, methods, profile, variant)`` into the caches; then wait for the builds. From empty caches both
     take seconds, and the runs then find both ready. False (and nothing done) when no kernel is missing;
-    ``say(text)``: told what happens when something does."""
+    ``say(text)``: told what happens when something does; ``timings``: gets ``dns_build``, the wall seconds from
+    the first build's start to the last one's end (the real build time, on another core)."""
     from pulsemap.solvers.chain.compiled_aot import build_in_background
 
     children, asked, scenes = [], set(), list(dict.fromkeys(job[0] for job in jobs))
+    started = time.perf_counter()
     try:
         for scene in scenes:
             kernel = _ahead(dns_kernel, scene)
@@ -158,6 +160,8 @@ def derive_while_kernels_build(jobs: Sequence[tuple], say=None) -> bool:
     finally:
         for child in children:
             child.wait()
+        if children and timings is not None:
+            timings["dns_build"] = time.perf_counter() - started
 
 
 def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> None:
@@ -305,7 +309,7 @@ def run_scene(
     state.stated_accuracy = stated_accuracy
     if "dns" in state.methods:
         if any(m != "dns" for m in state.methods):  # models to derive while a missing kernel builds
-            derive_while_kernels_build([(scene, state.methods, profile, variant)])
+            derive_while_kernels_build([(scene, state.methods, profile, variant)], timings=state.timings)
         run_dns(state, progress, dns_window)
     if reuse_dns is not None and "dns" not in state.methods:
         reuse_dns_run(state, reuse_dns)
