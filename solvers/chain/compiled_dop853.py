@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: 0b74bab03114f7c4
+# numba cache stamp: 96b510c48d86e650
 from __future__ import annotations
 
 import numpy as np
@@ -224,7 +224,8 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, co
             dense_output(rc, h, y, yn, f, k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, ys, w, lo,
                          n, has_left, lx, lv, lt, wall, t_old, exps, coef, ct)
             st[NFEV] += 3
-        code = track_step(t_old, t, h, y, yn, rc, scratch, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, ct, f, k12, vpeaks)
+        code = track_step(t_old, t, h, y, yn, rc, scratch, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, ct,
+                          f, k12, vpeaks)
         code = finish_step(t, h_new, y, f, yn, k12, w, st, fs, cf, ci, exps, coef, ct, code)
         h = h_new
         if code != 0:

@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: 0b74bab03114f7c4
+# numba cache stamp: 96b510c48d86e650
 from __future__ import annotations
 
 import numpy as np
@@ -108,7 +108,8 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, co
         # y_old stays in y until the bookkeeping is done (dense output needs y, f = k1, k3..k7)
         if peak_in_step(y, yn, f, k7, st, ci, vpeaks):
             dopri_dense(rc, y, yn, h, f, k3, k4, k5, k6, k7, w2)
-        code = track_step(t_old, t, h, y, yn, rc, work[6], w, st, fs, cf, ci, peaks, times, pulse_e, total_e, ct, f, k7, vpeaks)
+        code = track_step(t_old, t, h, y, yn, rc, work[6], w, st, fs, cf, ci, peaks, times, pulse_e, total_e, ct,
+                          f, k7, vpeaks)
         code = finish_step(t, h_new, y, f, yn, k7, w, st, fs, cf, ci, exps, coef, ct, code)  # FSAL: f <- k7
         h = h_new
         if code != 0:

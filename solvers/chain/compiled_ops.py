@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 0b74bab03114f7c4
+# numba cache stamp: 96b510c48d86e650
 from __future__ import annotations
 
 import numpy as np

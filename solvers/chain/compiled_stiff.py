@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 0b74bab03114f7c4
+# numba cache stamp: 96b510c48d86e650
 from __future__ import annotations
 
 import numpy as np
@@ -248,7 +248,8 @@ def steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, co
         st[NFEV] += 1
         if peak_in_step(y, yn, f, fn, st, ci, vpeaks):
             hermite_dense(rc, y, yn, f, fn, h, w2)
-        code = track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, ct, f, fn, vpeaks)
+        code = track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, pulse_e, total_e, ct,
+                          f, fn, vpeaks)
         code = finish_step(t, h_new, y, f, yn, fn, w, st, fs, cf, ci, exps, coef, ct, code)  # fn = f(t, yn)
         h = h_new
         if code != 0:

@@ -19,7 +19,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci) and return codes: compiled_layout.py.
 """
 
-# numba cache stamp: 0b74bab03114f7c4
+# numba cache stamp: 96b510c48d86e650
 from __future__ import annotations
 
 import numpy as np
@@ -219,7 +219,8 @@ def track_step(t_old, t, h, y, yn, rc, pk, w, st, fs, cf, ci, peaks, times, puls
             kl = k - 1 - lo
             pulse_e[k - first] = segment_energy(pk, max(0, kl - PULSE_HALF_WIDTH), min(w, kl + PULSE_HALF_WIDTH + 1), n,
                                                    lo, ct)
-            total_e[k - first] = segment_energy(pk, w - w, w, n, lo, ct) + fs[E_GONE]  # w - w: not a literal 0 (one compile)
+            # w - w: not a literal 0 (one compile)
+            total_e[k - first] = segment_energy(pk, w - w, w, n, lo, ct) + fs[E_GONE]
         fs[STALL] = cf[STALL_FAC] * (t_pk - fs[LAST_PEAK_T])
         fs[LAST_PEAK_T] = t_pk
         fs[THRESH] = cf[PEAK_FRAC] * value

@@ -38,8 +38,8 @@ def dns_integrator(dns: Mapping[str, Any]) -> Integrator:
     """The Integrator of a scene's [dns] table (or a sweep point's copy of it): method, tolerances and engine,
     each absent key at the scene schema's default (the compiled engine where it applies)."""
     return Integrator(method=str(dns.get("method", DNS_DEFAULTS["method"])),
-                      rtol=float(dns.get("rtol", DNS_DEFAULTS["rtol"])), atol=float(dns.get("atol", DNS_DEFAULTS["atol"])),
-                      engine=str(dns.get("engine", "compiled")))
+                      rtol=float(dns.get("rtol", DNS_DEFAULTS["rtol"])),
+                      atol=float(dns.get("atol", DNS_DEFAULTS["atol"])), engine=str(dns.get("engine", "compiled")))
 
 
 def on_contacts(contacts: Sequence[int], at: Sequence[int], values: Sequence[float | None],

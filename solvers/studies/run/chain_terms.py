@@ -1,10 +1,14 @@
-"""The reduced models of a scene with a contact law's term P or bead masses: the first-order energy law.
+"""The reduced models of a scene with a contact law's term P or bead masses.
+
+The first-order energy law
 
     dA/dk = -eps_c sum_j c_j(k) m(k)^(-b_j/2) I_j A^(q_j) / ((n + 1) E_1)  [+ the on-site R's energy law]
 
 (derive/contact.py, evaluated by models/contact_law.py) as ``energy-law`` (the ODE) and ``energy-map`` (the
-energy stepped contact by contact), seeded like every model at contact first_perturbed - 1. The other models
-are derived for an on-site R on a chain of unit masses and say so (:func:`refusals`).
+energy stepped contact by contact), seeded like every model at contact first_perturbed - 1; ``relaxed`` of a
+chain of varying masses (:func:`mass_relaxed`: models/mass_kernel.py; a contact term's relaxed map is the model
+table's own, models/relaxed.py). The other models are derived for an on-site R on a chain of unit masses and say
+so (:func:`refusals`).
 """
 
 from __future__ import annotations
@@ -34,8 +38,9 @@ def require_onsite_only(scene, what: str) -> None:
     if has_chain_terms(scene):
         from pulsemap.solvers.studies.methods import RunError
 
-        raise RunError(f"scene {scene.name} has a contact-law term or masses: {what} builds its chains from the on-site "
-                       "R alone and does not take them yet; `pulsemap run` and `pulsemap table` do")
+        raise RunError(f"scene {scene.name} has a contact-law term or masses: {what} builds its chains from the "
+                       "on-site R alone and does not take them yet; `pulsemap run`, `table` and scene sweeps "
+                       "(`sweep --over`) do")
 
 
 def refusals(scene, methods) -> dict[str, str]:
