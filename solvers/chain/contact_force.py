@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pulsemap.solvers.chain.errors import DNSInputError
+
 Array = np.ndarray
 
 
@@ -32,15 +34,15 @@ class ContactTable:
         if coef.ndim == 1:
             coef = coef.reshape(-1, 1)
         if coef.ndim != 2 or coef.shape[0] != exps.shape[0] or coef.shape[1] < 1:
-            raise ValueError(f"a ContactTable's coef must have one row per exponent pair and at least one column, "
+            raise DNSInputError(f"a ContactTable's coef must have one row per exponent pair and at least one column, "
                              f"got exps {exps.shape} and coef {coef.shape}")
         if not (np.all(np.isfinite(exps)) and np.all(np.isfinite(coef))):
-            raise ValueError("a ContactTable's exponents and coefficients must be finite")
+            raise DNSInputError("a ContactTable's exponents and coefficients must be finite")
         a, b = exps[:, 0], exps[:, 1]
         if np.any(a < 0) or np.any(b < 0) or np.any(b != np.round(b)):
-            raise ValueError("a ContactTable takes terms d^a w^b with a >= 0 and whole b >= 0")
+            raise DNSInputError("a ContactTable takes terms d^a w^b with a >= 0 and whole b >= 0")
         if np.any((a == 0) & (b == 0) & np.any(coef != 0, axis=1)):
-            raise ValueError("a ContactTable term d^0 w^0 is a force at zero overlap: the chain starts at rest")
+            raise DNSInputError("a ContactTable term d^0 w^0 is a force at zero overlap: the chain starts at rest")
         object.__setattr__(self, "exps", exps)
         object.__setattr__(self, "coef", coef)
 
@@ -85,11 +87,11 @@ def check_masses(masses: object, beads: int) -> Array | None:
         return None
     m = np.ascontiguousarray(masses, dtype=np.float64)
     if m.ndim != 1 or m.size != beads:
-        raise ValueError(f"masses must list one mass per bead ({beads}), got shape {m.shape}")
+        raise DNSInputError(f"masses must list one mass per bead ({beads}), got shape {m.shape}")
     bad = np.flatnonzero(~(np.isfinite(m) & (m > 0.0)))
     if bad.size:
         j = int(bad[0])
-        raise ValueError(f"the mass of bead {j + 1} is {m[j]!r}: masses must be finite and > 0")
+        raise DNSInputError(f"the mass of bead {j + 1} is {m[j]!r}: masses must be finite and > 0")
     return m
 
 

@@ -22,9 +22,9 @@ from pulsemap.symbolic.profile import check_exponent
 from pulsemap.solvers.chain import scaling as _scaling
 from pulsemap.solvers.chain import window as _window
 from pulsemap.solvers.chain.contact_force import ContactTable, check_masses
-from pulsemap.solvers.chain.methods import selectable
-from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.chain.dns_progress import DNSProgress
+from pulsemap.solvers.chain.errors import DNSInputError
+from pulsemap.solvers.chain.methods import selectable
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
     ENERGY_BLOWUP, ENGINES, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
     ForceNotFinite, IntegratorFailed, OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy,
@@ -75,16 +75,16 @@ class Chain:
         if isinstance(beads, (str, bytes)):
             raise TypeError(f"beads must be an integer, got {type(beads).__name__} {beads!r}")
         if isinstance(beads, bool) or not isinstance(beads, (int, np.integer)) or beads < 2:
-            raise ValueError(f"beads must be an integer >= 2, got {beads!r}; use chain_length_for(last_contact)")
+            raise DNSInputError(f"beads must be an integer >= 2, got {beads!r}; use chain_length_for(last_contact)")
         if beads > MAX_BEADS:
-            raise ValueError(f"beads = {beads} is beyond the supported {MAX_BEADS}: use a shorter chain")
+            raise DNSInputError(f"beads = {beads} is beyond the supported {MAX_BEADS}: use a shorter chain")
         if not math.isfinite(exponent) or exponent <= 1.0:
-            raise ValueError(f"exponent must be a finite number > 1 (Hertz: 1.5), got {exponent!r}")
+            raise DNSInputError(f"exponent must be a finite number > 1 (Hertz: 1.5), got {exponent!r}")
         check_exponent(float(exponent))  # the profile's supported range: beyond it the wave is not float64
         if not math.isfinite(velocity):
-            raise ValueError(f"velocity must be finite, got {velocity!r}")
+            raise DNSInputError(f"velocity must be finite, got {velocity!r}")
         if velocity <= 0.0:
-            raise ValueError(f"velocity must be > 0 (bead 1 pushes into the chain), got {velocity!r}")
+            raise DNSInputError(f"velocity must be > 0 (bead 1 pushes into the chain), got {velocity!r}")
         _scaling.check_velocity_range(float(velocity))
         if self.force is not None and not isinstance(self.force, OnSiteForce):
             raise TypeError(f"force must be an OnSiteForce or None, got {type(self.force).__name__}")
@@ -95,7 +95,7 @@ class Chain:
                             f"got {type(self.contact).__name__}")
         object.__setattr__(self, "masses", check_masses(self.masses, int(beads)))
         if self.launch is not None and self.masses is not None:
-            raise ValueError("a launched solitary wave starts a chain of unit masses: give masses=None, or start "
+            raise DNSInputError("a launched solitary wave starts a chain of unit masses: give masses=None, or start "
                              "from the impact")
         object.__setattr__(self, "beads", int(beads))
         object.__setattr__(self, "exponent", float(exponent))
@@ -121,19 +121,19 @@ class Integrator:
         if not isinstance(method, str):
             raise TypeError(f"method must be a string ({', '.join(known)}), got {type(method).__name__}")
         if method not in known:
-            raise ValueError(f"unknown method {method!r}; choose one of {', '.join(known)}")
+            raise DNSInputError(f"unknown method {method!r}; choose one of {', '.join(known)}")
         if not (math.isfinite(rtol) and rtol > 0.0):
-            raise ValueError(f"rtol must be a finite number > 0, got {rtol!r}")
+            raise DNSInputError(f"rtol must be a finite number > 0, got {rtol!r}")
         if rtol < MIN_RTOL:
-            raise ValueError(f"rtol = {rtol:g} is below what float64 can deliver: give rtol >= {MIN_RTOL:.2g} "
+            raise DNSInputError(f"rtol = {rtol:g} is below what float64 can deliver: give rtol >= {MIN_RTOL:.2g} "
                              "(100 x machine epsilon)")
         if rtol >= MAX_RTOL:
-            raise ValueError(f"rtol = {rtol:g} is beyond the usable range {MIN_RTOL:.2g} <= rtol < {MAX_RTOL:g}: "
+            raise DNSInputError(f"rtol = {rtol:g} is beyond the usable range {MIN_RTOL:.2g} <= rtol < {MAX_RTOL:g}: "
                              "a relative tolerance of 1 or more keeps no digit of the peaks")
         if not (math.isfinite(atol) and atol > 0.0):
-            raise ValueError(f"atol must be a finite number > 0, got {atol!r}")
+            raise DNSInputError(f"atol must be a finite number > 0, got {atol!r}")
         if self.engine not in ENGINES:
-            raise ValueError(f"unknown engine {self.engine!r}; choose one of {', '.join(ENGINES)}")
+            raise DNSInputError(f"unknown engine {self.engine!r}; choose one of {', '.join(ENGINES)}")
 
 
 def check_run(chain: Chain, contacts: tuple[int, int], stop: StopRules) -> tuple[int, int]:
@@ -148,11 +148,11 @@ def check_run(chain: Chain, contacts: tuple[int, int], stop: StopRules) -> tuple
     try:
         first, last = (int(c) for c in contacts)
     except (TypeError, ValueError):
-        raise ValueError(f"contacts must be a pair (first, last) of integers, got {contacts!r}") from None
+        raise DNSInputError(f"contacts must be a pair (first, last) of integers, got {contacts!r}") from None
     if (first, last) != tuple(contacts):
-        raise ValueError(f"contacts must be integers, got {contacts!r}")
+        raise DNSInputError(f"contacts must be integers, got {contacts!r}")
     if not 1 <= first <= last <= beads - 1:
-        raise ValueError(
+        raise DNSInputError(
             f"contacts {contacts!r} must satisfy 1 <= first <= last <= beads-1 = {beads - 1}; "
             f"fix the range or use beads=chain_length_for({last})"
         )
@@ -264,7 +264,7 @@ def simulate(
         return _window_energies(force, res)
     terms = (contact, masses)
     if how.rule is not None and (contact is not None or masses is not None):
-        raise PulsemapError("the scipy engine's moving window does not take a contact law's term or masses: run the "
+        raise DNSInputError("the scipy engine's moving window does not take a contact law's term or masses: run the "
                             "compiled engine (engine='compiled', a smooth R) or the full chain (window=None, [dns] mode "
                             "= \"full\")")
     if how.rule is not None:

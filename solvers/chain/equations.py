@@ -22,6 +22,7 @@ if TYPE_CHECKING:  # scipy loads only when a scipy engine runs (~0.3 s per proce
 from pulsemap.symbolic.errors import PulsemapError
 # velocity_scale is re-exported: callers import it from pulsemap.solvers.chain.dns
 from pulsemap.solvers.chain import methods
+from pulsemap.solvers.chain.errors import DNSInputError
 from pulsemap.solvers.chain.front import pulse_speed
 from pulsemap.solvers.chain.peaks import PeakTracker, contact_rate, scan_step, velocity_scale  # noqa: F401
 
@@ -203,7 +204,7 @@ class DNSResult:
 def chain_length_for(last_contact: int, margin: int = 10) -> int:
     """Beads needed so the free end cannot disturb the leading edge at ``last_contact``."""
     if last_contact < 1 or margin < 0:
-        raise ValueError(f"last_contact must be >= 1 and margin >= 0, got {last_contact}, {margin}")
+        raise DNSInputError(f"last_contact must be >= 1 and margin >= 0, got {last_contact}, {margin}")
     return int(last_contact) + 1 + int(margin)
 
 

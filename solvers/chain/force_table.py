@@ -18,6 +18,8 @@ from functools import cached_property
 
 import numpy as np
 
+from pulsemap.solvers.chain.errors import DNSInputError
+
 Array = np.ndarray
 DENSE_DEGREES = (4, 2)  # the dense form's powers: u^0..u^3 times v^0, v^1 (compiled_force.py)
 
@@ -40,9 +42,9 @@ class MonomialTable:
         if c.ndim == 1:
             c = c.reshape(len(e), -1)
         if c.shape[0] != e.shape[0] or c.shape[1] < 1 or np.any(e < 0):
-            raise ValueError(f"monomial table: exponents {e.shape} >= 0 and coefficients (M, L >= 1), got {c.shape}")
+            raise DNSInputError(f"monomial table: exponents {e.shape} >= 0 and coefficients (M, L >= 1), got {c.shape}")
         if not np.all(np.isfinite(c)):
-            raise ValueError("monomial table: coefficients must be finite")
+            raise DNSInputError("monomial table: coefficients must be finite")
         return cls(e, c)
 
     @classmethod

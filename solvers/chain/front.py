@@ -22,6 +22,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from pulsemap.solvers.chain.errors import DNSInputError
 from pulsemap.solvers.chain.peaks import Peak, QuinticStep
 
 Array = np.ndarray
@@ -131,15 +132,15 @@ class Snapshots:
         span = self.span
         if (isinstance(span, (str, bytes)) or not hasattr(span, "__len__") or len(span) != 2
                 or not all(_integer(s) and 0 <= s <= MAX_SNAPSHOT_SPAN for s in span)):
-            raise ValueError(f"snapshot span must be a pair (behind, ahead) of integers in 0..{MAX_SNAPSHOT_SPAN}, "
+            raise DNSInputError(f"snapshot span must be a pair (behind, ahead) of integers in 0..{MAX_SNAPSHOT_SPAN}, "
                              f"got {span!r}"[:200])
         contacts = self.contacts
         if isinstance(contacts, (str, bytes)) or not hasattr(contacts or (), "__iter__"):
-            raise ValueError(f"snapshot contacts must be a sequence of integers >= 1, got {contacts!r}"[:200])
+            raise DNSInputError(f"snapshot contacts must be a sequence of integers >= 1, got {contacts!r}"[:200])
         contacts = tuple(contacts or ())
         for c in contacts:
             if not (_integer(c) and c >= 1):
-                raise ValueError(f"snapshot contact {c!r} must be an integer >= 1 (a contact of the chain)"[:200])
+                raise DNSInputError(f"snapshot contact {c!r} must be an integer >= 1 (a contact of the chain)"[:200])
         object.__setattr__(self, "contacts", tuple(int(c) for c in contacts))
         object.__setattr__(self, "span", (int(span[0]), int(span[1])))
 
@@ -156,7 +157,7 @@ def check_snapshot_contacts(contacts: Sequence[int] | None, first: int, last: in
     out = set()
     for c in contacts:
         if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or not first <= c <= last:
-            raise ValueError(f"snapshot contact {c!r} must be an integer in the reported range {first}..{last}")
+            raise DNSInputError(f"snapshot contact {c!r} must be an integer in the reported range {first}..{last}")
         out.add(int(c))
     return frozenset(out)
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from pulsemap.symbolic import cache
+from pulsemap.solvers.chain.errors import DNSInputError
 from pulsemap.solvers.chain.dns import Chain, Integrator, chain_length_for, simulate
 from pulsemap.solvers.chain.peaks import velocity_scale
 
@@ -71,9 +72,9 @@ def _check_entry(entry: object) -> str | None:
 def kappa(exponent: float, *, rtol: float = 1e-10) -> float:
     """kappa_n: formed solitary-wave peak per v0^(2/(n+1)) (cached DNS measurement)."""
     if not np.isfinite(exponent) or exponent <= 1.0:
-        raise ValueError(f"exponent must be a finite number > 1, got {exponent!r}")
+        raise DNSInputError(f"exponent must be a finite number > 1, got {exponent!r}")
     if not (np.isfinite(rtol) and 0.0 < rtol < 1e-4):
-        raise ValueError(f"rtol must lie in (0, 1e-4) for a meaningful kappa, got {rtol!r}")
+        raise DNSInputError(f"rtol must lie in (0, 1e-4) for a meaningful kappa, got {rtol!r}")
     key = cache_key(exponent, rtol)
     hit = cache.load(NAMESPACE, key, check=_check_entry)
     if hit is not None:
@@ -86,12 +87,12 @@ def kappa(exponent: float, *, rtol: float = 1e-10) -> float:
 def peak_from_velocity(v0: float, exponent: float) -> float:
     """Formed solitary-wave peak strain for impact velocity v0: kappa_n v0^(2/(n+1))."""
     if not (np.isfinite(v0) and v0 > 0.0):
-        raise ValueError(f"v0 must be a finite number > 0, got {v0!r}")
+        raise DNSInputError(f"v0 must be a finite number > 0, got {v0!r}")
     return kappa(exponent) * velocity_scale(v0, exponent)
 
 
 def velocity_from_peak(peak: float, exponent: float) -> float:
     """Impact velocity whose formed solitary wave has this peak: (peak/kappa_n)^((n+1)/2)."""
     if not (np.isfinite(peak) and peak > 0.0):
-        raise ValueError(f"peak must be a finite number > 0, got {peak!r}")
+        raise DNSInputError(f"peak must be a finite number > 0, got {peak!r}")
     return (peak / kappa(exponent)) ** ((exponent + 1.0) / 2.0)

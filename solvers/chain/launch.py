@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pulsemap.symbolic.profile import exact_profile
+from pulsemap.solvers.chain.errors import DNSInputError
 from pulsemap.solvers.chain.equations import OnSiteForce, make_rhs
 
 #: A peak below this fraction of the launched peak A S(0) is round-off, not the pulse (``_peak``).
@@ -56,9 +57,9 @@ class Launch:
 
     def __post_init__(self) -> None:
         if not (isinstance(self.amplitude, (int, float)) and math.isfinite(self.amplitude) and self.amplitude > 0):
-            raise ValueError(f"launch amplitude must be a finite number > 0, got {self.amplitude!r}")
+            raise DNSInputError(f"launch amplitude must be a finite number > 0, got {self.amplitude!r}")
         if isinstance(self.centre, bool) or not isinstance(self.centre, (int, np.integer)) or self.centre < 1:
-            raise ValueError(f"launch centre must be an integer contact >= 1, got {self.centre!r}")
+            raise DNSInputError(f"launch centre must be an integer contact >= 1, got {self.centre!r}")
 
     def velocity_scale(self, exponent: float) -> float:
         """The wave's velocity scale A^((n+1)/2) (plays v0's part in thresholds and step sizes)."""
@@ -72,13 +73,13 @@ class Launch:
         """One-line ValueErrors: the whole wave must fit on the chain and precede ``first_contact``."""
         lo = min_centre(exponent)
         if self.centre < lo:
-            raise ValueError(f"launch centre {self.centre} must be >= {lo}: the wave's tail must fit on the chain "
+            raise DNSInputError(f"launch centre {self.centre} must be >= {lo}: the wave's tail must fit on the chain "
                              "behind it")
         if first_contact <= self.centre:
-            raise ValueError(f"with a launch centred on contact {self.centre} the first tracked contact must come "
+            raise DNSInputError(f"with a launch centred on contact {self.centre} the first tracked contact must come "
                              f"after it, got {first_contact}")
         if self.front(exponent) + 1 > beads:
-            raise ValueError(f"a launch centred on contact {self.centre} needs beads >= {self.front(exponent) + 1}, "
+            raise DNSInputError(f"a launch centred on contact {self.centre} needs beads >= {self.front(exponent) + 1}, "
                              f"got {beads}")
 
     def state(self, exponent: float, beads: int) -> np.ndarray:
@@ -95,12 +96,12 @@ def soliton_state(beads: int, n: float, A: float, centre: int) -> np.ndarray:
     """Interleaved state [x_1, v_1, ...] of the travelling wave of scale A with contact ``centre`` at
     its peak (delta_j = A S(centre - j), Eq. 7 at t = 0)."""
     if isinstance(beads, bool) or not isinstance(beads, (int, np.integer)) or beads < 2:
-        raise ValueError(f"beads must be an integer >= 2, got {beads!r}")
+        raise DNSInputError(f"beads must be an integer >= 2, got {beads!r}")
     if not (np.isfinite(A) and A > 0):
-        raise ValueError(f"A must be a finite number > 0, got {A!r}")
+        raise DNSInputError(f"A must be a finite number > 0, got {A!r}")
     lo = min_centre(n)
     if not lo <= centre <= beads - lo:
-        raise ValueError(f"centre must lie in [{lo}, beads - {lo}] = [{lo}, {beads - lo}] so the wave fits in the "
+        raise DNSInputError(f"centre must lie in [{lo}, beads - {lo}] = [{lo}, {beads - lo}] so the wave fits in the "
                          f"chain, got {centre!r}")
     prof = exact_profile(float(n))
     s = (float(n) - 1) / 2
@@ -123,7 +124,7 @@ def launch(beads: int, n: float, A: float, centre: int, contacts: tuple[int, int
     ``PEAK_FLOOR`` of the launched peak) or the maximum was not found (no NaN)."""
     first, last = int(contacts[0]), int(contacts[1])
     if not centre < first <= last <= beads - 2:
-        raise ValueError(f"contacts {contacts!r} must satisfy centre < first <= last <= beads - 2")
+        raise DNSInputError(f"contacts {contacts!r} must satisfy centre < first <= last <= beads - 2")
     n = float(n)
     s = (n - 1) / 2
     y0 = soliton_state(beads, n, A, centre)

@@ -16,6 +16,7 @@ from typing import Callable
 
 import numpy as np
 
+from pulsemap.solvers.chain.errors import DNSInputError
 from pulsemap.solvers.chain import methods
 
 DenseOutput = Callable[[float], np.ndarray]
@@ -265,18 +266,18 @@ class StopRules:
         if self.t_max is not None:
             real_number(self.t_max, "t_max")
         if not 0.0 < self.peak_fraction < 1.0:
-            raise ValueError(f"peak_fraction must lie in (0, 1), got {self.peak_fraction!r}")
+            raise DNSInputError(f"peak_fraction must lie in (0, 1), got {self.peak_fraction!r}")
         if not 0.0 <= self.death_fraction < 1.0:
-            raise ValueError(f"death_fraction must lie in [0, 1), got {self.death_fraction!r}")
+            raise DNSInputError(f"death_fraction must lie in [0, 1), got {self.death_fraction!r}")
         if self.t_max is not None and not (math.isfinite(self.t_max) and self.t_max > 0.0):
-            raise ValueError(f"t_max must be a finite number > 0 or None, got {self.t_max!r}")
+            raise DNSInputError(f"t_max must be a finite number > 0 or None, got {self.t_max!r}")
         if not (math.isfinite(self.stall_factor) and self.stall_factor > 1.0):
-            raise ValueError(f"stall_factor must be a finite number > 1, got {self.stall_factor!r}")
+            raise DNSInputError(f"stall_factor must be a finite number > 1, got {self.stall_factor!r}")
         if not (math.isfinite(self.overtake_factor) and self.overtake_factor > 1.0):
-            raise ValueError(f"overtake_factor must be a finite number > 1, got {self.overtake_factor!r}")
+            raise DNSInputError(f"overtake_factor must be a finite number > 1, got {self.overtake_factor!r}")
         steps = self.max_steps
         if steps is not None and (isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1):
-            raise ValueError(f"max_steps must be an integer >= 1 or None, got {steps!r}")
+            raise DNSInputError(f"max_steps must be an integer >= 1 or None, got {steps!r}")
 
 
 def real_number(value, name: str) -> None:
@@ -287,7 +288,7 @@ def real_number(value, name: str) -> None:
     try:
         float(value)
     except OverflowError:
-        raise ValueError(f"{name} is beyond the float range (an integer of {len(str(value))} digits)") from None
+        raise DNSInputError(f"{name} is beyond the float range (an integer of {len(str(value))} digits)") from None
 
 
 @dataclass

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from pulsemap.solvers.chain.errors import DNSInputError
 from pulsemap.solvers.chain import methods
 from pulsemap.solvers.chain.equations import ENGINES, STIFFNESS_RATIO, choose_method
 from pulsemap.solvers.chain.hairer import FORTRAN_CODES
@@ -118,7 +119,7 @@ def plan(*, engine: str, method: str, force, velocity: float, exponent: float, r
     for a stiff force, LSODA (equations.choose_method), on the Fortran codes where they apply.
     """
     if engine not in ENGINES:
-        raise ValueError(f"unknown engine {engine!r}; choose one of {', '.join(ENGINES)}")
+        raise DNSInputError(f"unknown engine {engine!r}; choose one of {', '.join(ENGINES)}")
     spec = WindowSpec.of(window)
     rule = None if spec is None else resolve_rule(spec.size, window_accuracy_for(rtol, spec.accuracy))
     why_scipy = "engine='scipy' requested"
@@ -131,8 +132,8 @@ def plan(*, engine: str, method: str, force, velocity: float, exponent: float, r
     if rule is None:
         return Plan("scipy", chosen, None, "", why_scipy)
     if spec.engine not in WINDOW_ENGINES:
-        raise ValueError(f"engine {spec.engine!r} cannot run method {chosen!r}; use engine='scipy'")
+        raise DNSInputError(f"engine {spec.engine!r} cannot run method {chosen!r}; use engine='scipy'")
     resolved = ("fortran" if chosen in FORTRAN_CODES else "scipy") if spec.engine == "auto" else spec.engine
     if resolved == "fortran" and chosen not in FORTRAN_CODES:
-        raise ValueError(f"engine {spec.engine!r} cannot run method {chosen!r}; use engine='scipy'")
+        raise DNSInputError(f"engine {spec.engine!r} cannot run method {chosen!r}; use engine='scipy'")
     return Plan("scipy", chosen, rule, resolved, why_scipy)

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
+from pulsemap.solvers.chain.errors import DNSInputError
 from pulsemap.solvers.chain.equations import (ENERGY_BLOWUP, DNSResult, IntegratorFailed, energy, largest_force, make_rhs,
                                               make_solver, run_scipy)
 from pulsemap.solvers.chain.front import memo, state_at
@@ -81,11 +82,11 @@ class WindowRule:
 def validate_rule(rule: WindowRule) -> WindowRule:
     """One-line ValueErrors for a bad window geometry."""
     if rule.behind < 2 or rule.ahead < 2 or rule.chunk < 1:
-        raise ValueError(f"window needs behind >= 2, ahead >= 2, chunk >= 1, got {rule!r}")
+        raise DNSInputError(f"window needs behind >= 2, ahead >= 2, chunk >= 1, got {rule!r}")
     if not (np.isfinite(rule.threshold) and 0.0 < rule.threshold < 1.0):
-        raise ValueError(f"window threshold must lie in (0, 1), got {rule.threshold!r}")
+        raise DNSInputError(f"window threshold must lie in (0, 1), got {rule.threshold!r}")
     if rule.boundary not in BOUNDARIES:
-        raise ValueError(f"window boundary must be one of {BOUNDARIES}, got {rule.boundary!r}")
+        raise DNSInputError(f"window boundary must be one of {BOUNDARIES}, got {rule.boundary!r}")
     return rule
 
 
@@ -97,7 +98,7 @@ def rule_for_accuracy(accuracy: float) -> WindowRule:
     scales v0^(2/(n+1)) and v0.
     """
     if not (np.isfinite(accuracy) and 0.0 < accuracy < 1.0):
-        raise ValueError(f"window_accuracy must lie in (0, 1), got {accuracy!r}")
+        raise DNSInputError(f"window_accuracy must lie in (0, 1), got {accuracy!r}")
     behind = next(b for floor, b in BEHIND_FOR if accuracy >= floor)
     return WindowRule(behind=behind, threshold=max(THRESHOLD_FRACTION * float(accuracy), 1e-30))
 
@@ -136,7 +137,7 @@ MIN_WIDTH = 17  # the narrowest width whose rule keeps behind >= 2 (10 ahead, ch
 def rule_for_width(width: int) -> WindowRule:
     """Window rule with ``width`` integrated beads at most (ahead 10, chunk ~ width/4)."""
     if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < MIN_WIDTH:
-        raise ValueError(f"window width must be an integer >= {MIN_WIDTH}, got {width!r}; or use window='auto'")
+        raise DNSInputError(f"window width must be an integer >= {MIN_WIDTH}, got {width!r}; or use window='auto'")
     chunk = max(1, int(width) // 4)
     ahead = 10
     return WindowRule(behind=int(width) - ahead - chunk - 1, ahead=ahead, chunk=chunk)
@@ -148,7 +149,7 @@ def resolve_rule(window, accuracy: float) -> WindowRule:
         return validate_rule(window)
     if isinstance(window, str):
         if window != "auto":
-            raise ValueError(f"window must be None, 'auto', an int width or a WindowRule, got {window!r}")
+            raise DNSInputError(f"window must be None, 'auto', an int width or a WindowRule, got {window!r}")
         return rule_for_accuracy(accuracy)
     return validate_rule(rule_for_width(window))
 
