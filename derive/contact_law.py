@@ -47,11 +47,6 @@ class ContactLaw:
         """Parameter names that occur in P, sorted."""
         return tuple(sorted({s.name for s in self.P.free_symbols} - set(CONTACT_SYMBOLS)))
 
-    @property
-    def dissipative(self) -> bool:
-        """True when some term has an odd power of w (it does work on the wave); even powers are elastic."""
-        return any(m.b % 2 == 1 for m in self.monomials)
-
     def contact_values(self, name: str, contacts: int) -> np.ndarray:
         """Parameter ``name`` on contacts 1..contacts (per-contact lists: contact k is element k-1)."""
         return values_per_bead(name, self.params[name], contacts)

@@ -35,7 +35,7 @@ class ContactTable:
             coef = coef.reshape(-1, 1)
         if coef.ndim != 2 or coef.shape[0] != exps.shape[0] or coef.shape[1] < 1:
             raise DNSInputError(f"a ContactTable's coef must have one row per exponent pair and at least one column, "
-                             f"got exps {exps.shape} and coef {coef.shape}")
+                                 f"got exps {exps.shape} and coef {coef.shape}")
         if not (np.all(np.isfinite(exps)) and np.all(np.isfinite(coef))):
             raise DNSInputError("a ContactTable's exponents and coefficients must be finite")
         a, b = exps[:, 0], exps[:, 1]
@@ -45,11 +45,6 @@ class ContactTable:
             raise DNSInputError("a ContactTable term d^0 w^0 is a force at zero overlap: the chain starts at rest")
         object.__setattr__(self, "exps", exps)
         object.__setattr__(self, "coef", coef)
-
-    @property
-    def dissipative(self) -> bool:
-        """True when a term has an odd power of w (it does work on the wave)."""
-        return bool(np.any(self.exps[:, 1] % 2 == 1))
 
     def _columns(self, k: Array) -> Array:
         return self.coef[:, np.minimum(k, self.coef.shape[1] - 1)]
@@ -61,24 +56,6 @@ class ContactTable:
         for m, (a, b) in enumerate(self.exps):
             out += c[m] * d**a * w ** int(b)
         return out
-
-    def slopes(self, d: Array, w: Array, k: Array) -> tuple[Array, Array]:
-        """(d/dd, d/dw) of eps_c P_k(d, w) for overlaps d > 0."""
-        c = self._columns(k)
-        sd, sw = np.zeros(np.shape(d)), np.zeros(np.shape(d))
-        for m, (a, b) in enumerate(self.exps):
-            b = int(b)
-            if a != 0.0:
-                sd += c[m] * a * d ** (a - 1.0) * w**b
-            if b > 0:
-                sw += c[m] * b * d**a * w ** (b - 1)
-        return sd, sw
-
-    def stiffness_hint(self, mass_min: float) -> float:
-        """A damping rate: the largest |coefficient| of a term linear in w over the lightest mass (d^a at
-        a unit overlap), for plan()'s stiff/explicit choice."""
-        linear = self.exps[:, 1] == 1
-        return float(np.max(np.abs(self.coef[linear]), initial=0.0)) / mass_min
 
 
 def check_masses(masses: object, beads: int) -> Array | None:

@@ -96,7 +96,7 @@ class Chain:
         object.__setattr__(self, "masses", check_masses(self.masses, int(beads)))
         if self.launch is not None and self.masses is not None:
             raise DNSInputError("a launched solitary wave starts a chain of unit masses: give masses=None, or start "
-                             "from the impact")
+                                 "from the impact")
         object.__setattr__(self, "beads", int(beads))
         object.__setattr__(self, "exponent", float(exponent))
         object.__setattr__(self, "velocity", float(velocity))
@@ -126,10 +126,10 @@ class Integrator:
             raise DNSInputError(f"rtol must be a finite number > 0, got {rtol!r}")
         if rtol < MIN_RTOL:
             raise DNSInputError(f"rtol = {rtol:g} is below what float64 can deliver: give rtol >= {MIN_RTOL:.2g} "
-                             "(100 x machine epsilon)")
+                                 "(100 x machine epsilon)")
         if rtol >= MAX_RTOL:
             raise DNSInputError(f"rtol = {rtol:g} is beyond the usable range {MIN_RTOL:.2g} <= rtol < {MAX_RTOL:g}: "
-                             "a relative tolerance of 1 or more keeps no digit of the peaks")
+                                 "a relative tolerance of 1 or more keeps no digit of the peaks")
         if not (math.isfinite(atol) and atol > 0.0):
             raise DNSInputError(f"atol must be a finite number > 0, got {atol!r}")
         if self.engine not in ENGINES:

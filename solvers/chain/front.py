@@ -133,7 +133,7 @@ class Snapshots:
         if (isinstance(span, (str, bytes)) or not hasattr(span, "__len__") or len(span) != 2
                 or not all(_integer(s) and 0 <= s <= MAX_SNAPSHOT_SPAN for s in span)):
             raise DNSInputError(f"snapshot span must be a pair (behind, ahead) of integers in 0..{MAX_SNAPSHOT_SPAN}, "
-                             f"got {span!r}"[:200])
+                                 f"got {span!r}"[:200])
         contacts = self.contacts
         if isinstance(contacts, (str, bytes)) or not hasattr(contacts or (), "__iter__"):
             raise DNSInputError(f"snapshot contacts must be a sequence of integers >= 1, got {contacts!r}"[:200])

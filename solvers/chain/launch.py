@@ -74,13 +74,13 @@ class Launch:
         lo = min_centre(exponent)
         if self.centre < lo:
             raise DNSInputError(f"launch centre {self.centre} must be >= {lo}: the wave's tail must fit on the chain "
-                             "behind it")
+                                 "behind it")
         if first_contact <= self.centre:
             raise DNSInputError(f"with a launch centred on contact {self.centre} the first tracked contact must come "
-                             f"after it, got {first_contact}")
+                                 f"after it, got {first_contact}")
         if self.front(exponent) + 1 > beads:
             raise DNSInputError(f"a launch centred on contact {self.centre} needs beads >= {self.front(exponent) + 1}, "
-                             f"got {beads}")
+                                 f"got {beads}")
 
     def state(self, exponent: float, beads: int) -> np.ndarray:
         """The interleaved initial state of ``beads`` beads (soliton_state)."""
@@ -102,7 +102,7 @@ def soliton_state(beads: int, n: float, A: float, centre: int) -> np.ndarray:
     lo = min_centre(n)
     if not lo <= centre <= beads - lo:
         raise DNSInputError(f"centre must lie in [{lo}, beads - {lo}] = [{lo}, {beads - lo}] so the wave fits in the "
-                         f"chain, got {centre!r}")
+                             f"chain, got {centre!r}")
     prof = exact_profile(float(n))
     s = (float(n) - 1) / 2
     j = np.arange(1, beads)  # contacts 1..beads-1
