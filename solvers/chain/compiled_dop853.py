@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: 96b510c48d86e650
+# numba cache stamp: 373cc2f88d2252cf
 from __future__ import annotations
 
 import numpy as np

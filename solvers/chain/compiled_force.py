@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 96b510c48d86e650
+# numba cache stamp: 373cc2f88d2252cf
 from __future__ import annotations
 
 import numpy as np
@@ -143,8 +143,8 @@ def _pow(d, a):
 
 
 @njit(cache=True, inline="always")
-def _hertz(d, n):
-    """d^n for d > 0 (compiled_ops.pos_pow's rule: n = 1.5 and 0.5 by a square root)."""
+def pos_pow(d: float, n: float) -> float:
+    """d^n for d > 0 (n = 1.5 and n = 0.5, the Hertz force and its slope's power, by a square root)."""
     if n == 1.5:
         return d * np.sqrt(d)
     if n == 0.5:
@@ -160,7 +160,7 @@ def _bare(ct) -> bool:
 def _table_force(d, wd, k0, n, ct):
     """contact_force of the table form (a call, not inlined: numba inlines no loop cleanly)."""
     col = 2 + min(k0, ct.shape[1] - 3)
-    f = _hertz(d, n)
+    f = pos_pow(d, n)
     for m in range(1, ct.shape[0]):
         c = ct[m, col]
         if c != 0.0:
@@ -175,7 +175,7 @@ def _table_force(d, wd, k0, n, ct):
 def _table_slopes(d, wd, k0, n, ct):
     """contact_slopes of the table form."""
     col = 2 + min(k0, ct.shape[1] - 3)
-    sd = n * _hertz(d, n - 1.0)
+    sd = n * pos_pow(d, n - 1.0)
     sw = 0.0
     for m in range(1, ct.shape[0]):
         c = ct[m, col]
@@ -195,14 +195,14 @@ def _table_slopes(d, wd, k0, n, ct):
 @overload(contact_force)
 def _contact_force(d, wd, k0, n, ct):
     if _bare(ct):
-        return lambda d, wd, k0, n, ct: _hertz(d, n)
+        return lambda d, wd, k0, n, ct: pos_pow(d, n)
     return lambda d, wd, k0, n, ct: _table_force(d, wd, k0, n, ct)
 
 
 @overload(contact_slopes)
 def _contact_slopes(d, wd, k0, n, ct):
     if _bare(ct):
-        return lambda d, wd, k0, n, ct: (n * _hertz(d, n - 1.0), 0.0)
+        return lambda d, wd, k0, n, ct: (n * pos_pow(d, n - 1.0), 0.0)
     return lambda d, wd, k0, n, ct: _table_slopes(d, wd, k0, n, ct)
 
 

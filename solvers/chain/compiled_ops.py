@@ -7,13 +7,12 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 96b510c48d86e650
+# numba cache stamp: 373cc2f88d2252cf
 from __future__ import annotations
 
-import numpy as np
 from pulsemap.solvers.chain.jit import njit
 
-from pulsemap.solvers.chain.compiled_force import add_onsite, contact_force, inverse_mass, kinetic
+from pulsemap.solvers.chain.compiled_force import add_onsite, contact_force, inverse_mass, kinetic, pos_pow
 
 # --- Dormand-Prince 5(4) (Hairer & Wanner's DOPRI5), dense output of order 4 (CONTD5)
 C2, C3, C4, C5 = 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0
@@ -51,16 +50,6 @@ def _no_nrt_options() -> dict:
 #: run: docs/dns.rst). Only each kernel's ``run`` allocates (its scratch arrays) and then calls its
 #: loop, compiled with these options.
 NO_NRT = _no_nrt_options()
-
-
-@njit(cache=True, inline="always")
-def pos_pow(d: float, n: float) -> float:
-    """d^n for d > 0 (n = 1.5 and n = 0.5, the Hertz force and its slope's power, by a square root)."""
-    if n == 1.5:
-        return d * np.sqrt(d)
-    if n == 0.5:
-        return np.sqrt(d)
-    return d**n
 
 
 @njit(**NO_NRT)

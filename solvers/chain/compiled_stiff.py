@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 96b510c48d86e650
+# numba cache stamp: 373cc2f88d2252cf
 from __future__ import annotations
 
 import numpy as np
