@@ -96,7 +96,7 @@ class _Run:
     y: Array
     f: Array
     method: str = METHOD  # the kernel: RK45 (compiled_kernel.py), DOP853 (compiled_dop853.py) or Rodas4
-    terms: tuple = ()  # the contact law's term and the masses: contact_force.kernel_terms (ct,)
+    terms: Array | None = None  # the contact law's term and the masses: contact_force.kernel_terms' ct
     vpeaks: Array | None = None  # bead velocity peaks, beads 1..last + 1 (tracked with masses; empty otherwise)
 
 
@@ -190,7 +190,7 @@ def kernel_for(run: _Run, aot: bool = True) -> tuple:
 def kernel_args(run: _Run) -> tuple:
     """The kernel's arguments for ``run`` (compiled_kernel.run's order)."""
     return (run.y, run.f, run.fs, run.st, run.cf, run.ci, run.peaks, run.times, run.pulse_e, run.total_e, run.vpeaks,
-            *run.table.kernel_args, *run.terms)
+            *run.table.kernel_args, run.terms)
 
 
 def drive(run: _Run, kernel, code: int | None = None, report=None) -> int:
@@ -231,7 +231,7 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
         contacts=contacts_out, peaks=peaks_out, peak_times=times_out, alive=alive, stop_reason=reason,
         method=run.method, rtol=run.rtol, atol=run.atol, beads=int(run.beads), nfev=int(st[K.NFEV]),
         njev=int(st[K.NJEV]),
-        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.conservative and not _contact_rows(run.terms[0]) else None,
+        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.conservative and not _contact_rows(run.terms) else None,
         exponent=float(run.exponent), velocity=float(run.velocity), t_end=float(fs[K.T]),
         mode="full" if run.rule is None else "window/compiled", window_beads=int(st[K.WIDEST]),
         window_shifts=int(st[K.SHIFTS]), window_rule=run.rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),

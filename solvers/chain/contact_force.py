@@ -72,12 +72,12 @@ def check_masses(masses: object, beads: int) -> Array | None:
     return m
 
 
-def kernel_terms(contact: ContactTable | None, masses: Array | None) -> tuple[Array]:
-    """The compiled kernels' ``(ct,)`` (compiled_force.py's layout): the bare form (a 1-d array) for the Hertz chain
+def kernel_terms(contact: ContactTable | None, masses: Array | None) -> Array:
+    """The compiled kernels' ``ct`` (compiled_force.py's layout): the bare form (a 1-d array) for the Hertz chain
     of unit masses, else one table (1 + M, 2 + L): row 0 the inverse masses from column 2, row 1 + m the exponents
     a_m, b_m and from column 2 the per-contact coefficients; a shorter row keeps its last value (a uniform tail)."""
     if contact is None and masses is None:
-        return (np.zeros(0),)
+        return np.zeros(0)
     coef = np.zeros((0, 1)) if contact is None else contact.coef
     exps = np.zeros((0, 2)) if contact is None else contact.exps
     inverse = np.ones(1) if masses is None else 1.0 / np.asarray(masses, float)
@@ -87,4 +87,4 @@ def kernel_terms(contact: ContactTable | None, masses: Array | None) -> tuple[Ar
     ct[1:, :2] = exps
     if coef.shape[0]:
         ct[1:, 2:] = np.concatenate([coef, np.repeat(coef[:, -1:], width - coef.shape[1], axis=1)], axis=1)
-    return (ct,)
+    return ct

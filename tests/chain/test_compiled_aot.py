@@ -77,7 +77,7 @@ def test_form_of_takes_only_what_the_compiled_signatures_accept():
     ints = np.zeros(4, dtype=np.int64)
     base = (y, y, y, ints, y, ints, y, y, y, y, y)
     exps = np.zeros((2, 2), dtype=np.int64)
-    bare = kernel_terms(None, None)
+    bare = (kernel_terms(None, None),)
     assert compiled_aot.form_of(base + (exps, np.zeros((2, 4, 3))) + bare) == "dense"
     assert compiled_aot.form_of(base + (exps, np.zeros((2, 3))) + bare) == "table"
     assert compiled_aot.form_of(base + (exps, np.zeros((3, 2)).T) + bare) is None  # not C-contiguous
@@ -90,7 +90,7 @@ def test_form_of_takes_only_what_the_compiled_signatures_accept():
     masses = kernel_terms(None, np.ones(4))
     dashpot = kernel_terms(ContactTable(np.array([[0.0, 1.0]]), np.ones((1, 3))), None)
     for terms in (masses, dashpot):
-        assert compiled_aot.form_of(base + (exps, np.zeros((2, 3))) + terms) is None
+        assert compiled_aot.form_of(base + (exps, np.zeros((2, 3)), terms)) is None
 
 
 def test_the_module_name_follows_kernel_form_and_cpu(monkeypatch):

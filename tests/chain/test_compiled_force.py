@@ -32,7 +32,7 @@ def window_rhs(table_args, y, lo: int) -> np.ndarray:
     from pulsemap.solvers.chain.compiled_ops import rhs
 
     out = np.empty_like(y)
-    rhs(0.3, y, out, W, lo, N, True, 0.4, 0.7, 0.1, True, *table_args, *kernel_terms(None, None))
+    rhs(0.3, y, out, W, lo, N, True, 0.4, 0.7, 0.1, True, *table_args, kernel_terms(None, None))
     return out
 
 
@@ -60,7 +60,7 @@ def test_dense_slopes_are_the_tables():
     bands = []
     for args in ((table.exponents, table.coefficients), table.kernel_args):
         band = np.zeros((7, W + 1))
-        jacobian(0.3, y, W, 3, N, True, 0.4, 0.7, 0.1, True, *args, *kernel_terms(None, None), band)
+        jacobian(0.3, y, W, 3, N, True, 0.4, 0.7, 0.1, True, *args, kernel_terms(None, None), band)
         bands.append(band.copy())
     np.testing.assert_allclose(bands[1], bands[0], rtol=1e-13, atol=1e-13)
     assert np.any(bands[0] != 0.0)

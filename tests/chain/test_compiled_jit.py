@@ -150,7 +150,7 @@ def test_the_compiled_right_hand_side_is_eq1_with_the_numpy_force():
     rng = np.random.default_rng(5)
     y = rng.normal(size=2 * beads) * 0.3
     got = np.empty_like(y)
-    rhs(0.0, y, got, beads, 0, 1.5, False, 0.0, 0.0, 0.0, False, *data.kernel_args, *kernel_terms(None, None))
+    rhs(0.0, y, got, beads, 0, 1.5, False, 0.0, 0.0, 0.0, False, *data.kernel_args, kernel_terms(None, None))
     np.testing.assert_allclose(got, make_rhs(beads, 1.5, force)(0.0, y), rtol=1e-13, atol=1e-15)
 
 

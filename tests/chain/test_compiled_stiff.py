@@ -104,7 +104,7 @@ def small_window(mu: float, terms=(None, None)):
     y0 = np.zeros(2 * W)
     y0[0::2] = [0.55, 0.45, 0.35, 0.25, 0.15, 0.05]
     y0[1::2] = [1.0, 0.8, 0.5, 0.3, 0.1, 0.0]
-    args = (table.exponents, table.coefficients, *kernel_terms(*terms))
+    args = (table.exponents, table.coefficients, kernel_terms(*terms))
 
     def f(t, y):
         out = np.empty_like(y)
