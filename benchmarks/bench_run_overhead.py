@@ -39,7 +39,7 @@ import pulsemap
 from pulsemap.solvers.chain.peaks import velocity_scale
 from pulsemap.solvers.studies.bench.lines import script_span
 from pulsemap.solvers.studies.bench.measure import peak_error
-from pulsemap.solvers.studies.extent import dns_span, on_contacts
+from pulsemap.solvers.studies.extent import dns_span
 from pulsemap.solvers.studies.bench import reference_script
 
 SCENES = ("vdp-mu3-v2.3", "fig8-eps0.1")
@@ -48,9 +48,11 @@ TARGET = 1e-6
 PULSEMAP = str(Path(sys.executable).with_name("pulsemap"))
 
 
-def in_process(name: str, repeats: int) -> dict:
-    scene = pulsemap.scene(name)
-    for _ in range(3):
+def in_process(name: str, repeats: int, overrides: dict | None = None, warmup: int = 3) -> dict:
+    """The warm in-process ``pulsemap.run(scene, methods=("dns",))`` over its DNS: best times and ratios over
+    ``repeats`` runs after ``warmup`` (``overrides``: the scene's, e.g. ``{"dns.rtol": 1e-6}``)."""
+    scene = pulsemap.scene(name, **(overrides or {}))
+    for _ in range(warmup):
         pulsemap.run(scene, methods=("dns",))
     totals, dns = [], []
     for _ in range(repeats):

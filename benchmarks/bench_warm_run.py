@@ -25,15 +25,15 @@ from __future__ import annotations
 import argparse
 import os
 import resource
-import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import pulsemap
 from pulsemap.solvers.studies.bench.measure import peak_error
+
+from bench_run_overhead import in_process  # the sibling script (its directory is on sys.path)
 
 TARGET = 1e-6
 RTOLS = (1e-6, 1e-7, 1e-8, 1e-9)
@@ -84,20 +84,6 @@ def just_reaching(name: str) -> float:
     return RTOLS[-1]
 
 
-def in_process(name: str, rtol: float, repeats: int) -> dict:
-    scene = pulsemap.scene(name, **{"dns.rtol": rtol})
-    for _ in range(5):
-        pulsemap.run(scene, methods=("dns",))
-    totals, dns = [], []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        r = pulsemap.run(scene, methods=("dns",))
-        totals.append(time.perf_counter() - t0)
-        dns.append(r.timings["dns"])
-    return {"run_s": min(totals), "dns_s": min(dns), "best": min(totals) / min(dns),
-            "median": statistics.median(t / d for t, d in zip(totals, dns))}
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="vdp-mu3-v2.3")
@@ -120,9 +106,9 @@ def main() -> None:
     print(f"2. --set dns.rtol=1e-5 / plain --methods dns process, CPU: {best['dns --set'][0] / best['dns'][0]:.2f} "
           "(target <= 1.1)")
     rtol = just_reaching(name)
-    r = in_process(name, rtol, args.repeats)
-    print(f"3. run() / its DNS at rtol {rtol:g} (peaks within {TARGET:g}): best {r['best']:.3f}, median "
-          f"{r['median']:.3f} (target <= 1.15); run {r['run_s'] * 1e3:.3f} ms, DNS {r['dns_s'] * 1e3:.3f} ms")
+    r = in_process(name, args.repeats, {"dns.rtol": rtol}, warmup=5)
+    print(f"3. run() / its DNS at rtol {rtol:g} (peaks within {TARGET:g}): best {r['best_ratio']:.3f}, median "
+          f"{r['median_ratio']:.3f} (target <= 1.15); run {r['run_s'] * 1e3:.3f} ms, DNS {r['dns_s'] * 1e3:.3f} ms")
 
 
 if __name__ == "__main__":
