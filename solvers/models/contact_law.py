@@ -113,7 +113,8 @@ def contact_law_peaks(
     ``masses`` per bead, ``extra_terms`` ((q, rate), ...) more terms dA/dk = rate A^q (rate a number or per contact);
     ``form`` "law" integrates the ODE, "map" steps the energy contact by contact."""
     from pulsemap.symbolic.balance_constants import balance_constants
-    from pulsemap.symbolic.contact import bead_velocity_factor, contact_constants, elastic_constants
+    from pulsemap.symbolic.contact import contact_constants
+    from pulsemap.symbolic.contact_wave import bead_velocity_factor, elastic_constants
     from pulsemap.symbolic.profile import exact_profile
 
     try:

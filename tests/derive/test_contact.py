@@ -8,10 +8,12 @@ import pytest
 import sympy
 
 from pulsemap.symbolic.balance_constants import balance_constants
-from pulsemap.symbolic.contact import (ContactError, ContactMonomial, check_contact_model, combined_energy_law, contact_constants, contact_map_terms, contact_to_json, contact_to_text,
-                                       contact_energy_law, contact_integral_name, contact_monomials, derive_contact,
-                                       elastic_constants, first_order_profile, half_line_integral_name, taper_law)
-from pulsemap.symbolic.longwave import A0, I, I0, LAW_RATE
+from pulsemap.symbolic.contact import (ContactError, ContactMonomial, check_contact_model, combined_energy_law,
+                                       contact_constants, contact_energy_law, contact_integral_name, contact_map_terms,
+                                       contact_monomials, contact_to_json, contact_to_text, derive_contact,
+                                       half_line_integral_name)
+from pulsemap.symbolic.contact_wave import elastic_constants, first_order_profile, taper_law
+from pulsemap.symbolic.longwave import A0, I, I0
 from pulsemap.symbolic.profile import exact_profile
 
 d, w, gamma = sympy.symbols("d w gamma", real=True)

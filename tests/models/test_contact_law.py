@@ -8,8 +8,8 @@ import pytest
 import sympy
 
 from pulsemap.solvers.models.contact_law import ContactLawError, contact_law_peaks
-from pulsemap.symbolic.contact import (amplitude_terms, contact_monomials, derive_contact, elastic_constants,
-                                       taper_law)
+from pulsemap.symbolic.contact import amplitude_terms, contact_monomials, derive_contact
+from pulsemap.symbolic.contact_wave import elastic_constants, taper_law
 from pulsemap.symbolic.profile import exact_profile
 
 d, w, gamma = sympy.symbols("d w gamma", real=True)
