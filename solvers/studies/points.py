@@ -51,7 +51,7 @@ def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, va
     from pulsemap.solvers.models.codeload import force_module, map_module
     from pulsemap.solvers.studies.run.chain_terms import require_onsite_only
 
-    require_onsite_only(scene, "this study (ensemble, bifurcation, sweep tasks)")
+    require_onsite_only(scene, "this study (bifurcation, sweep tasks)")
     pert = scene.perturbation
     beads, (first, last) = dns_span(scene)
     out = {

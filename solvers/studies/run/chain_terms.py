@@ -39,7 +39,7 @@ def require_onsite_only(scene, what: str) -> None:
         from pulsemap.solvers.studies.methods import RunError
 
         raise RunError(f"scene {scene.name} has a contact-law term or masses: {what} builds its chains from the "
-                       "on-site R alone and does not take them yet; `pulsemap run`, `table` and scene sweeps "
+                       "on-site R alone and does not take them yet; `pulsemap run`, `table`, `ensemble` and scene sweeps "
                        "(`sweep --over`) do")
 
 
