@@ -13,7 +13,30 @@ from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.bench.measure import Ladder, Point, best_of, fmt, peak_error, tolerances
 from pulsemap.solvers.studies.errors import counted
 
-__all__ = ["dns_points", "model_points", "reference_run", "script_points", "script_span"]
+__all__ = ["bench_chain", "dns_points", "model_points", "reference_run", "script_points", "script_span",
+           "scripts_refusal"]
+
+
+def bench_chain(scene, beads: int):
+    """The scene's chain as every DNS line of the benchmark runs it: the on-site force (forcing.make_force; none for
+    a contact-law or mass scene without R) with the contact law's term and the masses (run.dns_chain)."""
+    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.studies.run import dns_chain
+    from pulsemap.solvers.studies.run.chain_terms import has_chain_terms
+
+    pert = scene.perturbation
+    bare = has_chain_terms(scene) and (pert.is_zero or pert.eps == 0.0)
+    return dns_chain(scene, beads, None if bare else make_force(scene, beads))
+
+
+def scripts_refusal(scene) -> str | None:
+    """Why the user's scripts (baseline (a), reference_script.py) cannot run the scene, or None: they integrate an
+    on-site R on unit masses."""
+    from pulsemap.solvers.studies.run.chain_terms import has_chain_terms
+
+    if not has_chain_terms(scene):
+        return None
+    return "the user's scripts integrate an on-site R on unit masses; this scene has a contact-law term or masses"
 
 
 def reference_run(scene, rtol: float) -> dict:
@@ -29,18 +52,17 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
                log: Callable[[str], None], engine: str = "scipy", rtols=None) -> list[Point]:
     """The DNS of the scene over the tolerance ladder (``rtols``, default ladder.rtols) for each method
     (window or full chain) on ``engine`` ("scipy": the reference engine, "compiled": the numba one)."""
-    from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+    from pulsemap.solvers.chain.dns import Integrator, simulate
     from pulsemap.solvers.studies.extent import dns_span, on_contacts
-    from pulsemap.solvers.studies.forcing import make_force
 
     beads, span = dns_span(scene)
-    force = make_force(scene, beads)
+    chain = bench_chain(scene, beads)
     mode = "window" if window else "full"
     out = []
     for method in methods:
         for rtol in (ladder.rtols if rtols is None else rtols):
             def run(method=method, rtol=rtol):
-                res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, window=window,
+                res = simulate(chain, span, window=window,
                                integrator=Integrator(method=method, engine=engine, **tolerances(scene, rtol)))
                 return res, res.wall_time_s
 
@@ -59,13 +81,11 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
 def script_span(scene) -> tuple[float, float]:
     """(t_end, contact time) of a script run: 3 contact times past the last live peak of a windowed
     DNS at rtol 1e-8 (as short as a user who knows when the pulse gets there would make it)."""
-    from pulsemap.solvers.chain.dns import Chain, Integrator, contact_rate, simulate
-    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.chain.dns import Integrator, contact_rate, simulate
     from pulsemap.solvers.studies.extent import dns_span
 
     beads, span = dns_span(scene)
-    probe = simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span,
-                     window="auto", integrator=Integrator(**tolerances(scene, 1e-8)))
+    probe = simulate(bench_chain(scene, beads), span, window="auto", integrator=Integrator(**tolerances(scene, 1e-8)))
     contact_time = 1.0 / contact_rate(scene.velocity, scene.exponent)
     return float(np.nanmax(probe.peak_times[probe.alive])) + 3.0 * contact_time, contact_time
 
