@@ -15,6 +15,11 @@ super-exponentially (delta_{i+1} ~ delta_i^n ahead of the front), so
   dropped bead becomes a prescribed left boundary: it coasts with its velocity at the moment
   it was dropped (``boundary="coast"``), or it is removed with its contact (``"free"``).
 
+With a contact law's term eps_c P_k(d, w) and masses (the Chain's contact and masses) the same holds: the
+coasting bead closes its contact with w = v_coast - v_lo, the wall with w = v_(hi-1), the contact table is read at
+the chain's own contact indices and the window's masses divide the forces (equations.make_terms_rhs); beads
+behind a damped pulse or a mass step keep moving, and the coasting bead carries that momentum.
+
 The scipy solver is restarted at every shift with the last step size as its first step, so a
 shift costs one or two right-hand-side evaluations. The cost per contact is independent of the
 chain length N (the full chain costs O(N) per contact, O(N^2) per run).

@@ -280,3 +280,26 @@ def test_the_mass_kernels_slow_part_reads_the_gradient_its_loss_and_its_curvatur
     np.testing.assert_allclose(slope, -(0.004 / mid) ** 2, rtol=2e-3)
     assert not np.any(_smooth_features(np.zeros(60), np.arange(1, 59)))
     assert SMOOTH_HALF_WIDTH >= 1
+
+
+def test_the_ensemble_command_takes_random_masses(tmp_path, capsys):
+    """`pulsemap ensemble` on a scene file with random masses: exit 0, strict JSON on stdout with the statistics of
+    every model, the text report on stderr."""
+    import json
+
+    from pulsemap.solvers.cli.main import main
+
+    path = tmp_path / "masses.toml"
+    path.write_text('name = "random-masses"\n[excitation]\nvelocity = 1.0\n[masses]\nm = "1 + 0.1*xi"\n'
+                    '[masses.params]\nxi = {uniform = [-1.7, 1.7], seed = 3}\n'
+                    '[output]\ncontacts = [16, 30]\nmethods = ["dns"]\n')
+    code = main(["ensemble", str(path), "--realisations", "2", "--workers", "1", "--quiet", "--json", "-"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+
+    def refuse(token):
+        raise AssertionError(f"non-standard JSON number {token}")
+
+    report = json.loads(captured.out, parse_constant=refuse)
+    assert set(report["statistics"]["models"]) == {"energy-law", "relaxed"}
+    assert report["statistics"]["dns"][0]["n"] == 2 and "relaxed" in captured.err
