@@ -46,6 +46,13 @@ class ContactTable:
         object.__setattr__(self, "exps", exps)
         object.__setattr__(self, "coef", coef)
 
+    @property
+    def damping(self) -> float:
+        """The largest sum over one contact of |eps_c c| over the dissipative terms (odd b): the moving window's
+        measure of how much a damped pulse leaves behind (window.damped_behind)."""
+        odd = self.exps[:, 1] % 2 == 1
+        return float(np.max(np.sum(np.abs(self.coef[odd]), axis=0))) if odd.any() else 0.0
+
     def _columns(self, k: Array) -> Array:
         return self.coef[:, np.minimum(k, self.coef.shape[1] - 1)]
 
