@@ -126,7 +126,7 @@ def relaxed_errors(scene, points: Sequence[dict], results: Sequence[dict | None]
     run`` reports it (studies/errors.py: percent over the live range)."""
     from pulsemap.solvers.models.relaxed import RelaxedError, iterate_relaxed, model_for_scene
     from pulsemap.solvers.models.relaxed_table import SegmentRunError
-    from pulsemap.solvers.studies.forcing import bead_params
+    from pulsemap.solvers.studies.points import bead_params
     from pulsemap.solvers.studies.extent import on_contacts
 
     seed_contact = scene.first_perturbed - 1

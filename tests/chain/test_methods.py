@@ -71,3 +71,11 @@ def test_a_new_kernel_is_one_row(monkeypatch):
     res = simulate(Chain(N, 1.5, 1.0), (FIRST, LAST), integrator=integrator)
     ref = simulate(Chain(N, 1.5, 1.0), (FIRST, LAST), integrator=Integrator(method="RK45", rtol=1e-9))
     np.testing.assert_array_equal(res.peaks, ref.peaks)
+
+
+def test_auto_picks_the_rows_marked_for_it():
+    """'auto' takes one explicit and one stiff method, both with a compiled kernel, as the table marks them."""
+    for stiff, implicit in ((False, False), (True, True)):
+        record = methods.by_name(methods.auto_pick(stiff))
+        assert record.kernel and record.implicit == implicit
+    assert (plan.METHOD, plan.STIFF_METHOD) == (methods.auto_pick(False), methods.auto_pick(True))

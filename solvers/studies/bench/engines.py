@@ -122,24 +122,24 @@ def _child(scene, job: dict) -> dict:
 
 def _first_call(scene_path: str, job: dict) -> dict:
     """In the child: build the force (not timed), then time the first call of the job's line."""
-    from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
-    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.chain.dns import Integrator, simulate
+    from pulsemap.solvers.studies.forcing import scene_chain
     from pulsemap.solvers.studies.extent import dns_span, on_contacts
     from pulsemap.solvers.studies.bench.reference_script import GRID_STEP, script_peaks
 
     scene = pickle.loads(Path(scene_path).read_bytes())
     beads, span = dns_span(scene)
-    force = make_force(scene, beads)
+    chain = scene_chain(scene, beads)
     contacts = list(range(scene.contacts[0], scene.contacts[1] + 1))
     t0, c0 = time.perf_counter(), time.process_time()
     if job["kind"] == "script":
-        res = script_peaks(beads, scene.exponent, scene.velocity, span, force, job["rtol"], job["t_end"],
+        res = script_peaks(beads, scene.exponent, scene.velocity, span, chain.force, job["rtol"], job["t_end"],
                            GRID_STEP * job["contact_time"])
         alive, engine = res.peaks == res.peaks, "script"
     else:
         integrator = Integrator(method=job["method"], engine="compiled" if job["kind"] == "compiled" else "scipy",
                                 **tolerances(scene, job["rtol"]))
-        res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, integrator=integrator, window="auto")
+        res = simulate(chain, span, integrator=integrator, window="auto")
         alive, engine = res.alive, res.engine
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     return {"first_call_s": wall, "first_call_cpu_s": cpu, "engine": engine,

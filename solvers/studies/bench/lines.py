@@ -29,18 +29,18 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
                log: Callable[[str], None], engine: str = "scipy", rtols=None) -> list[Point]:
     """The DNS of the scene over the tolerance ladder (``rtols``, default ladder.rtols) for each method
     (window or full chain) on ``engine`` ("scipy": the reference engine, "compiled": the numba one)."""
-    from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+    from pulsemap.solvers.chain.dns import Integrator, simulate
     from pulsemap.solvers.studies.extent import dns_span, on_contacts
-    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.studies.forcing import scene_chain
 
     beads, span = dns_span(scene)
-    force = make_force(scene, beads)
+    chain = scene_chain(scene, beads)
     mode = "window" if window else "full"
     out = []
     for method in methods:
         for rtol in (ladder.rtols if rtols is None else rtols):
             def run(method=method, rtol=rtol):
-                res = simulate(Chain(beads, scene.exponent, scene.velocity, force), span, window=window,
+                res = simulate(chain, span, window=window,
                                integrator=Integrator(method=method, engine=engine, **tolerances(scene, rtol)))
                 return res, res.wall_time_s
 
@@ -59,12 +59,12 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
 def script_span(scene) -> tuple[float, float]:
     """(t_end, contact time) of a script run: 3 contact times past the last live peak of a windowed
     DNS at rtol 1e-8 (as short as a user who knows when the pulse gets there would make it)."""
-    from pulsemap.solvers.chain.dns import Chain, Integrator, contact_rate, simulate
-    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.chain.dns import Integrator, contact_rate, simulate
+    from pulsemap.solvers.studies.forcing import scene_chain
     from pulsemap.solvers.studies.extent import dns_span
 
     beads, span = dns_span(scene)
-    probe = simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span,
+    probe = simulate(scene_chain(scene, beads), span,
                      window="auto", integrator=Integrator(**tolerances(scene, 1e-8)))
     contact_time = 1.0 / contact_rate(scene.velocity, scene.exponent)
     return float(np.nanmax(probe.peak_times[probe.alive])) + 3.0 * contact_time, contact_time
