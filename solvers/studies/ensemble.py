@@ -53,7 +53,7 @@ def ensemble_points(scene, realisations: int, seed: int, *, profile: str | None 
         raise EnsembleError(
             f"scene '{scene.name}' has no random parameter: an ensemble needs a per-bead draw such as "
             "k = {uniform = [0, 1], seed = 1} (e.g. the built-in fig13-seed1)")
-    base = plain_chain(scene, with_map=True, profile=profile, variant=variant)
+    base = plain_chain(scene, with_map=True, profile=profile, variant=variant, study="ensemble")
     points = []
     for j in range(realisations):
         params = dict(base["params"])

@@ -41,17 +41,18 @@ def random_params(scene) -> list[str]:
 
 
 def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, variant: str | None = None,
-                window: "int | str | None" = "scene", rtol: float | None = None) -> dict:
+                window: "int | str | None" = "scene", rtol: float | None = None, study: str = "sweep tasks") -> dict:
     """The scene as the plain dict the tasks take; generates the modules it needs (parent only).
 
     Contacts: the DNS tracks first_perturbed - 1 (the map's seed contact) through the scene's
     last contact. ``window``: "scene" (the scene's [dns] mode, as ``pulsemap run``), None (whole
-    chain), "auto" or a width.
+    chain), "auto" or a width. ``study``: who asks (refused where a kind the scene states does not take it:
+    studies/run/kinds.py).
     """
     from pulsemap.solvers.models.codeload import force_module, map_module
-    from pulsemap.solvers.studies.run.chain_terms import require_onsite_only
+    from pulsemap.solvers.studies.run.kinds import require
 
-    require_onsite_only(scene, "this study (ensemble, bifurcation, sweep tasks)")
+    require(scene, study)
     pert = scene.perturbation
     beads, (first, last) = dns_span(scene)
     out = {

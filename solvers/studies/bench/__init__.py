@@ -64,9 +64,9 @@ from pulsemap.solvers.studies.errors import counted
 
 def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = lambda s: None) -> dict:
     """Work-precision report of one scene (JSON-able; see the module docstring)."""
-    from pulsemap.solvers.studies.run.chain_terms import require_onsite_only
+    from pulsemap.solvers.studies.run.kinds import require
 
-    require_onsite_only(scene, "bench")
+    require(scene, "bench")
     from pulsemap.solvers.studies.extent import dns_span
 
     wall0 = time.perf_counter()

@@ -31,7 +31,7 @@ from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.forcing import force_failure, scene_chain
 from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
-from pulsemap.solvers.studies.run import chain_terms
+from pulsemap.solvers.studies.run import chain_terms, kinds
 from pulsemap.solvers.studies.extent import (contact_slots, dns_integrator, dns_span, dns_window_of, listed,
                                             on_contacts)
 from pulsemap.solvers.studies.run.state import RunState
@@ -72,7 +72,7 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
                                "(1 + f7/(2 f1))^(-1/P) per contact, docs/errata.rst item 5); --variant corrected "
                                "or 1d keeps A constant")
     assert all(isinstance(c, int) and c0 <= c <= c1 for c in snapshots) and (not snapshots or "dns" in methods), snapshots
-    refused = chain_terms.refusals(scene, methods)
+    refused = kinds.refusals(scene, methods)
     if refused:
         from pulsemap.solvers.studies.run.models import title  # the model table (loads the models' modules)
 
