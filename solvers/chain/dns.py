@@ -268,10 +268,6 @@ def simulate(
             raise _locate(force, beads, exc) from None
         return _window_energies(force, res)
     terms = (contact, masses)
-    if how.rule is not None and (contact is not None or masses is not None):
-        raise DNSInputError("the scipy engine's moving window does not take a contact law's term or masses: run the "
-                            "compiled engine (engine='compiled', a smooth R) or the full chain (window=None, [dns] mode "
-                            "= \"full\")")
     if how.rule is not None:
         with np.errstate(all="ignore"):  # a non-finite force raises ForceNotFinite (models/onsite.py), unprinted
             res = _window.simulate_windowed(chain, (first, last), how, integrator, rules, progress=progress, front=front)

@@ -279,6 +279,7 @@ def make_rhs(
     left: Boundary | None = None,
     wall: bool = False,
     terms: "tuple | None" = None,
+    lo: int = 0,
 ) -> Callable[[float, Array], Array]:
     """Vectorised right-hand side of Eq. 1 on ``beads`` consecutive beads (interleaved state).
 
@@ -288,11 +289,11 @@ def make_rhs(
     The positions sit in one padded array with the boundary beads (a free end is a copy of
     its neighbour: no compression), so the contact forces are one difference and the
     accelerations another (few numpy calls: call overhead dominates on a small window).
-    ``terms``: (contact, masses) of the whole chain (a contact_force.ContactTable or None, the masses or
-    None), taken on the full chain only (make_terms_rhs).
+    ``terms``: (contact, masses) of these beads (a contact_force.ContactTable or None, their masses or None;
+    make_terms_rhs), ``lo`` the 0-based index of the first bead in the chain (the contact table's offset).
     """
     if terms is not None and any(term is not None for term in terms):
-        return make_terms_rhs(beads, exponent, force, *terms)
+        return make_terms_rhs(beads, exponent, force, *terms, left=left, wall=wall, lo=lo)
     n = float(exponent)
     on_site = None if force is None else force.force
     xe = np.zeros(beads + 2)  # xe[0]: left boundary bead, xe[-1]: the bead after the last
@@ -320,22 +321,29 @@ def make_rhs(
     return rhs
 
 
-def make_terms_rhs(beads: int, exponent: float, force: OnSiteForce | None, contact, masses) -> Callable[[float, Array], Array]:
-    """make_rhs of the full chain with the contact law's term and the masses:
-    m_i x_i'' = F(d_(i-1), w_(i-1)) - F(d_i, w_i) + F_i, F(d, w) = H(d) (d^n + eps_c P_k(d, w))."""
+def make_terms_rhs(beads: int, exponent: float, force: OnSiteForce | None, contact, masses, *,
+                   left: Boundary | None = None, wall: bool = False, lo: int = 0) -> Callable[[float, Array], Array]:
+    """make_rhs with the contact law's term and the masses of beads lo+1..lo+beads:
+    m_i x_i'' = F(d_(i-1), w_(i-1)) - F(d_i, w_i) + F_i, F(d, w) = H(d) (d^n + eps_c P_k(d, w)), w = d'.
+    A prescribed ``left`` bead (window.Coast: its position and ``velocity``) closes contact lo with
+    w = v_left - v_1; a ``wall`` at rest closes contact lo + beads with w = v_last (free ends: no force)."""
     n = float(exponent)
     on_site = None if force is None else force.force
     inverse = np.ones(beads) if masses is None else 1.0 / np.asarray(masses, float)
-    k = np.arange(beads - 1)
+    k = np.maximum(lo - 1 + np.arange(beads + 1), 0)  # 0-based contact of f[j], the force left of bead j
+    xe, ve = np.zeros(beads + 2), np.zeros(beads + 2)  # [0]: the bead before the first, [-1]: the bead after the last
 
     def rhs(t: float, y: Array) -> Array:
         x, v = y[0::2], y[1::2]
-        d = x[:-1] - x[1:]
-        wd = v[:-1] - v[1:]
+        xe[1:-1], ve[1:-1] = x, v
+        xe[0], ve[0] = (left(t), left.velocity) if left is not None else (x[0], v[0])
+        xe[-1], ve[-1] = (0.0, 0.0) if wall else (x[-1], v[-1])
+        d = xe[:-1] - xe[1:]
+        wd = ve[:-1] - ve[1:]
         on = d > 0.0
-        f = np.zeros(beads + 1)  # f[j]: force of the contact left of bead j (free ends: 0)
+        f = np.zeros(beads + 1)  # f[j]: force of the contact left of bead j
         dd = d[on]
-        f[1:-1][on] = dd**n + (0.0 if contact is None else contact.value(dd, wd[on], k[on]))
+        f[on] = dd**n + (0.0 if contact is None else contact.value(dd, wd[on], k[on]))
         a = f[:-1] - f[1:]
         if on_site is not None:
             try:
@@ -441,15 +449,16 @@ def make_solver(
     left: Boundary | None = None,
     wall: bool = False,
     terms: "tuple | None" = None,
+    lo: int = 0,
 ) -> _integrate.OdeSolver:
     """The scipy OdeSolver for ``method`` with the best Jacobian information available.
 
-    ``left``, ``wall`` as in make_rhs; a moving window restarts the solver at ``t0`` with the
+    ``left``, ``wall``, ``terms``, ``lo`` as in make_rhs; a moving window restarts the solver at ``t0`` with the
     previous step size as ``first_step``.
     """
     import scipy.integrate as _integrate
 
-    rhs = make_rhs(beads, exponent, force, left, wall, terms)
+    rhs = make_rhs(beads, exponent, force, left, wall, terms, lo)
     cls = getattr(_integrate, method)
     kw = dict(rtol=rtol, atol=atol)
     if first_step is not None:

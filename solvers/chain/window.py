@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import time as _time
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -185,15 +185,23 @@ def restrict_force(force, beads: int, lo: int, hi: int):
                    dforce_dv=embed(force.dforce_dv), restrict=None)
 
 
-def coast(x_b: float, v_b: float, t_b: float) -> Callable[[float], float]:
-    """Prescribed left boundary bead: x_b + v_b (t - t_b)."""
-    return lambda t: x_b + v_b * (t - t_b)
+@dataclass(frozen=True)
+class Coast:
+    """Prescribed left boundary bead: at x_b + v_b (t - t_b); its ``velocity`` v_b closes the contact law's rate."""
+
+    x_b: float
+    velocity: float
+    t_b: float
+
+    def __call__(self, t: float) -> float:
+        return self.x_b + self.velocity * (t - self.t_b)
 
 
-def window_energy(y: Array, exponent: float, left_x: float | None) -> float:
-    """Energy of Eq. 1 in the window, with the contact to the prescribed left bead."""
+def window_energy(y: Array, exponent: float, left_x: float | None, masses: Array | None = None) -> float:
+    """Energy of Eq. 1 in the window (``masses``: the window's, None: all 1), with the contact to the prescribed
+    left bead (Hertz part only: a contact law's term is dissipative or elastic, the energy is the blow-up guard's)."""
     x, v = y[0::2], y[1::2]
-    e = energy(x, v, exponent)
+    e = energy(x, v, exponent, masses)
     if left_x is not None and left_x > x[0]:
         e += (left_x - x[0]) ** (exponent + 1.0) / (exponent + 1.0)
     return e
@@ -213,7 +221,7 @@ class _Run:
 
     lo: int
     hi: int
-    left: Callable[[float], float] | None = None
+    left: Coast | None = None
     drift: float = 0.0
     e_gone: float = 0.0
     action: str = ""  # "", "stop", "shift", "extend"
@@ -259,6 +267,7 @@ def simulate_windowed(chain: "Chain", contacts: tuple[int, int], how: "Plan", in
     solitary wave instead of the impact v0 on bead 1 (its velocity scale then stands for v0).
     """
     beads, exponent, force, launch = chain.beads, chain.exponent, chain.force, chain.launch
+    contact, masses = chain.contact, chain.masses
     velocity = chain.velocity if launch is None else launch.velocity_scale(exponent)
     method, rule, engine, rtol, atol = how.method, how.rule, how.window_engine, integrator.rtol, integrator.atol
     assert engine == "scipy" or (engine == "fortran" and method in FORTRAN_CODES), (engine, method)  # plan() chose
@@ -276,7 +285,11 @@ def simulate_windowed(chain: "Chain", contacts: tuple[int, int], how: "Plan", in
     else:
         y = launch.state(exponent, run.hi)
     t = 0.0
-    e0 = window_energy(y, exponent, None)
+
+    def window_masses() -> Array | None:
+        return None if masses is None else masses[run.lo:run.hi]
+
+    e0 = window_energy(y, exponent, None, window_masses())
     nfev = njev = shifts = 0
     widest = run.hi - run.lo
     h: float | None = None
@@ -289,7 +302,7 @@ def simulate_windowed(chain: "Chain", contacts: tuple[int, int], how: "Plan", in
             return True
         if track.steps % ENERGY_EVERY == 0 or not np.isfinite(y_new[-1] + y_new[0]):
             left_x = None if run.left is None else run.left(t_new)
-            e = window_energy(y_new, exponent, left_x) + run.e_gone
+            e = window_energy(y_new, exponent, left_x, window_masses()) + run.e_gone
             if track.check_state(t_new, e, e0, ENERGY_BLOWUP):
                 run.action = "stop"
                 return True
@@ -314,14 +327,15 @@ def simulate_windowed(chain: "Chain", contacts: tuple[int, int], how: "Plan", in
         width = run.hi - run.lo
         force_w = restrict_force(force, beads, run.lo, run.hi)
         wall = run.hi < beads
+        terms = (contact, window_masses())
         run.action, run.redo = "", None
         try:
             if engine == "fortran":
-                rhs = make_rhs(width, exponent, force_w, run.left, wall)
+                rhs = make_rhs(width, exponent, force_w, run.left, wall, terms, run.lo)
                 t, y, used, h = run_fortran(FORTRAN_CODES[method], rhs, t, y, t_max, rtol, atol, h, on_step)
             else:
                 solver = make_solver(method, width, exponent, force_w, y, t_max, rtol, atol,
-                                     t0=t, first_step=h, left=run.left, wall=wall)
+                                     t0=t, first_step=h, left=run.left, wall=wall, terms=terms, lo=run.lo)
                 t, y, used, h = run_scipy(solver, on_step)
                 njev += int(getattr(solver, "njev", 0))
         except RuntimeError as err:
@@ -339,19 +353,20 @@ def simulate_windowed(chain: "Chain", contacts: tuple[int, int], how: "Plan", in
             run.hi += add
         else:  # shift: drop beads behind, add beads ahead
             new_lo, new_hi = plan(track.next_contact, run.lo, run.hi, beads, rule)
-            e_before = window_energy(y, exponent, None if run.left is None else run.left(t))
+            e_before = window_energy(y, exponent, None if run.left is None else run.left(t), window_masses())
             y_shifted = shift_state(y, run.lo, new_lo, new_hi)
             if new_lo > run.lo:
                 j = new_lo - run.lo - 1  # local index of the last dropped bead
-                run.left = coast(y[2 * j], y[2 * j + 1], t) if rule.boundary == "coast" else None
+                run.left = Coast(y[2 * j], y[2 * j + 1], t) if rule.boundary == "coast" else None
             run.lo, run.hi, y = new_lo, new_hi, y_shifted
-            run.e_gone += e_before - window_energy(y, exponent, None if run.left is None else run.left(t))
+            run.e_gone += e_before - window_energy(y, exponent, None if run.left is None else run.left(t),
+                                                   window_masses())
         widest = max(widest, run.hi - run.lo)
 
     wall_s = _time.perf_counter() - wall0
     return DNSResult.tracked(
         track, front, method=method, rtol=float(rtol), atol=float(atol), beads=beads, nfev=int(nfev), njev=int(njev),
-        wall_time_s=wall_s, energy_drift=run.drift if force is None else None, exponent=exponent, velocity=velocity,
+        wall_time_s=wall_s, energy_drift=run.drift if force is None and contact is None else None, exponent=exponent, velocity=velocity,
         t_end=float(t), energy_initial=e0, mode=f"window/{engine}", window_beads=int(widest),
         window_shifts=int(shifts), window_rule=rule,
     )

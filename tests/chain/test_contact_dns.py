@@ -134,3 +134,78 @@ def test_bead_velocity_peaks_are_each_beads_velocity_maximum():
     assert np.all(np.diff(vpk[FIRST:LAST]) < 0)  # heavier beads move slower
     bare = simulate(Chain(N, 1.5, 1.0), (FIRST, LAST))
     assert bare.velocity_peaks is None
+
+
+def _taper(slope: float) -> np.ndarray:
+    masses = np.ones(N)
+    masses[FIRST - 1:] = 1.0 + slope * np.arange(N - FIRST + 1)
+    return masses
+
+
+def _random_masses(seed: int = 3) -> np.ndarray:
+    masses = np.ones(N)
+    masses[FIRST - 1:] = 1.0 + 0.1 * np.random.default_rng(seed).standard_normal(N - FIRST + 1)
+    return masses
+
+
+#: Scenes for the scipy moving window: dashpot, Kuwabara-Kono, a dashpot on a taper, random masses alone.
+WINDOW_CHAINS = {
+    "dashpot": Chain(N, 1.5, 1.0, contact=dashpot(0.05)),
+    "kuwabara-kono": Chain(N, 1.5, 1.0, contact=dashpot(0.05, 0.5)),
+    "taper+dashpot": Chain(N, 1.5, 1.0, contact=dashpot(0.2), masses=_taper(0.01)),
+    "random masses": Chain(N, 1.5, 1.0, masses=_random_masses()),
+}
+WINDOW_ACCURACY = 1e-8
+
+
+@pytest.mark.parametrize("engine", ["fortran", "scipy"])
+@pytest.mark.parametrize("name", list(WINDOW_CHAINS))
+def test_the_scipy_window_takes_contact_terms_and_masses(name, engine):
+    """The scipy engine's moving window (Hairer's codes and scipy's OdeSolver) agrees with the scipy full chain
+    to the window's accuracy on damped contacts and uneven masses (beads behind the pulse carry momentum)."""
+    from pulsemap.solvers.chain.window import WindowSpec
+
+    chain = WINDOW_CHAINS[name]
+    tight = Integrator(method="DOP853", rtol=1e-12, atol=1e-14, engine="scipy")
+    full = simulate(chain, (FIRST, LAST), integrator=tight)
+    win = simulate(chain, (FIRST, LAST), integrator=tight,
+                   window=WindowSpec(accuracy=WINDOW_ACCURACY, engine=engine))
+    assert win.stop_reason == "last contact peaked" and win.mode == f"window/{engine}"
+    assert win.window_beads < N and win.window_shifts > 0
+    np.testing.assert_allclose(win.peaks, full.peaks, rtol=10 * WINDOW_ACCURACY)
+
+
+def test_the_window_edges_close_the_contact_law_with_the_boundary_beads_rates():
+    """On a window (beads lo+1..hi) the coasting left bead closes contact lo with w = v_left - v_(lo+1) and the wall
+    at rest closes contact hi with w = v_hi: the window's accelerations are the full chain's where the bead past the
+    wall is at rest, with the contact table and masses read at the chain's own indices."""
+    from pulsemap.solvers.chain.equations import make_rhs
+    from pulsemap.solvers.chain.window import Coast
+
+    beads, lo, hi = 7, 2, 5
+    rng = np.random.default_rng(11)
+    contact = ContactTable(np.array([[0.0, 1.0], [0.5, 1.0], [2.5, 0.0]]), rng.uniform(0.1, 0.5, (3, beads - 1)))
+    masses = rng.uniform(0.5, 2.0, beads)
+    x = np.sort(rng.uniform(0.0, 1.0, beads))[::-1].copy()  # every contact closed
+    v = rng.uniform(-1.0, 1.0, beads)
+    x[hi:], v[hi:] = 0.0, 0.0  # the beads past the window at rest
+    x[hi - 1] = 0.05  # the last window bead pushes into the wall
+    y = np.empty(2 * beads)
+    y[0::2], y[1::2] = x, v
+    full = make_rhs(beads, 1.5, None, terms=(contact, masses))(0.0, y)
+    t = 0.3
+    left = Coast(x[lo - 1] - v[lo - 1] * t, v[lo - 1], 0.0)  # at x[lo - 1] at time t
+    window = make_rhs(hi - lo, 1.5, None, left, True, (contact, masses[lo:hi]), lo)(t, y[2 * lo:2 * hi])
+    np.testing.assert_allclose(window, full[2 * lo:2 * hi], rtol=1e-13, atol=1e-15)
+    free = make_rhs(hi - lo, 1.5, None, None, False, (contact, masses[lo:hi]), lo)(t, y[2 * lo:2 * hi])
+    assert not np.allclose(free, window)  # the boundary contacts do act
+
+
+@pytest.mark.slow  # compiles the contact-term kernels
+@pytest.mark.parametrize("name", list(WINDOW_CHAINS))
+def test_the_scipy_and_compiled_windows_agree(name):
+    chain = WINDOW_CHAINS[name]
+    for method in ("RK45", "DOP853"):
+        scipy_win = peaks(chain, integrator=Integrator(method=method, rtol=1e-11, engine="scipy"), window="auto")
+        compiled_win = peaks(chain, integrator=Integrator(method=method, rtol=1e-11), window="auto")
+        np.testing.assert_allclose(scipy_win, compiled_win, rtol=1e-7)

@@ -116,3 +116,49 @@ def test_plot_writes_a_png(tiny_report, tmp_path):
     out = tmp_path / "wp.png"
     plot([tiny_report], str(out))
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5000
+
+
+CONTACT_SCENE = {"name": "dashpot-on-taper", "excitation": {"velocity": 1.0}, "contact": {"P": "w", "eps": 0.02},
+                 "masses": {"m": "1 + 0.003*(i - 16)"}, "output": {"contacts": [16, 50], "methods": ["dns"]}}
+
+
+def test_the_bench_chain_carries_the_scenes_contact_term_and_masses():
+    """Every DNS line of a contact or mass scene integrates the scene's own chain (the one `pulsemap run` integrates);
+    an on-site scene keeps its force."""
+    import numpy as np
+
+    import pulsemap
+    from pulsemap.solvers.studies.bench.lines import scripts_refusal
+    from pulsemap.solvers.studies.forcing import scene_chain
+    from pulsemap.solvers.studies.extent import dns_span
+
+    sc = pulsemap.scene(CONTACT_SCENE)
+    beads, _ = dns_span(sc)
+    chain = scene_chain(sc, beads)
+    assert chain.force is None and chain.masses is not None and chain.contact is not None
+    np.testing.assert_array_equal(chain.masses[15:18], [1.0, 1.003, 1.006])
+    assert chain.contact.coef[0, 14] == 0.0 and chain.contact.coef[0, 15] == 0.02  # contacts 15 and 16
+    assert "on-site R on unit masses" in scripts_refusal(sc)
+    onsite = load_scene("fig6-eps0.1")
+    assert scene_chain(onsite, 60).force is not None and scripts_refusal(onsite) is None
+
+
+@pytest.mark.bench
+def test_bench_measures_a_contact_and_mass_scene():
+    """Both engines' DNS lines converge to the reference on a damped taper, the energy law is measured against it,
+    and the user's scripts (on-site R only) are left out with the reason."""
+    from dataclasses import replace
+
+    import pulsemap
+    from pulsemap.solvers.studies.bench import quick_ladder
+
+    r = bench_scene(pulsemap.scene(CONTACT_SCENE), replace(quick_ladder(), cold=False))
+    assert r["reference"]["convergence"] < 1e-8 and r["live_contacts"] == 35
+    for kind in ("dns", "compiled", "baseline-b"):
+        pts = [p for p in r["points"] if p["kind"] == kind and p["line"].endswith("DOP853")]
+        assert len(pts) == 3 and pts[0]["error"] > pts[-1]["error"] and pts[-1]["error"] < 1e-7
+    assert not [p for p in r["points"] if p["kind"] in ("script", "baseline-a")]
+    assert "on-site R" in r["scripts_not_measured"] and "not measured" in to_text([r])
+    law = next(p for p in r["points"] if p["line"] == "energy-law/exact")
+    assert 0 < law["rms_pct"] < 5
+    assert not [p for p in r["points"] if p["line"].startswith("map/")]  # refused for the scene

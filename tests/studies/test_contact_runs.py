@@ -145,3 +145,93 @@ def test_the_mass_kernel_leaves_a_uniform_mass_alone_and_follows_a_taper():
     relaxed = np.log(np.array(result.peaks["relaxed"], float))
     law = np.log(np.array(result.peaks["energy-law"], float))
     assert np.sqrt(np.mean((relaxed - dns) ** 2)) < 0.5 * np.sqrt(np.mean((law - dns) ** 2))
+
+
+def _ensemble_scene(contact=None, last=50):
+    data = {"name": "random-masses-ensemble", "excitation": {"velocity": 1.0}, "masses": _random_masses(7),
+            "output": {"contacts": [16, last], "methods": ["dns"]}}
+    if contact is not None:
+        data["contact"] = contact
+    return pulsemap.scene(data)
+
+
+def test_an_ensemble_of_random_masses_runs_each_realisation_as_run_does(tmp_path):
+    """Realisation j is the scene with the draw's seed derived_seed(seed, j, 0): its DNS, energy-law and relaxed
+    peaks are run's for that seed, bit for bit, and the per-contact statistics are those of the records."""
+    import json
+
+    from pulsemap.solvers.data.scene.overrides import with_sets
+    from pulsemap.solvers.studies.ensemble import derived_seed, ensemble, to_text
+    from pulsemap.solvers.studies.run import run_scene
+
+    sc = _ensemble_scene()
+    out = tmp_path / "e.jsonl"
+    rep = ensemble(sc, 3, seed=5, out=str(out), max_workers=1)
+    json.dumps(rep)
+    assert rep["failed"] == [] and rep["derived_seeds"][2] == {"masses.params.xi": derived_seed(5, 2, 0)}
+    results = [json.loads(line)["result"] for line in out.read_text().splitlines()]
+    half = 3.0 ** 0.5
+    ref = run_scene(with_sets(sc, [("masses.params.xi", {"uniform": [-half, half], "seed": derived_seed(5, 2, 0)})]),
+                    methods=["dns", "energy-law", "relaxed"])
+    for method in ("dns", "energy-law", "relaxed"):
+        assert results[2]["peaks"][method] == ref["peaks"][method]
+    assert results[2]["errors"] == ref["errors"]
+    assert results[0]["peaks"]["dns"] != results[1]["peaks"]["dns"]  # different draws, different chains
+    st = rep["statistics"]
+    for k in (0, 17, len(st["contacts"]) - 1):
+        dns = np.array([r["peaks"]["dns"][k] for r in results])
+        assert st["dns"][k]["mean"] == pytest.approx(dns.mean(), rel=1e-14)
+        assert st["dns"][k]["std"] == pytest.approx(dns.std(ddof=1), rel=1e-12)
+        law = np.array([r["peaks"]["energy-law"][k] for r in results])
+        assert st["models"]["energy-law"]["rel_error"][k]["mean"] == pytest.approx(np.mean(np.abs(law / dns - 1)))
+    rms = [r["errors"]["relaxed"]["rms_pct"] for r in results]
+    assert st["models"]["relaxed"]["rms_pct"]["mean"] == pytest.approx(np.mean(rms))
+    assert st["models"]["relaxed"]["rms_pct"]["max"] < 1.0  # percent: the mass kernel follows each draw
+    assert st["models"]["relaxed"]["rms_pct"]["mean"] < 0.5 * st["models"]["energy-law"]["rms_pct"]["mean"]
+    assert len(st["velocity_peaks"]["beads"]) == len(st["contacts"]) and st["velocity_peaks"]["dns"][0]["n"] == 3
+    assert "relaxed" in to_text(rep) and "masses.params.xi" in to_text(rep)
+
+
+def test_an_ensembles_dns_is_the_chain_of_its_drawn_masses():
+    """Independently of the scene machinery: masses 1 + 0.1 xi with xi = default_rng(seed).uniform(-sqrt 3, sqrt 3)
+    over the chain's beads (bead i is element i - 1, from bead 16 on), integrated on the scipy full chain, give the
+    realisation's DNS peaks."""
+    from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+    from pulsemap.solvers.studies.ensemble import derived_seed, terms_points, terms_task
+    from pulsemap.solvers.studies.extent import dns_span
+
+    sc = _ensemble_scene(last=40)
+    point = terms_points(sc, 2, 9)[1]
+    got = terms_task(point)
+    beads, span = dns_span(sc)
+    half = 3.0 ** 0.5
+    xi = np.random.default_rng(derived_seed(9, 1, 0)).uniform(-half, half, beads)
+    masses = np.where(np.arange(1, beads + 1) >= 16, 1 + 0.1 * xi, 1.0)
+    ref = simulate(Chain(beads, 1.5, 1.0, masses=masses), (16, 40),
+                   integrator=Integrator(method="DOP853", rtol=1e-11, atol=1e-13, engine="scipy"))
+    np.testing.assert_allclose(got["peaks"]["dns"], ref.peaks, rtol=1e-7)
+
+
+def test_an_ensemble_with_a_contact_term_and_random_masses_says_which_models_run():
+    """A dashpot with a random coefficient on random masses: two draws with their own derived seeds; the energy law
+    runs, relaxed is refused with its reason in the report."""
+    from pulsemap.solvers.studies.ensemble import derived_seed, drawn_keys, ensemble
+
+    contact = {"P": "g*w", "eps": 0.01, "params": {"g": {"uniform": [0.5, 1.5], "seed": 1}}}
+    sc = _ensemble_scene(contact, last=40)
+    assert drawn_keys(sc) == [("contact", "params", "g"), ("masses", "params", "xi")]
+    rep = ensemble(sc, 2, seed=4, max_workers=1)
+    assert rep["derived_seeds"][1] == {"contact.params.g": derived_seed(4, 1, 0),
+                                       "masses.params.xi": derived_seed(4, 1, 1)}
+    models = rep["statistics"]["models"]
+    assert models["energy-law"]["refused"] is None and models["energy-law"]["rms_pct"]["n"] == 2
+    assert "no relaxed model" in models["relaxed"]["refused"] and models["relaxed"]["rms_pct"]["n"] == 0
+    dns = [s["mean"] for s in rep["statistics"]["dns"]]
+    assert dns[-1] < dns[0]  # the dashpot damps the pulse
+
+
+def test_an_ensemble_needs_a_random_draw_naming_random_masses():
+    from pulsemap.solvers.studies.ensemble import EnsembleError, ensemble
+
+    with pytest.raises(EnsembleError, match=r"random masses \[masses\] m = \{uniform"):
+        ensemble(scene(masses={"m": 1.2}), 2)

@@ -45,9 +45,10 @@ def test_a_model_runs_only_where_every_stated_kind_has_it():
 
 def test_a_study_refuses_a_kind_it_does_not_take_and_takes_one_it_does():
     masses = _scene(masses={"m": 1.2})
-    with pytest.raises(RunError, match="bead masses: bench builds its chains without it"):
-        kinds.require(masses, "bench")
-    kinds.require(_scene(perturbation={"R": "-v", "eps": 0.01}), "bench")
+    with pytest.raises(RunError, match="bead masses: bifurcation builds its chains without it"):
+        kinds.require(masses, "bifurcation")
+    kinds.require(masses, "bench")
+    kinds.require(_scene(perturbation={"R": "-v", "eps": 0.01}), "bifurcation")
 
 
 def test_a_new_kind_is_one_row(monkeypatch):

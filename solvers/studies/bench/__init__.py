@@ -41,7 +41,8 @@ import time
 from dataclasses import asdict
 from typing import Callable, Sequence
 
-from pulsemap.solvers.studies.bench.lines import dns_points, model_points, reference_run, script_points
+from pulsemap.solvers.studies.bench.lines import (dns_points, model_points, reference_run, script_points,
+                                                  scripts_refusal)
 from pulsemap.solvers.studies.bench.measure import (
     DNS_METHODS,
     QUICK_METHODS,
@@ -64,9 +65,6 @@ from pulsemap.solvers.studies.errors import counted
 
 def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = lambda s: None) -> dict:
     """Work-precision report of one scene (JSON-able; see the module docstring)."""
-    from pulsemap.solvers.studies.run.kinds import require
-
-    require(scene, "bench")
     from pulsemap.solvers.studies.extent import dns_span
 
     wall0 = time.perf_counter()
@@ -74,7 +72,12 @@ def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = l
     contacts = list(range(c0, c1 + 1))
     beads, _ = dns_span(scene)
     log(f"scene {scene.name}: R = {scene.perturbation.text}, eps = {scene.perturbation.eps:g}, "
-        f"v0 = {scene.velocity:g}, n = {scene.exponent:g}, {beads} beads, contacts {c0}..{c1}")
+        + (f"P = {scene.contact.text}, eps_c = {scene.contact.eps:g}, " if scene.contact is not None else "")
+        + (f"m = {scene.masses.text}, " if scene.masses is not None else "")
+        + f"v0 = {scene.velocity:g}, n = {scene.exponent:g}, {beads} beads, contacts {c0}..{c1}")
+    no_scripts = scripts_refusal(scene)
+    if no_scripts and (ladder.engines or ladder.baselines):
+        log(f"  script lines: not measured ({no_scripts})")
     reference = reference_run(scene, ladder.reference_rtol)
     check = reference_run(scene, ladder.check_rtol)
     ref = reference["peaks"]["dns"]
@@ -92,10 +95,10 @@ def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = l
     if ladder.engines:
         points += dns_points(scene, contacts, ref, ladder, "auto", ladder.compiled_methods, "compiled", log,
                              engine="compiled", rtols=ladder.compiled_rtols)
-        points += reference_points(scene, contacts, ref, ladder, log)
+        points += [] if no_scripts else reference_points(scene, contacts, ref, ladder, log)
     if ladder.baselines:
         points += dns_points(scene, contacts, ref, ladder, None, ladder.full_methods, "baseline-b", log)
-        points += script_points(scene, contacts, ref, ladder, log)
+        points += [] if no_scripts else script_points(scene, contacts, ref, ladder, log)
     default_dns = None
     if ladder.models:
         points += model_points(scene, reference, ref, ladder, log)
@@ -128,6 +131,7 @@ def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = l
         "cost_at_target": {key: {"time_s": t, "how": how} for key, (t, how) in costs.items()},
         "ratios": ratios,
         "cold": cold,
+        **({"scripts_not_measured": no_scripts} if no_scripts else {}),
         "load_average": os.getloadavg()[0],
         "bench_time_s": time.perf_counter() - wall0,
     }

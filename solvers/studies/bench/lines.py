@@ -13,7 +13,18 @@ from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.bench.measure import Ladder, Point, best_of, fmt, peak_error, tolerances
 from pulsemap.solvers.studies.errors import counted
 
-__all__ = ["dns_points", "model_points", "reference_run", "script_points", "script_span"]
+__all__ = ["dns_points", "model_points", "reference_run", "script_points", "script_span",
+           "scripts_refusal"]
+
+
+def scripts_refusal(scene) -> str | None:
+    """Why the user's scripts (baseline (a), reference_script.py) cannot run the scene, or None: they integrate an
+    on-site R on unit masses."""
+    from pulsemap.solvers.studies.run.chain_terms import has_chain_terms
+
+    if not has_chain_terms(scene):
+        return None
+    return "the user's scripts integrate an on-site R on unit masses; this scene has a contact-law term or masses"
 
 
 def reference_run(scene, rtol: float) -> dict:

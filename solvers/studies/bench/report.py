@@ -23,6 +23,8 @@ def to_text(reports: list[dict]) -> str:
                 continue
             lines.append(f"  {p['kind']:10s} {p['line']:26s} {p['setting']:18s} {fmt(p['error']):>11s} "
                          f"{p['missing']:7d} {p['time_s']:10.4g} {'' if p['nfev'] is None else p['nfev']:>8}")
+        if r.get("scripts_not_measured"):
+            lines.append(f"  the user's scripts (baseline (a), script): not measured ({r['scripts_not_measured']})")
         models = [p for p in r["points"] if p["kind"] == "model"]
         if models:
             span = next((p["live_range"] for p in models if p.get("live_range")), None)

@@ -39,8 +39,10 @@ KINDS: tuple[PerturbationKind, ...] = (
     PerturbationKind("an on-site R", "perturbation",
                      lambda s: not (s.perturbation.is_zero or s.perturbation.eps == 0),
                      frozenset(MODELS), frozenset({"bench", "ensemble", "bifurcation", "sweep tasks"})),
-    PerturbationKind("a contact-law term P", "contact", lambda s: s.contact is not None, ENERGY_MODELS, frozenset()),
-    PerturbationKind("bead masses", "masses", lambda s: s.masses is not None, ENERGY_MODELS, frozenset()),
+    PerturbationKind("a contact-law term P", "contact", lambda s: s.contact is not None, ENERGY_MODELS,
+                     frozenset({"bench", "ensemble"})),
+    PerturbationKind("bead masses", "masses", lambda s: s.masses is not None, ENERGY_MODELS,
+                     frozenset({"bench", "ensemble"})),
 )
 
 
