@@ -74,8 +74,10 @@ def test_a_new_kernel_is_one_row(monkeypatch):
 
 
 def test_auto_picks_the_rows_marked_for_it():
-    """'auto' takes one explicit and one stiff method, both with a compiled kernel, as the table marks them."""
-    for stiff, implicit in ((False, False), (True, True)):
-        record = methods.by_name(methods.auto_pick(stiff))
-        assert record.kernel and record.implicit == implicit
-    assert (plan.METHOD, plan.STIFF_METHOD) == (methods.auto_pick(False), methods.auto_pick(True))
+    """Each role 'auto' chooses between is one row: compiled kernels for the compiled engine's, scipy solvers
+    (implicit where the force is stiff) for the scipy engine's."""
+    for role in methods.AUTO_ROLES:
+        record = methods.by_name(methods.auto_pick(role))
+        assert (record.scipy if role.startswith("scipy") else bool(record.kernel))
+        assert record.implicit == (role not in ("explicit", "scipy explicit"))
+    assert (plan.METHOD, plan.STIFF_METHOD) == (methods.auto_pick("explicit"), methods.auto_pick("stiff"))
