@@ -99,8 +99,7 @@ def derive_models(scene: Scene, methods: Sequence[str], profile: str | None = No
 
     state = start_run(scene, methods, profile, variant, None)
     models.derive_models(state)
-    if "dressed-law" in state.methods:
-        models.prepare_dressed(state)  # forms the law into the caches (a refusal is the run's to report)
+    models.prepare_models(state)  # e.g. forms the dressed law into the caches (a refusal is the run's to report)
 
 
 def _ahead(step, *args):
