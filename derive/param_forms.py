@@ -1,6 +1,6 @@
 """The sympy-free forms of a parameter value (docs/perturbation.rst, "Parameters") and the one
 per-bead random draw every side uses: the symbolic layer (param_values.py), the DNS force and the
-sweep workers (solvers/studies/forcing.py) must agree bit for bit, so there is one function."""
+sweep workers (solvers/models/chain_build.py) must agree bit for bit, so there is one function."""
 
 from __future__ import annotations
 

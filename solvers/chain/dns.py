@@ -46,6 +46,8 @@ if TYPE_CHECKING:  # pragma: no cover
 MAX_BEADS = 1_000_000
 """Longest chain simulate() accepts (the scene files' limit, data/scene/schema.MAX_BEADS)."""
 MIN_RTOL = 100 * float(np.finfo(float).eps)
+#: Smallest atol: every engine's error norm squares error/atol, which overflows below sqrt(smallest normal) ~ 1.5e-154.
+MIN_ATOL = 1e-150
 """Smallest rtol float64 can deliver (scipy raises a smaller one to this silently)."""
 MAX_RTOL = 1.0
 """rtol at or above this accepts a 100 % error: no digit of a peak is kept."""
@@ -132,6 +134,9 @@ class Integrator:
                                  "a relative tolerance of 1 or more keeps no digit of the peaks")
         if not (math.isfinite(atol) and atol > 0.0):
             raise DNSInputError(f"atol must be a finite number > 0, got {atol!r}")
+        if atol < MIN_ATOL:
+            raise DNSInputError(f"atol = {atol:g} is below what the error norm can use: give atol >= {MIN_ATOL:g} "
+                                 "(the norm squares error/atol, which leaves float64 below ~1e-154)")
         if self.engine not in ENGINES:
             raise DNSInputError(f"unknown engine {self.engine!r}; choose one of {', '.join(ENGINES)}")
 

@@ -216,8 +216,8 @@ def energy(x: Array, v: Array, exponent: float, masses: Array | None = None) -> 
 
 
 def choose_method(force: OnSiteForce | None, velocity: float, exponent: float) -> str:
-    """'DOP853' unless the force's stiffness hint dwarfs the contact rate, then 'LSODA', or 'BDF' for a
-    force with a ramp (a non-smooth R).
+    """The scipy engine's 'auto' (chain/methods.py roles): DOP853 unless the force's stiffness hint dwarfs the
+    contact rate, then LSODA, or BDF for a force with a ramp (a non-smooth R).
 
     LSODA (banded analytic Jacobian) was the fastest implicit method in the damped-chain
     benchmarks (eps*mu = 30..3000, rtol 1e-6..1e-10); the explicit and implicit costs cross
@@ -226,8 +226,9 @@ def choose_method(force: OnSiteForce | None, velocity: float, exponent: float) -
     is 2-3x slower there and converges with rtol (docs/dns.rst).
     """
     if force is None or force.stiffness_hint <= STIFFNESS_RATIO * contact_rate(velocity, exponent):
-        return "DOP853"
-    return "BDF" if getattr(force, "ramp", 0.0) else "LSODA"  # force: anything with a stiffness hint (plan.plan)
+        return methods.auto_pick("scipy explicit")
+    ramp = getattr(force, "ramp", 0.0)  # force: anything with a stiffness hint (plan.plan)
+    return methods.auto_pick("scipy ramp" if ramp else "scipy stiff")
 
 
 def ramp_atol(force: OnSiteForce | None, atol: float) -> float:

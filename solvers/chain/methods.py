@@ -14,7 +14,8 @@ from dataclasses import dataclass
 class DNSMethod:
     """A way to integrate Eq. 1: ``name`` (scipy's where scipy has it), ``kernel`` (the module in solvers/chain
     of its compiled kernel, whose ``run`` integrates; "" none), ``scipy`` (scipy.integrate has a solver of that
-    name), ``implicit`` (stiff: it solves with the Jacobian), ``order`` of the step, and ``title``."""
+    name), ``implicit`` (stiff: it solves with the Jacobian), ``order`` of the step, ``title``, and ``auto``: the
+    roles in which 'auto' takes it (:data:`AUTO_ROLES`)."""
 
     name: str
     kernel: str
@@ -22,18 +23,22 @@ class DNSMethod:
     implicit: bool
     order: int
     title: str
+    auto: tuple[str, ...] = ()
 
 
 METHODS: tuple[DNSMethod, ...] = (
-    DNSMethod("DOP853", "compiled_dop853", True, False, 8, "explicit Runge-Kutta 8(5,3)"),
-    DNSMethod("RK45", "compiled_kernel", True, False, 5, "Dormand-Prince 5(4)"),
+    DNSMethod("DOP853", "compiled_dop853", True, False, 8, "explicit Runge-Kutta 8(5,3)", auto=("scipy explicit",)),
+    DNSMethod("RK45", "compiled_kernel", True, False, 5, "Dormand-Prince 5(4)", auto=("explicit",)),
     DNSMethod("RK23", "", True, False, 3, "Bogacki-Shampine 3(2)"),
     DNSMethod("Radau", "", True, True, 5, "implicit Runge-Kutta (Radau IIA)"),
-    DNSMethod("BDF", "", True, True, 5, "backward differentiation formulas"),
-    DNSMethod("LSODA", "", True, True, 12, "Adams/BDF switching (ODEPACK)"),
-    DNSMethod("Rodas4", "compiled_stiff", False, True, 4, "Rosenbrock"),
+    DNSMethod("BDF", "", True, True, 5, "backward differentiation formulas", auto=("scipy ramp",)),
+    DNSMethod("LSODA", "", True, True, 12, "Adams/BDF switching (ODEPACK)", auto=("scipy stiff",)),
+    DNSMethod("Rodas4", "compiled_stiff", False, True, 4, "Rosenbrock", auto=("stiff",)),
 )
 AUTO = "auto"  # plan() chooses (chain/plan.py)
+#: What 'auto' chooses between: on the compiled engine a force that is not stiff / is; on the scipy engine the
+#: same, and a stiff force with a ramp (a non-smooth R: chain/equations.choose_method says why).
+AUTO_ROLES = ("explicit", "stiff", "scipy explicit", "scipy stiff", "scipy ramp")
 
 
 def by_name(name: str) -> DNSMethod:
@@ -42,6 +47,12 @@ def by_name(name: str) -> DNSMethod:
         if method.name == name:
             return method
     raise KeyError(name)
+
+
+def auto_pick(role: str) -> str:
+    """The method 'auto' takes in ``role`` (one of AUTO_ROLES): the one table row that names it."""
+    (name,) = (m.name for m in METHODS if role in m.auto)
+    return name
 
 
 def names(*, kernel: bool | None = None, scipy: bool | None = None, implicit: bool | None = None) -> tuple[str, ...]:

@@ -21,8 +21,8 @@ from pulsemap.solvers.chain.hairer import FORTRAN_CODES
 from pulsemap.solvers.chain.peaks import contact_rate
 from pulsemap.solvers.chain.window import WindowRule, WindowSpec, resolve_rule, window_accuracy_for
 
-METHOD = "RK45"  # the default explicit kernel: 'auto' on a force that is not stiff (docs/dns.rst)
-STIFF_METHOD = "Rodas4"  # the kernel 'auto' takes for a stiff force
+METHOD = methods.auto_pick("explicit")  # the default explicit kernel: 'auto' on a force that is not stiff (docs/dns.rst)
+STIFF_METHOD = methods.auto_pick("stiff")  # the kernel 'auto' takes for a stiff force
 #: Method 'auto' on the compiled engine runs Rodas4 when the force's stiffness hint exceeds this x the
 #: contact rate: below it the explicit kernel is the cheaper at every rtol (docs/dns.rst).
 COMPILED_STIFFNESS_RATIO = 300.0

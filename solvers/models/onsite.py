@@ -1,6 +1,6 @@
 """The on-site force eps_i R_i(x_i, v_i) of Eq. 1 from a generated force module, as every DNS takes it.
 
-One builder for the scenes' DNS (studies/forcing.py) and the relaxed model's segment runs: the
+One builder (models/chain_build.py builds every DNS chain with it; the relaxed model reads coefficients): the
 Python callables with their Jacobian diagonals and ``restrict`` for a moving window, the
 stiffness hint method 'auto' reads, and the same force as data for the compiled engine (a
 monomial table, else a generated numba force, else the reason the scipy engine runs it).

@@ -122,12 +122,11 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
     """Peaks P_0.. of one canonical segment run (DNS with a moving window, no cache), on the engine and
     method ``simulate`` chooses for the force. SegmentRunError when the run ends other than by its
     last contact, its pulse's death or a blow-up."""
-    from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+    from pulsemap.solvers.chain.dns import Integrator, simulate
     from pulsemap.solvers.chain.launch import Launch
     from pulsemap.solvers.chain.peaks import StopRules
     from pulsemap.solvers.chain.window import WindowSpec
-    from pulsemap.solvers.models.codeload import force_module
-    from pulsemap.solvers.models.onsite import onsite_force
+    from pulsemap.solvers.models.chain_build import ChainSpec, build_chain
 
     names = tuple(k for k, _ in spec.params)
     centre, fp, entry = spec.geometry()
@@ -139,9 +138,9 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
             values[name][fp - 1 + bead] += delta
         else:
             eps[fp - 1 + bead] *= 1.0 + delta
-    force = None if spec.R == "0" else onsite_force(force_module(spec.R, names), beads, fp, eps, values)
     scale = min(1.0, amplitude, amplitude ** ((spec.n + 1.0) / 2.0))
-    chain = Chain(beads, spec.n, 1.0, force, launch=Launch(float(amplitude), centre), contact=_contact(spec, beads, fp))
+    chain = build_chain(ChainSpec(beads, spec.n, 1.0, spec.R, names, values, eps, fp, _contact(spec, beads, fp)),
+                        keep=False, launch=Launch(float(amplitude), centre))
     res = simulate(chain, (entry, entry + spec.recorded),
                    integrator=Integrator(rtol=spec.rtol, atol=spec.rtol * 1e-2 * scale),
                    window=WindowSpec("auto", spec.window_accuracy), stop=StopRules(death_fraction=DEATH))
@@ -157,14 +156,12 @@ def segment_peaks(spec: SegmentSpec, amplitude: float) -> list[float]:
 
 
 def _contact(spec: SegmentSpec, beads: int, fp: int):
-    """The segment chain's contact-law term (contact_force.ContactTable; None: the Hertz law alone)."""
+    """The segment chain's contact-law term as (exponents, coefficients over contacts 1..N-1); None: Hertz alone."""
     if not spec.contact:
         return None
-    from pulsemap.solvers.chain.contact_force import ContactTable
-
     coef = np.zeros((len(spec.contact), beads - 1))
     coef[:, fp - 1:] = np.array([c for _, _, c in spec.contact])[:, None]
-    return ContactTable(np.array([[a, b] for a, b, _ in spec.contact], float), coef)
+    return np.array([[a, b] for a, b, _ in spec.contact], float), coef
 
 
 def cached_segment(spec: SegmentSpec, j: int) -> list[float]:

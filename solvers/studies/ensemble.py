@@ -66,7 +66,7 @@ def ensemble_points(scene, realisations: int, seed: int, *, profile: str | None 
 
     names = random_params(scene)
     _check_size(scene, realisations, seed, names)
-    base = plain_chain(scene, with_map=True, profile=profile, variant=variant)
+    base = plain_chain(scene, with_map=True, profile=profile, variant=variant, study="ensemble")
     points = []
     for j in range(realisations):
         params = dict(base["params"])
@@ -256,7 +256,7 @@ def relaxed_errors(scene, points: Sequence[dict], results: Sequence[dict | None]
     run`` reports it (studies/errors.py: percent over the live range)."""
     from pulsemap.solvers.models.relaxed import RelaxedError, iterate_relaxed, model_for_scene
     from pulsemap.solvers.models.relaxed_table import SegmentRunError
-    from pulsemap.solvers.studies.forcing import bead_params
+    from pulsemap.solvers.studies.points import bead_params
     from pulsemap.solvers.studies.extent import on_contacts
 
     seed_contact = scene.first_perturbed - 1

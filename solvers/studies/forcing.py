@@ -1,38 +1,23 @@
-"""The on-site force eps_i R_i(x_i, v_i) of a scene for the DNS (paper Eq. 1), built in one place.
+"""A scene's chain for the DNS (paper Eq. 1): the scene as plain data (:func:`chain_spec`), built by the one
+builder below the studies (:func:`pulsemap.solvers.models.chain_build.build_chain`), which run, sweeps,
+bench and the relaxed model's segment runs share.
 
-A scene's force goes one way down: its parameter values per bead (:func:`parameter_values`, or
-:func:`bead_params` from a sweep's plain chain), the generated force module
-(:mod:`~pulsemap.solvers.models.codeload`), then :func:`chain_force`, the OnSiteForce the DNS takes
-with its monomial table or generated numba force (built by :mod:`~pulsemap.solvers.models.onsite`,
-which the relaxed model's segment runs use too).
-:func:`make_force` keeps what it built for a scene in-process (keyed by the resolved force: R, eps,
-parameter values, first_perturbed, beads, and where generated modules are read), so a second run of
-a scene neither loads the generated module again nor rebuilds the table.
-Per-bead data stays O(window) when R is uniform (models/onsite.py); a site-dependent R is
-O(beads) (its values are data of the whole chain).
+What stays here is the scene's side: its parameter values per bead (:func:`parameter_values`), and the
+messages that read the scene's own R (sympy) to name the term that fails (:func:`force_failure`,
+:func:`out_of_range`, the refusal at rest). Per-bead data stays O(window) when R is uniform
+(models/onsite.py); a site-dependent R is O(beads) (its values are data of the whole chain).
 """
 
 from __future__ import annotations
 
-from typing import Any, Mapping
-
 import numpy as np
 
-from pulsemap.symbolic.cache import cache_root
-from pulsemap.symbolic.param_forms import uniform_draw
-from pulsemap.solvers.chain.dns import OnSiteForce
+from pulsemap.solvers.chain.dns import Chain, OnSiteForce
 from pulsemap.solvers.data.scene import Scene
-from pulsemap.solvers.models import codeload
-from pulsemap.solvers.models.codeload import force_module
-from pulsemap.solvers.models.onsite import ForceError, distinct_beads, onsite_force
+from pulsemap.solvers.models.chain_build import ChainSpec, ForceError, build_chain, build_force
 from pulsemap.solvers.studies.methods import RunError
-from pulsemap.solvers.studies.sweep import SweepError
 
-__all__ = ["bead_params", "chain_force", "force_failure", "make_force", "out_of_range", "parameter_values"]
-
-#: Forces built by make_force in this process, by resolved force (most recent last).
-_FORCES: dict[tuple, OnSiteForce] = {}
-_FORCES_KEPT = 32
+__all__ = ["chain_spec", "force_failure", "make_force", "out_of_range", "parameter_values", "scene_chain"]
 
 
 def parameter_values(scene: Scene, beads: int | None) -> dict:
@@ -53,65 +38,37 @@ def parameter_values(scene: Scene, beads: int | None) -> dict:
     return out
 
 
-def bead_params(chain: Mapping[str, Any]) -> dict[str, float | np.ndarray]:
-    """Parameter values of a plain chain (studies/points.py): floats, or per-bead arrays (random draws
-    by :func:`pulsemap.symbolic.param_forms.uniform_draw`, as the symbolic side draws them)."""
-    beads = int(chain["beads"])
-    out: dict[str, float | np.ndarray] = {}
-    for name, value in chain["params"].items():
-        if isinstance(value, Mapping):
-            if set(value) != {"uniform", "seed"}:
-                raise SweepError(f"parameter '{name}': a random draw is {{uniform: [lo, hi], seed: s}}, got {value!r}")
-            lo, hi = value["uniform"]
-            out[name] = uniform_draw(lo, hi, value["seed"], beads)
-        elif isinstance(value, list):
-            if len(value) != beads:
-                raise SweepError(f"parameter '{name}' has {len(value)} per-bead values for {beads} beads")
-            out[name] = np.asarray(value, dtype=float)
-        else:
-            out[name] = float(value)
-    return out
+def chain_spec(scene: Scene, beads: int, bare_if_zero: bool = True) -> ChainSpec:
+    """The scene's chain of ``beads`` beads as plain data: R with its eps and values (left out when R = 0 or
+    eps = 0 and ``bare_if_zero``: the bare chain, which conserves energy, its drift checking the run), the
+    contact law's table over contacts 1..N-1 (eps folded in) and the masses."""
+    pert = scene.perturbation
+    law = scene.contact
+    contact = None if law is None or law.eps == 0.0 else law.table(beads - 1)
+    masses = None if scene.masses is None else scene.masses.bead_masses(beads)
+    on = not (bare_if_zero and (pert.is_zero or pert.eps == 0))
+    return ChainSpec(int(beads), float(scene.exponent), float(scene.velocity),
+                     R=pert.text if on else "0", params=tuple(pert.used_parameters) if on else (),
+                     values=parameter_values(scene, beads) if on else {}, eps=float(pert.eps) if on else 0.0,
+                     first_perturbed=int(scene.first_perturbed), contact=contact, masses=masses)
+
+
+def scene_chain(scene: Scene, beads: int) -> Chain:
+    """The chain of the scene's DNS (:func:`chain_spec` built by build_chain); RunError naming R's failing term
+    when the chain cannot start at rest."""
+    try:
+        return build_chain(chain_spec(scene, beads))
+    except ForceError as exc:
+        raise RunError(_at_rest(scene, beads) or str(exc)) from None
 
 
 def make_force(scene: Scene, beads: int) -> OnSiteForce:
-    """eps_i R_i(x_i, v_i) for the DNS from the generated force module (zero before first_perturbed):
-    :func:`chain_force`, refused unless R(0, 0) = 0 on every bead (the chain starts at rest); kept
-    in-process for the next run of the same resolved force."""
-    pert = scene.perturbation
-    key = (pert.text, float(pert.eps), pert.params, int(scene.first_perturbed), int(beads),
-           str(codeload.PACKAGE_DIR), str(cache_root()))  # and where its generated module comes from
-    force = _FORCES.pop(key, None)
-    if force is None:
-        force = _build_force(scene, beads)
-        while len(_FORCES) >= _FORCES_KEPT:
-            del _FORCES[next(iter(_FORCES))]
-    _FORCES[key] = force
-    return force
-
-
-def _build_force(scene: Scene, beads: int) -> OnSiteForce:
-    pert = scene.perturbation
-    mod = force_module(pert.text, pert.used_parameters)
-    chain = {"beads": beads, "first_perturbed": scene.first_perturbed, "eps": float(pert.eps)}
-    values = parameter_values(scene, beads)
+    """eps_i R_i(x_i, v_i) of the scene for the DNS (zero before first_perturbed; R = 0 too): build_force of
+    its :func:`chain_spec`, refused (RunError) unless R(0, 0) = 0 on every bead."""
     try:
-        force = chain_force(mod, chain, values)
-        k = distinct_beads(mod, beads, scene.first_perturbed, float(pert.eps), values)  # beads past k repeat bead k
-        zeros = np.zeros(k)
-        with np.errstate(all="ignore"):
-            f0 = np.asarray(force.restrict(0, k).force(zeros, zeros), dtype=float)
-    except SweepError as exc:
+        return build_force(chain_spec(scene, beads, bare_if_zero=False))
+    except ForceError as exc:
         raise RunError(_at_rest(scene, beads) or str(exc)) from None
-    except (ValueError, ArithmeticError) as exc:
-        raise RunError(_at_rest(scene, beads) or f"the on-site force cannot be evaluated at rest: {exc}") from None
-    if not np.all(np.isfinite(f0)):
-        raise RunError(_at_rest(scene, beads)
-                       or "the on-site force is undefined at rest (non-finite value): check R and its parameters")
-    if np.any(np.abs(f0) > 1e-12):
-        k = int(np.argmax(np.abs(f0)))
-        eps_k = float(pert.eps) if k + 1 >= scene.first_perturbed else 0.0
-        raise RunError(f"R(0, 0) = {f0[k] / max(eps_k, 1e-300):.6g} at bead {k + 1}: the chain would not start at rest")
-    return force
 
 
 def _at_rest(scene: Scene, beads: int, scan: int = 64) -> str | None:
@@ -133,19 +90,6 @@ def _at_rest(scene: Scene, beads: int, scan: int = 64) -> str | None:
                 return (f"R = {pert.text}: {what} is {found[1]} at rest on bead {bead} (its term {found[0]} is "
                         f"{found[1]} there): R and its slopes must be finite and real at u = v = 0 on every bead")
     return None
-
-
-def chain_force(module, chain: Mapping[str, Any], values: Mapping[str, Any] | None = None) -> OnSiteForce:
-    """eps_i R_i(x_i, v_i) (zero before first_perturbed) from a generated force module, Eq. 1
-    (:func:`~pulsemap.solvers.models.onsite.onsite_force`). Only ``chain["beads"]``,
-    ``["first_perturbed"]`` and ``["eps"]`` are read (and ``["params"]`` when ``values`` is not
-    given). A force that cannot be evaluated at rest, or is not finite there, is a SweepError.
-    """
-    values = bead_params(chain) if values is None else values
-    try:
-        return onsite_force(module, int(chain["beads"]), int(chain["first_perturbed"]), float(chain["eps"]), values)
-    except ForceError as exc:
-        raise SweepError(str(exc)) from None
 
 
 def force_failure(scene: Scene, beads: int, exc: ArithmeticError, who: str) -> str:

@@ -1,5 +1,5 @@
-"""A chain as plain parameters, and the sweep tasks that run it (DNS of Eq. 1, map of Eq. 23); its force
-is :mod:`~pulsemap.solvers.studies.forcing`'s.
+"""A chain as plain parameters, and the sweep tasks that run it (DNS of Eq. 1, map of Eq. 23); its chain is
+built by :func:`~pulsemap.solvers.models.chain_build.build_chain`, as every DNS's.
 
 The parent turns a Scene (whose perturbation is a sympy object) into a plain dict with
 :func:`plain_chain`: numbers, per-bead lists, random draws as ``{"uniform": [lo, hi], "seed": s}``
@@ -14,12 +14,12 @@ from typing import Any, Mapping
 
 
 from pulsemap.symbolic.param_forms import RandomDraw
-from pulsemap.solvers.chain.dns import Chain, simulate
+from pulsemap.solvers.chain.dns import simulate
+from pulsemap.solvers.models.chain_build import ChainSpec, build_chain, plain_values
 from pulsemap.solvers.studies.extent import dns_integrator, dns_span, dns_window_of, on_contacts
-from pulsemap.solvers.studies.forcing import bead_params, chain_force
 from pulsemap.solvers.studies.sweep import SweepError, generated_ref, load_generated
 
-__all__ = ["dns_map_task", "dns_task", "plain_chain", "random_params"]
+__all__ = ["bead_params", "dns_map_task", "dns_task", "plain_chain", "random_params"]
 
 
 # ----------------------------------------------------------------------------- parent side
@@ -41,17 +41,18 @@ def random_params(scene) -> list[str]:
 
 
 def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, variant: str | None = None,
-                window: "int | str | None" = "scene", rtol: float | None = None) -> dict:
+                window: "int | str | None" = "scene", rtol: float | None = None, study: str = "sweep tasks") -> dict:
     """The scene as the plain dict the tasks take; generates the modules it needs (parent only).
 
     Contacts: the DNS tracks first_perturbed - 1 (the map's seed contact) through the scene's
     last contact. ``window``: "scene" (the scene's [dns] mode, as ``pulsemap run``), None (whole
-    chain), "auto" or a width.
+    chain), "auto" or a width. ``study``: who asks (refused where a kind the scene states does not take it:
+    studies/run/kinds.py).
     """
     from pulsemap.solvers.models.codeload import force_module, map_module
-    from pulsemap.solvers.studies.run.chain_terms import require_onsite_only
+    from pulsemap.solvers.studies.run.kinds import require
 
-    require_onsite_only(scene, "this study (bifurcation, sweep tasks)")
+    require(scene, study)
     pert = scene.perturbation
     beads, (first, last) = dns_span(scene)
     out = {
@@ -77,13 +78,18 @@ def plain_chain(scene, *, with_map: bool = False, profile: str | None = None, va
 # ----------------------------------------------------------------------------- worker side
 
 
+def bead_params(chain: Mapping[str, Any]) -> dict:
+    """Parameter values of a plain chain: floats, or per-bead arrays (chain_build.plain_values)."""
+    return plain_values(chain["params"], int(chain["beads"]))
+
+
 def _dns(chain: Mapping[str, Any], values: Mapping[str, Any]) -> dict:
-    force = chain_force(load_generated(chain["force"]), chain, values)
+    module = load_generated(chain["force"])
+    spec = ChainSpec(int(chain["beads"]), float(chain["exponent"]), float(chain["velocity"]), module.SOURCE["R"],
+                     tuple(module.PARAMS), values, float(chain["eps"]), int(chain["first_perturbed"]))
     opts = chain["dns"]
     first, last = (int(c) for c in chain["contacts"])
-    integrator = dns_integrator(opts)
-    res = simulate(Chain(int(chain["beads"]), float(chain["exponent"]), float(chain["velocity"]), force), (first, last),
-                   integrator=integrator, window=opts.get("window"))
+    res = simulate(build_chain(spec, module), (first, last), integrator=dns_integrator(opts), window=opts.get("window"))
     contacts = list(range(first, last + 1))
     peaks = on_contacts(contacts, res.contacts, res.peaks, res.alive)
     live = [c for c, p in zip(contacts, peaks) if p is not None]

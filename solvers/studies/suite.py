@@ -110,8 +110,9 @@ def other_method(method: str) -> str:
     """The check run's method: implicit (LSODA, scipy engine) for an explicit first run, explicit for an
     implicit one (RK45: the compiled engine, so the stiff cases' check costs milliseconds)."""
     from pulsemap.solvers.chain.dns import EXPLICIT_METHODS
+    from pulsemap.solvers.chain.methods import auto_pick
 
-    return "LSODA" if method in EXPLICIT_METHODS else "RK45"
+    return auto_pick("scipy stiff") if method in EXPLICIT_METHODS else auto_pick("explicit")
 
 
 def check_contacts(contacts: tuple[int, int]) -> tuple[int, int]:

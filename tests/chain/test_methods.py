@@ -71,3 +71,13 @@ def test_a_new_kernel_is_one_row(monkeypatch):
     res = simulate(Chain(N, 1.5, 1.0), (FIRST, LAST), integrator=integrator)
     ref = simulate(Chain(N, 1.5, 1.0), (FIRST, LAST), integrator=Integrator(method="RK45", rtol=1e-9))
     np.testing.assert_array_equal(res.peaks, ref.peaks)
+
+
+def test_auto_picks_the_rows_marked_for_it():
+    """Each role 'auto' chooses between is one row: compiled kernels for the compiled engine's, scipy solvers
+    (implicit where the force is stiff) for the scipy engine's."""
+    for role in methods.AUTO_ROLES:
+        record = methods.by_name(methods.auto_pick(role))
+        assert (record.scipy if role.startswith("scipy") else bool(record.kernel))
+        assert record.implicit == (role not in ("explicit", "scipy explicit"))
+    assert (plan.METHOD, plan.STIFF_METHOD) == (methods.auto_pick("explicit"), methods.auto_pick("stiff"))

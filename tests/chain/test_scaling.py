@@ -9,7 +9,8 @@ import pytest
 
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain import scaling
-from pulsemap.solvers.chain.dns import MIN_RTOL, Chain, Integrator, OnSiteForce, simulate
+from pulsemap.solvers.chain.dns import MIN_ATOL, MIN_RTOL, Chain, Integrator, OnSiteForce, simulate
+from pulsemap.solvers.chain.errors import DNSInputError
 from pulsemap.solvers.chain.scaling import FORCE_LIMIT, Scaling, ScalingError
 
 N, CONTACTS = 40, (10, 25)
@@ -90,3 +91,19 @@ def test_a_tolerance_float64_cannot_deliver_is_refused(rtol):
     with pytest.raises(ValueError, match=f"rtol >= {MIN_RTOL:.2g}"):
         simulate(Chain(N, 1.5, 1.0), CONTACTS, integrator=Integrator(rtol=rtol))
     assert math.isclose(MIN_RTOL, 100 * np.finfo(float).eps)
+
+
+@pytest.mark.parametrize("atol", [1e-300, 1e-160, MIN_ATOL / 2])
+def test_an_atol_the_error_norm_cannot_square_is_refused(atol):
+    with pytest.raises(DNSInputError, match=f"atol >= {MIN_ATOL:g}"):
+        Integrator(atol=atol)
+
+
+@pytest.mark.parametrize("engine, method", [("compiled", "RK45"), ("compiled", "DOP853"), ("scipy", "DOP853")])
+def test_the_smallest_atol_taken_still_runs_to_the_last_contact(engine, method):
+    """At MIN_ATOL every engine's error norm stays in float64 and the bare chain's pulse arrives as at atol 1e-12."""
+    tight = simulate(Chain(N, 1.5, 1.0), CONTACTS, integrator=Integrator(rtol=1e-6, atol=MIN_ATOL, engine=engine,
+                                                                        method=method))
+    plain = simulate(Chain(N, 1.5, 1.0), CONTACTS, integrator=Integrator(rtol=1e-6, engine=engine, method=method))
+    assert tight.stop_reason == "last contact peaked" and tight.engine == engine
+    np.testing.assert_allclose(tight.peaks, plain.peaks, rtol=1e-5)

@@ -326,6 +326,7 @@ SCENES = [
      ["velocity = 999999999999...", "(401 digits) is beyond float64"]),
     ("velocity 1e300", edit("velocity = 1.0", "velocity = 1e300"), ["velocity = 1e+300", "outside [1e-150, 1e+150]"]),
     ("rtol 1e-300", BASE + "[dns]\nrtol = 1e-300\n", ["rtol = 1e-300", "below what float64 can deliver", "rtol >= 2.2e-14"]),
+    ("atol 1e-200", BASE + "[dns]\natol = 1e-200\n", ["atol = 1e-200", "below what the error norm can use", "atol >= 1e-150"]),
     ("eps inf", edit("eps = 0.1", "eps = inf"), ["eps", "not finite"]),
     ("eps 1e400", edit("eps = 0.1", "eps = 1e400"), ["eps", "not finite"]),
     ("eps negative", edit("eps = 0.1", "eps = -0.1"), ["eps = -0.1", ">= 0"]),

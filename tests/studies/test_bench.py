@@ -128,18 +128,19 @@ def test_the_bench_chain_carries_the_scenes_contact_term_and_masses():
     import numpy as np
 
     import pulsemap
-    from pulsemap.solvers.studies.bench.lines import bench_chain, scripts_refusal
+    from pulsemap.solvers.studies.bench.lines import scripts_refusal
+    from pulsemap.solvers.studies.forcing import scene_chain
     from pulsemap.solvers.studies.extent import dns_span
 
     sc = pulsemap.scene(CONTACT_SCENE)
     beads, _ = dns_span(sc)
-    chain = bench_chain(sc, beads)
+    chain = scene_chain(sc, beads)
     assert chain.force is None and chain.masses is not None and chain.contact is not None
     np.testing.assert_array_equal(chain.masses[15:18], [1.0, 1.003, 1.006])
     assert chain.contact.coef[0, 14] == 0.0 and chain.contact.coef[0, 15] == 0.02  # contacts 15 and 16
     assert "on-site R on unit masses" in scripts_refusal(sc)
     onsite = load_scene("fig6-eps0.1")
-    assert bench_chain(onsite, 60).force is not None and scripts_refusal(onsite) is None
+    assert scene_chain(onsite, 60).force is not None and scripts_refusal(onsite) is None
 
 
 @pytest.mark.bench

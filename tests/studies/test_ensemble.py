@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pulsemap.solvers.studies.ensemble import EnsembleError, derived_seed, ensemble, ensemble_points, statistics
-from pulsemap.solvers.studies.forcing import bead_params
+from pulsemap.solvers.studies.points import bead_params
 from pulsemap.solvers.studies.points import plain_chain
 from pulsemap.solvers.studies.run import run_scene
 from pulsemap.solvers.data.scene import load_scene, with_overrides

@@ -1,5 +1,6 @@
-"""A scene's force (solvers/studies/forcing.py): O(window) per-bead data for a uniform R, the same
-force as on the whole chain, kept in-process, and one random draw on both sides."""
+"""A chain's force (solvers/models/chain_build.py, a scene's through solvers/studies/forcing.py): O(window)
+per-bead data for a uniform R, the same force as on the whole chain, kept in-process, one random draw on both
+sides, and one builder for every caller."""
 
 from __future__ import annotations
 
@@ -9,8 +10,17 @@ import numpy as np
 import pulsemap
 
 from pulsemap.symbolic.perturbation import make_perturbation
-from pulsemap.solvers.studies.forcing import bead_params, chain_force, make_force
+from pulsemap.solvers.models.chain_build import ChainSpec, build_force
+from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.points import bead_params
 from pulsemap.solvers.models.codeload import force_module
+
+
+def chain_force(module, chain, values):
+    """The force of a plain chain through the one builder (not kept: each test sees its own build)."""
+    spec = ChainSpec(chain["beads"], 1.5, 1.0, module.SOURCE["R"], tuple(module.PARAMS), values, chain["eps"],
+                     chain["first_perturbed"])
+    return build_force(spec, module, keep=False)
 
 
 def _full_force(module, beads, fp, eps, values, x, v):
@@ -65,3 +75,15 @@ def test_one_random_draw_on_both_sides():
     worker = bead_params({"beads": 50, "params": {"mu": {"uniform": [0.2, 0.9], "seed": 11}}})["mu"]
     np.testing.assert_array_equal(pert.bead_values("mu", 50), worker)
     assert worker.min() >= 0.2 and worker.max() < 0.9 and np.unique(worker).size == 50
+
+
+def test_every_dns_caller_builds_its_chain_through_the_one_builder():
+    """No module above models/ assembles a force: none calls onsite_force or constructs a Chain with a force."""
+    import re
+    from pathlib import Path
+
+    root = Path(pulsemap.__file__).resolve().parent / "solvers"
+    for path in (root / "studies").rglob("*.py"):
+        text = path.read_text(encoding="utf-8")
+        assert "onsite_force" not in text, path
+        assert not re.search(r"\bChain\(", text), f"{path} constructs a Chain: use forcing.scene_chain"

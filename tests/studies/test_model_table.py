@@ -65,6 +65,23 @@ def test_a_registered_toy_model_runs_and_is_reported(monkeypatch):
     assert out["map"]["model"] == RUNNERS["map"].title and any(p is not None for p in out["peaks"]["map"])
 
 
+def test_a_toy_models_preparation_reaches_its_runner_or_refuses_it(monkeypatch):
+    """Runner.prepare runs before the models: what it forms is the runner's ``inputs.prepared[name]``; a
+    preparation that says why not refuses the model in its own entry, and the others still run."""
+    def toy(state, name, inputs):
+        state.out["peaks"][name] = [inputs.prepared[name]] * len(state.contacts)
+        return {"status": "ok"}
+
+    monkeypatch.setitem(RUNNERS, "toy", Runner("toy model: a prepared constant", toy, lambda state: (0.5, None)))
+    monkeypatch.setitem(RUNNERS, "nope", Runner("toy model: refused while preparing", toy,
+                                                lambda state: (None, "no constant for this scene")))
+    state = _state(["toy", "nope", "map"])
+    run_models(state)
+    assert state.out["peaks"]["toy"] == [0.5] * len(state.contacts)
+    assert state.out["nope"] == {"model": "toy model: refused while preparing", "refused": "no constant for this scene"}
+    assert any(p is not None for p in state.out["peaks"]["map"])
+
+
 @pytest.mark.parametrize("error, said", [(OverflowError("math range error"), "OverflowError (math range error)"),
                                          (ZeroDivisionError("float division by zero"), "ZeroDivisionError")])
 def test_a_model_that_fails_is_reported_in_its_own_entry_and_the_others_run(monkeypatch, error, said):

@@ -357,6 +357,8 @@ def _check_choice(value: Any, key: str, choices: tuple[str, ...]) -> str:
 
 MIN_RTOL = 100 * sys.float_info.epsilon
 """Smallest rtol float64 can deliver (= solvers.chain.dns.MIN_RTOL; scipy raises a smaller one silently)."""
+MIN_ATOL = 1e-150
+"""Smallest atol the error norms can use (= solvers.chain.dns.MIN_ATOL: they square error/atol)."""
 
 
 def _check_dns_table(table: Mapping[str, Any]) -> FrozenMap:
@@ -372,6 +374,9 @@ def _check_dns_table(table: Mapping[str, Any]) -> FrozenMap:
         if key == "rtol" and tol < MIN_RTOL:
             raise _Problem(f"[dns] rtol = {tol:g} is below what float64 can deliver: give rtol >= {MIN_RTOL:.2g} "
                            "(100 x machine epsilon)")
+        if key == "atol" and tol < MIN_ATOL:
+            raise _Problem(f"[dns] atol = {tol:g} is below what the error norm can use: give atol >= {MIN_ATOL:g} "
+                           "(the norm squares error/atol, which leaves float64 below ~1e-154)")
         values[key] = tol
     values["method"] = _check_choice(table["method"], "[dns] method", DNS_METHODS)
     if "engine" in table:

@@ -123,13 +123,13 @@ def _child(scene, job: dict) -> dict:
 def _first_call(scene_path: str, job: dict) -> dict:
     """In the child: build the force (not timed), then time the first call of the job's line."""
     from pulsemap.solvers.chain.dns import Integrator, simulate
-    from pulsemap.solvers.studies.bench.lines import bench_chain
+    from pulsemap.solvers.studies.forcing import scene_chain
     from pulsemap.solvers.studies.extent import dns_span, on_contacts
     from pulsemap.solvers.studies.bench.reference_script import GRID_STEP, script_peaks
 
     scene = pickle.loads(Path(scene_path).read_bytes())
     beads, span = dns_span(scene)
-    chain = bench_chain(scene, beads)
+    chain = scene_chain(scene, beads)
     contacts = list(range(scene.contacts[0], scene.contacts[1] + 1))
     t0, c0 = time.perf_counter(), time.process_time()
     if job["kind"] == "script":

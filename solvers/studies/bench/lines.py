@@ -13,20 +13,8 @@ from pulsemap.solvers.data.scene import with_overrides
 from pulsemap.solvers.studies.bench.measure import Ladder, Point, best_of, fmt, peak_error, tolerances
 from pulsemap.solvers.studies.errors import counted
 
-__all__ = ["bench_chain", "dns_points", "model_points", "reference_run", "script_points", "script_span",
+__all__ = ["dns_points", "model_points", "reference_run", "script_points", "script_span",
            "scripts_refusal"]
-
-
-def bench_chain(scene, beads: int):
-    """The scene's chain as every DNS line of the benchmark runs it: the on-site force (forcing.make_force; none for
-    a contact-law or mass scene without R) with the contact law's term and the masses (run.dns_chain)."""
-    from pulsemap.solvers.studies.forcing import make_force
-    from pulsemap.solvers.studies.run import dns_chain
-    from pulsemap.solvers.studies.run.chain_terms import has_chain_terms
-
-    pert = scene.perturbation
-    bare = has_chain_terms(scene) and (pert.is_zero or pert.eps == 0.0)
-    return dns_chain(scene, beads, None if bare else make_force(scene, beads))
 
 
 def scripts_refusal(scene) -> str | None:
@@ -54,9 +42,10 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
     (window or full chain) on ``engine`` ("scipy": the reference engine, "compiled": the numba one)."""
     from pulsemap.solvers.chain.dns import Integrator, simulate
     from pulsemap.solvers.studies.extent import dns_span, on_contacts
+    from pulsemap.solvers.studies.forcing import scene_chain
 
     beads, span = dns_span(scene)
-    chain = bench_chain(scene, beads)
+    chain = scene_chain(scene, beads)
     mode = "window" if window else "full"
     out = []
     for method in methods:
@@ -82,10 +71,12 @@ def script_span(scene) -> tuple[float, float]:
     """(t_end, contact time) of a script run: 3 contact times past the last live peak of a windowed
     DNS at rtol 1e-8 (as short as a user who knows when the pulse gets there would make it)."""
     from pulsemap.solvers.chain.dns import Integrator, contact_rate, simulate
+    from pulsemap.solvers.studies.forcing import scene_chain
     from pulsemap.solvers.studies.extent import dns_span
 
     beads, span = dns_span(scene)
-    probe = simulate(bench_chain(scene, beads), span, window="auto", integrator=Integrator(**tolerances(scene, 1e-8)))
+    probe = simulate(scene_chain(scene, beads), span,
+                     window="auto", integrator=Integrator(**tolerances(scene, 1e-8)))
     contact_time = 1.0 / contact_rate(scene.velocity, scene.exponent)
     return float(np.nanmax(probe.peak_times[probe.alive])) + 3.0 * contact_time, contact_time
 

@@ -76,7 +76,7 @@ def base_chain(scene, last: int, rtol: float, window: "int | str | None" = "auto
     from pulsemap.solvers.studies.points import plain_chain
 
     sc = with_overrides(scene, contacts=(scene.first_perturbed, int(last)), beads=None)
-    return plain_chain(sc, window=window, rtol=rtol)
+    return plain_chain(sc, window=window, rtol=rtol, study="bifurcation")
 
 
 def probe(chain: dict, name: str, value: float, v0: float, last: int) -> dict:

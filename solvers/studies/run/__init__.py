@@ -9,7 +9,7 @@ the DNS peak at the last unperturbed contact (first_perturbed - 1), converted by
 they entered, :func:`pulsemap.solvers.api.checks.run_choices`), the DNS or a reused one
 (:func:`run_dns`, :func:`reuse_dns_run`), the reduced models
 (:func:`pulsemap.solvers.studies.run.models.run_models`) and the errors against the DNS
-(:func:`compare_with_dns`). The force is :mod:`~pulsemap.solvers.studies.forcing`, the error
+(:func:`compare_with_dns`). The chain is :mod:`~pulsemap.solvers.studies.forcing`'s, the error
 measures :mod:`~pulsemap.solvers.studies.errors`, the outputs
 :mod:`~pulsemap.solvers.studies.run.report`.
 """
@@ -26,12 +26,12 @@ import numpy as np
 from pulsemap.symbolic.provenance import provenance
 from pulsemap.solvers import __version__
 from pulsemap.solvers.chain.front import Snapshots
-from pulsemap.solvers.chain.dns import Chain, compiled_kernel_of, simulate
+from pulsemap.solvers.chain.dns import compiled_kernel_of, simulate
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
-from pulsemap.solvers.studies.forcing import force_failure, make_force
+from pulsemap.solvers.studies.forcing import force_failure, scene_chain
 from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
-from pulsemap.solvers.studies.run import chain_terms
+from pulsemap.solvers.studies.run import chain_terms, kinds
 from pulsemap.solvers.studies.extent import (contact_slots, dns_integrator, dns_span, dns_window_of, listed,
                                             on_contacts)
 from pulsemap.solvers.studies.run.state import RunState
@@ -72,7 +72,7 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
                                "(1 + f7/(2 f1))^(-1/P) per contact, docs/errata.rst item 5); --variant corrected "
                                "or 1d keeps A constant")
     assert all(isinstance(c, int) and c0 <= c <= c1 for c in snapshots) and (not snapshots or "dns" in methods), snapshots
-    refused = chain_terms.refusals(scene, methods)
+    refused = kinds.refusals(scene, methods)
     if refused:
         from pulsemap.solvers.studies.run.models import title  # the model table (loads the models' modules)
 
@@ -84,29 +84,10 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
                     snapshots=tuple(sorted(set(snapshots))))
 
 
-def _dns_force(scene: Scene, beads: int):
-    """The on-site force of the scene's DNS; None for R = 0 (or eps = 0): the bare chain of Eq. 1, which
-    conserves energy, its drift checking the run."""
-    pert = scene.perturbation
-    return None if (pert.is_zero or pert.eps == 0) else make_force(scene, beads)
-
-
-def dns_chain(scene: Scene, beads: int, force=None) -> Chain:
-    """The chain of the scene's DNS: N, n, v0, the on-site force (``force``, made by _dns_force), the contact
-    law's term (its table over contacts 1..N-1, eps folded in) and the masses."""
-    contact = None
-    if scene.contact is not None and scene.contact.eps != 0.0:
-        from pulsemap.solvers.chain.contact_force import ContactTable
-
-        contact = ContactTable(*scene.contact.table(beads - 1))
-    masses = None if scene.masses is None else scene.masses.bead_masses(beads)
-    return Chain(beads, scene.exponent, scene.velocity, force, contact=contact, masses=masses)
-
-
 def dns_kernel(scene: Scene) -> tuple[str, str] | None:
     """The compiled kernel (method, force form) the scene's DNS runs on (chain/dns.compiled_kernel_of), or None."""
     beads, _ = dns_span(scene)
-    return compiled_kernel_of(dns_chain(scene, beads, _dns_force(scene, beads)),
+    return compiled_kernel_of(scene_chain(scene, beads),
                               integrator=dns_integrator(scene.dns), window=dns_window_of(scene, "scene"))
 
 
@@ -118,8 +99,7 @@ def derive_models(scene: Scene, methods: Sequence[str], profile: str | None = No
 
     state = start_run(scene, methods, profile, variant, None)
     models.derive_models(state)
-    if "dressed-law" in state.methods:
-        models.prepare_dressed(state)  # forms the law into the caches (a refusal is the run's to report)
+    models.prepare_models(state)  # e.g. forms the dressed law into the caches (a refusal is the run's to report)
 
 
 def _ahead(step, *args):
@@ -170,11 +150,11 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     scene, out, contacts = state.scene, state.out, state.contacts
     beads, span = dns_span(scene)
     t0 = time.perf_counter()
-    force = _dns_force(scene, beads)
+    chain = scene_chain(scene, beads)
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
-        res = simulate(dns_chain(scene, beads, force), span, integrator=dns_integrator(scene.dns),
+        res = simulate(chain, span, integrator=dns_integrator(scene.dns),
                        snapshots=Snapshots([c for c in state.snapshots if span[0] <= c <= span[1]]),
                        progress=progress, window=dns_window_of(scene, dns_window))
     except ArithmeticError as exc:  # R not finite (or not real) where the chain went

@@ -7,8 +7,7 @@ The first-order energy law
 (derive/contact.py, evaluated by models/contact_law.py) as ``energy-law`` (the ODE) and ``energy-map`` (the
 energy stepped contact by contact), seeded like every model at contact first_perturbed - 1; ``relaxed`` of a
 chain of varying masses (:func:`mass_relaxed`: models/mass_kernel.py; a contact term's relaxed map is the model
-table's own, models/relaxed.py). The other models are derived for an on-site R on a chain of unit masses and say
-so (:func:`refusals`).
+table's own, models/relaxed.py). Which models each kind of perturbation has is studies/run/kinds.py's table.
 """
 
 from __future__ import annotations
@@ -18,7 +17,6 @@ import time
 import numpy as np
 
 from pulsemap.symbolic.errors import PulsemapError
-from pulsemap.solvers.studies.methods import MODELS
 from pulsemap.solvers.studies.extent import dns_span, on_contacts
 
 #: The models a scene with a contact law's term or masses runs here: name -> the law's form.
@@ -31,29 +29,6 @@ TITLES = {"energy-law": "first-order energy law of the contact law's term and th
 
 def has_chain_terms(scene) -> bool:
     return scene.contact is not None or scene.masses is not None
-
-
-def require_onsite_only(scene, what: str) -> None:
-    """A one-line RunError where a study builds its chains from R alone and would drop P or the masses."""
-    if has_chain_terms(scene):
-        from pulsemap.solvers.studies.methods import RunError
-
-        raise RunError(f"scene {scene.name} has a contact-law term or masses: {what} builds its chains from the "
-                       "on-site R alone and does not take them yet; `pulsemap run`, `table`, `ensemble` and scene sweeps "
-                       "(`sweep --over`) do")
-
-
-def refusals(scene, methods) -> dict[str, str]:
-    """The reduced models asked for that are not derived for the scene's contact-law term or masses, with why
-    and what does it."""
-    if not has_chain_terms(scene):
-        return {}
-    kinds = [what for what, given in (("a contact-law term P", scene.contact is not None),
-                                      ("bead masses", scene.masses is not None)) if given]
-    why = (f"derived for an on-site R on a chain of unit masses; this scene has {' and '.join(kinds)}: "
-           f"energy-law, energy-map, relaxed and the DNS run it")
-    own = set(CHAIN_TERM_MODELS) | {"relaxed"}  # relaxed: segment runs with the contact term, or the mass kernel
-    return {m: why for m in methods if m in MODELS and m not in own}
 
 
 def mass_relaxed(state, name: str) -> dict:
@@ -155,5 +130,4 @@ def run_chain_term_models(state, seed_A_peak: float | None) -> None:
             state.warnings.append(f"{m}: the law ended ({run.status}) at contact index {run.ended_at:.6g}")
 
 
-__all__ = ["CHAIN_TERM_MODELS", "has_chain_terms", "mass_relaxed", "refusals", "require_onsite_only",
-           "run_chain_term_models"]
+__all__ = ["CHAIN_TERM_MODELS", "has_chain_terms", "mass_relaxed", "run_chain_term_models"]

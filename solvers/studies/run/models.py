@@ -121,7 +121,7 @@ class ModelInputs:
 
     map_module: ModuleType | None  # Eq. 23's module (map, longwave); None when neither runs
     balance: dict  # balanced quantity -> its module, or QUADRATURE
-    dressed: object | None  # the dressed law (studies/dressed.py), None unless it runs
+    prepared: dict  # model name -> what its Runner.prepare formed before the models ran (the dressed law)
     seed_A: float  # the amplitude at contact first_perturbed - 1 (Eq. 32)
     S0: float  # the profile's peak S(0) the seed was converted with: peak = A S0
     prm: dict  # parameter values per bead
@@ -238,17 +238,20 @@ def run_relaxed(state: "RunState", name: str, inputs: ModelInputs) -> dict:
 
 def run_dressed_law(state: "RunState", name: str, inputs: ModelInputs) -> dict:
     """The dressed law (studies/run/dressed.py) from the seed."""
-    return run_dressed(state, name, inputs.dressed, inputs.seed_A, inputs.S0)
+    return run_dressed(state, name, inputs.prepared.get(name), inputs.seed_A, inputs.S0)
 
 
 @dataclass(frozen=True)
 class Runner:
     """A row of the model table: the model's title (for every output that names it) and its runner,
     ``run(state, name, inputs)``, which writes the model's peaks and warnings into ``state`` and returns
-    the model's entry of the result (without its title)."""
+    the model's entry of the result (without its title), and ``prepare(state)`` (None: nothing to prepare):
+    the work done before any model runs (also while the chain kernels build), returning (what ``run`` finds
+    in ``inputs.prepared[name]``, None) or (None, why the model is refused)."""
 
     title: str
     run: Callable[["RunState", str, ModelInputs], dict]
+    prepare: Callable[["RunState"], tuple] | None = None
 
 
 #: The model table: every reduced model a run offers (the scene schema's METHODS but the DNS), in order.
@@ -262,7 +265,7 @@ RUNNERS: dict[str, Runner] = {
     "relaxed": Runner("relaxed transfer map P_(k+1) = F(P_k), built from short DNS runs of the same R, with the "
                       "tabulated onset", run_relaxed),
     "dressed-law": Runner("dressed law: d ln A/di = -sum k1 x/(1 - (k2/k1) x) - sum k2_jl x_j x_l (k1, k2/k1, onset "
-                          "lag, cross terms derived)", run_dressed_law),
+                          "lag, cross terms derived)", run_dressed_law, prepare_dressed),
 }
 
 
@@ -321,18 +324,30 @@ def run_model(state: "RunState", name: str, inputs: ModelInputs) -> None:
     state.out[name] = {"model": title(name), **info}
 
 
+def prepare_models(state: "RunState") -> dict:
+    """Run every asked model's Runner.prepare: what each formed, by name; a model whose preparation is refused or
+    fails gets its entry here and does not run."""
+    prepared = {}
+    for name in state.methods:
+        prepare = RUNNERS[name].prepare if name in RUNNERS and name not in state.out else None
+        if prepare is None:
+            continue
+        try:
+            made, why = prepare(state)
+        except PulsemapError as exc:  # forming the model failed (a calibration that cannot be done)
+            fail(state, name, exc)
+            continue
+        if why is not None:
+            refuse(state, name, why)
+        else:
+            prepared[name] = made
+    return prepared
+
+
 def run_models(state: "RunState") -> None:
     """Derive, seed and run every reduced model among the methods, each on its own (:func:`run_model`)."""
     mod, balance = derive_models(state)
-    dressed = None
-    if "dressed-law" in state.methods:
-        try:
-            dressed, why = prepare_dressed(state)
-        except PulsemapError as exc:  # forming the law failed (a calibration that cannot be done)
-            dressed, why = None, None
-            fail(state, "dressed-law", exc)
-        if why is not None:
-            refuse(state, "dressed-law", why)
+    prepared = prepare_models(state)
     todo = [m for m in state.methods if m in RUNNERS and m not in state.out]  # not refused while deriving
     if not todo:
         return
@@ -340,7 +355,7 @@ def run_models(state: "RunState") -> None:
         make_force(state.scene, state.scene.beads or chain_length_for(state.scene.contacts[1]))  # rest on each bead
     modules = [m for m in (mod, *balance.values()) if m is not None and m is not QUADRATURE]
     S0 = float(modules[0].S0 if modules else exact_profile(state.scene.exponent).S0)
-    inputs = ModelInputs(mod, balance, dressed, seed_models(state, S0), S0, parameter_values(state.scene, state.scene.beads))
+    inputs = ModelInputs(mod, balance, prepared, seed_models(state, S0), S0, parameter_values(state.scene, state.scene.beads))
     for name in todo:
         run_model(state, name, inputs)
 
