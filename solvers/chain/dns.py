@@ -346,7 +346,8 @@ def _planned(chain: Chain, integrator: Integrator, window, snapshots: bool):
     data, force_reason = force_data(chain.force) if wants_force_data(engine, method, snapshots) else (None, "")
     return data, plan(engine=engine, method=method, force=chain.force, velocity=velocity, exponent=chain.exponent,
                       rtol=integrator.rtol, window=window, snapshots=snapshots, force_reason=force_reason,
-                      damping=0.0 if chain.contact is None else chain.contact.damping)
+                      damping=0.0 if chain.contact is None else
+                      chain.contact.damping(chain.exponent, velocity_scale(velocity, chain.exponent)))
 
 
 def _locate(force: OnSiteForce | None, beads: int, exc: ForceNotFinite) -> ForceNotFinite:

@@ -57,8 +57,8 @@ BOUNDARIES = ("coast", "free")
 #: error against the full chain is at least 3x below the accuracy (10x from 1e-8 on) and past the
 #: cliff at 13; below 1e-9 the integrator's floor (the calibration: docs/dns.rst, "Window calibration").
 BEHIND_FOR: tuple[tuple[float, int], ...] = ((1e-7, 16), (1e-8, 18), (1e-9, 22), (0.0, 24))
-#: Beads added behind for a dissipative contact term of strength gamma (ContactTable.damping): ceil(DAMPED_BEHIND x
-#: gamma^DAMPED_POWER). A damped pulse leaves its beads moving with loaded contacts, which push the front once the
+#: Beads added behind for a dissipative contact term of strength gamma (ContactTable.damping at the run's strain
+#: scale): ceil(DAMPED_BEHIND x gamma^DAMPED_POWER). A damped pulse leaves its beads moving with loaded contacts, which push the front once the
 #: pulse has decayed; the fewest beads behind for 1e-8 down to 10 % of the entry peak, dashpot eps c 0.05..2 at
 #: n = 3/2 (docs/contact.rst, "The moving window and damped contacts").
 DAMPED_BEHIND, DAMPED_POWER = 46.0, 0.6
