@@ -46,6 +46,17 @@ class ContactTable:
         object.__setattr__(self, "exps", exps)
         object.__setattr__(self, "coef", coef)
 
+    def damping(self, exponent: float, strain: float = 1.0) -> float:
+        """The largest over the contacts of sum |eps_c c| strain^(a + b (n+1)/2 - n) over the dissipative terms (odd
+        b): their force against d^n on a wave of strain scale ``strain`` (w ~ strain^((n+1)/2); a dashpot weighs
+        more on a weaker wave); the moving window's measure of what a damped pulse leaves behind (window.damped_behind)."""
+        odd = self.exps[:, 1] % 2 == 1
+        if not odd.any():
+            return 0.0
+        a, b = self.exps[odd, 0], self.exps[odd, 1]
+        weight = float(strain) ** (a + b * (exponent + 1.0) / 2.0 - exponent)
+        return float(np.max(np.sum(np.abs(self.coef[odd]) * weight[:, None], axis=0)))
+
     def _columns(self, k: Array) -> Array:
         return self.coef[:, np.minimum(k, self.coef.shape[1] - 1)]
 

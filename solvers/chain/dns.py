@@ -167,11 +167,18 @@ def check_run(chain: Chain, contacts: tuple[int, int], stop: StopRules) -> tuple
 # ----------------------------------------------------------------------------- the run
 
 
-def _window_energies(force: OnSiteForce | None, res: DNSResult) -> DNSResult:
-    """A moving window knows the whole chain's energy only without R: the beads it dropped keep what
-    they carried then (their drift is the run's accuracy check); with R they go on gaining or losing
-    energy out of sight (docs/dns.rst), so ``total_energy`` is None. The pulse's energy (beads k-8..k+8) stays."""
-    return res if force is None or res.mode == "full" else replace(res, total_energy=None)
+def _window_energies(chain: Chain, res: DNSResult) -> DNSResult:
+    """A moving window knows the whole chain's energy only for the Hertz chain of unit masses without R: the beads
+    it dropped keep what they carried then (their drift is the run's accuracy check); with R they go on gaining or
+    losing energy out of sight (docs/dns.rst), so ``total_energy`` is None; with a contact term or masses the beads
+    behind a damped pulse or a mass step keep moving and trade energy with the window through its coasting bead
+    (12 % over 85 contacts of 10 % random masses, the peaks exact to 1e-10), so ``energy_drift`` is None too. The
+    pulse's energy (beads k-8..k+8) stays."""
+    if res.mode == "full" or (chain.force is None and chain.contact is None and chain.masses is None):
+        return res
+    if chain.contact is None and chain.masses is None:
+        return replace(res, total_energy=None)
+    return replace(res, total_energy=None, energy_drift=None)
 
 
 def simulate(
@@ -266,12 +273,12 @@ def simulate(
                 failure_note=lambda lo, y: largest_force(_window.restrict_force(force, beads, lo, lo + y.size // 2), y, lo))
         except ForceNotFinite as exc:
             raise _locate(force, beads, exc) from None
-        return _window_energies(force, res)
+        return _window_energies(chain, res)
     terms = (contact, masses)
     if how.rule is not None:
         with np.errstate(all="ignore"):  # a non-finite force raises ForceNotFinite (models/onsite.py), unprinted
             res = _window.simulate_windowed(chain, (first, last), how, integrator, rules, progress=progress, front=front)
-        return _window_energies(force, replace(res, engine="scipy", engine_reason=how.reason))
+        return _window_energies(chain, replace(res, engine="scipy", engine_reason=how.reason))
     y0 = initial_state(beads, velocity) if launch is None else launch.state(exponent, beads)
     e0 = energy(y0[0::2], y0[1::2], exponent, masses)
 
@@ -338,7 +345,9 @@ def _planned(chain: Chain, integrator: Integrator, window, snapshots: bool):
     method, engine = integrator.method, integrator.engine
     data, force_reason = force_data(chain.force) if wants_force_data(engine, method, snapshots) else (None, "")
     return data, plan(engine=engine, method=method, force=chain.force, velocity=velocity, exponent=chain.exponent,
-                      rtol=integrator.rtol, window=window, snapshots=snapshots, force_reason=force_reason)
+                      rtol=integrator.rtol, window=window, snapshots=snapshots, force_reason=force_reason,
+                      damping=0.0 if chain.contact is None else
+                      chain.contact.damping(chain.exponent, velocity_scale(velocity, chain.exponent)))
 
 
 def _locate(force: OnSiteForce | None, beads: int, exc: ForceNotFinite) -> ForceNotFinite:

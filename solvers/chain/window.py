@@ -15,6 +15,11 @@ super-exponentially (delta_{i+1} ~ delta_i^n ahead of the front), so
   dropped bead becomes a prescribed left boundary: it coasts with its velocity at the moment
   it was dropped (``boundary="coast"``), or it is removed with its contact (``"free"``).
 
+With a contact law's term eps_c P_k(d, w) and masses (the Chain's contact and masses) the same holds: the
+coasting bead closes its contact with w = v_coast - v_lo, the wall with w = v_(hi-1), the contact table is read at
+the chain's own contact indices and the window's masses divide the forces (equations.make_terms_rhs); beads
+behind a damped pulse or a mass step keep moving, and the coasting bead carries that momentum.
+
 The scipy solver is restarted at every shift with the last step size as its first step, so a
 shift costs one or two right-hand-side evaluations. The cost per contact is independent of the
 chain length N (the full chain costs O(N) per contact, O(N^2) per run).
@@ -26,6 +31,7 @@ contact, n = 1.5 and n = 3, v0 = 1, unperturbed and damped from bead 16); see do
 
 from __future__ import annotations
 
+import math
 import time as _time
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
@@ -51,6 +57,11 @@ BOUNDARIES = ("coast", "free")
 #: error against the full chain is at least 3x below the accuracy (10x from 1e-8 on) and past the
 #: cliff at 13; below 1e-9 the integrator's floor (the calibration: docs/dns.rst, "Window calibration").
 BEHIND_FOR: tuple[tuple[float, int], ...] = ((1e-7, 16), (1e-8, 18), (1e-9, 22), (0.0, 24))
+#: Beads added behind for a dissipative contact term of strength gamma (ContactTable.damping at the run's strain
+#: scale): ceil(DAMPED_BEHIND x gamma^DAMPED_POWER). A damped pulse leaves its beads moving with loaded contacts, which push the front once the
+#: pulse has decayed; the fewest beads behind for 1e-8 down to 10 % of the entry peak, dashpot eps c 0.05..2 at
+#: n = 3/2 (docs/contact.rst, "The moving window and damped contacts").
+DAMPED_BEHIND, DAMPED_POWER = 46.0, 0.6
 THRESHOLD_FRACTION = 1e-2  # ahead threshold = accuracy x this (it moves the peaks by ~5x itself at most)
 DEFAULT_WINDOW_ACCURACY = 1e-8  # simulate's window accuracy unless rtol asks for less (window_accuracy_for)
 
@@ -90,17 +101,23 @@ def validate_rule(rule: WindowRule) -> WindowRule:
     return rule
 
 
-def rule_for_accuracy(accuracy: float) -> WindowRule:
+def rule_for_accuracy(accuracy: float, damping: float = 0.0) -> WindowRule:
     """Window rule whose truncation error stays below ``accuracy`` (relative peak error).
 
     Calibrated rule (BEHIND_FOR; docs/dns.rst, "Window calibration"): 16 beads behind down to 1e-7,
     18 down to 1e-8, 22 down to 1e-9, 24 below (the integrator's floor); ahead, a bead is added when the last one moves by accuracy / 100 of the
-    scales v0^(2/(n+1)) and v0.
+    scales v0^(2/(n+1)) and v0. A dissipative contact term of strength ``damping`` adds damped_behind(damping).
     """
     if not (np.isfinite(accuracy) and 0.0 < accuracy < 1.0):
         raise DNSInputError(f"window_accuracy must lie in (0, 1), got {accuracy!r}")
-    behind = next(b for floor, b in BEHIND_FOR if accuracy >= floor)
+    behind = next(b for floor, b in BEHIND_FOR if accuracy >= floor) + damped_behind(damping)
     return WindowRule(behind=behind, threshold=max(THRESHOLD_FRACTION * float(accuracy), 1e-30))
+
+
+def damped_behind(damping: float) -> int:
+    """Beads the window keeps behind the front beyond the calibrated rule for a contact term of damping ``damping``
+    (contact_force.ContactTable.damping; 0: none)."""
+    return int(math.ceil(DAMPED_BEHIND * damping**DAMPED_POWER)) if damping > 0.0 else 0
 
 
 @dataclass(frozen=True)
@@ -143,14 +160,15 @@ def rule_for_width(width: int) -> WindowRule:
     return WindowRule(behind=int(width) - ahead - chunk - 1, ahead=ahead, chunk=chunk)
 
 
-def resolve_rule(window, accuracy: float) -> WindowRule:
-    """``window`` as given to simulate(): 'auto' (rule_for_accuracy(accuracy)), an int width, or a WindowRule."""
+def resolve_rule(window, accuracy: float, damping: float = 0.0) -> WindowRule:
+    """``window`` as given to simulate(): 'auto' (rule_for_accuracy(accuracy, damping)), an int width, or a
+    WindowRule (those two as given)."""
     if isinstance(window, WindowRule):
         return validate_rule(window)
     if isinstance(window, str):
         if window != "auto":
             raise DNSInputError(f"window must be None, 'auto', an int width or a WindowRule, got {window!r}")
-        return rule_for_accuracy(accuracy)
+        return rule_for_accuracy(accuracy, damping)
     return validate_rule(rule_for_width(window))
 
 

@@ -105,7 +105,8 @@ def cmd_bifurcation(args: argparse.Namespace) -> int:
 
 
 def cmd_ensemble(args: argparse.Namespace) -> int:
-    """``pulsemap ensemble``: M random realisations, map and DNS of each, statistics per contact."""
+    """``pulsemap ensemble``: M random realisations, map and DNS of each (the DNS and the contact and mass models for
+    a scene with a contact-law term or masses), statistics per contact."""
     from pulsemap.solvers.studies.ensemble import ensemble, plot, to_text
     from pulsemap.solvers.cli.common import load_scene_with_sets
     from pulsemap.solvers.data.scene import with_overrides
@@ -174,8 +175,10 @@ def register(sub) -> None:
     _add_sweep_options(p)
     p.set_defaults(func=cmd_bifurcation)
 
-    p = sub.add_parser("ensemble", help="random chains (Eq. 42): M realisations, map and DNS, statistics per contact")
-    p.add_argument("scene", metavar="SCENE", help="a scene with a random per-bead parameter (e.g. fig13-seed1)")
+    p = sub.add_parser("ensemble", help="random chains (Eq. 42): M realisations, map and DNS, statistics per contact "
+                                        "(random masses or contact parameters: the DNS, energy-law and relaxed)")
+    p.add_argument("scene", metavar="SCENE", help="a scene with a random per-bead parameter (e.g. fig13-seed1) or random "
+                                                  "masses ([masses] m = {uniform = [0.9, 1.1], seed = 1})")
     p.add_argument("--realisations", type=_positive_int, required=True, metavar="M", help="number of realisations")
     p.add_argument("--seed", type=_positive_int, default=0, metavar="S", help="ensemble seed (default 0)")
     p.add_argument("--contacts", nargs=2, type=_positive_int, metavar=("FIRST", "LAST"), help="override the scene's contacts")

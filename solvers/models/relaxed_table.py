@@ -98,11 +98,14 @@ class SegmentSpec:
                 + ("|contact=" + ";".join(f"{c!r}*d^{a!r}*w^{b!r}" for a, b, c in self.contact) if self.contact else ""))
 
     def window_rule(self) -> str:
-        """The segment runs' window geometry (window.rule_for_accuracy: the cache key follows its calibration)."""
-        from pulsemap.solvers.chain.window import rule_for_accuracy
+        """The segment runs' window geometry (window.rule_for_accuracy: the cache key follows its calibration; a
+        dissipative contact term adds window.damped_behind, whose constants the key names)."""
+        from pulsemap.solvers.chain.window import DAMPED_BEHIND, DAMPED_POWER, rule_for_accuracy
 
         rule = rule_for_accuracy(self.window_accuracy)
-        return f"behind={rule.behind},threshold={rule.threshold!r}"
+        damped = any(int(b) % 2 == 1 for _, b, _ in self.contact)
+        return (f"behind={rule.behind},threshold={rule.threshold!r}"
+                + (f",damped={DAMPED_BEHIND!r}*gamma^{DAMPED_POWER!r}" if damped else ""))
 
 
 def lattice_amplitude(j: int) -> float:

@@ -342,11 +342,11 @@ def _terms_text(report: dict) -> str:
             lines.append(f"  {m} RMS error of a realisation (percent over its live range): mean {s['mean']:.2f} %"
                          + (f", std {s['std']:.2f} %" if s["std"] is not None else ""))
     lines.append(f"  {'contact':>7s} {'alive':>5s} {'DNS mean':>9s} {'DNS std':>8s} "
-                 + " ".join(f"{m[:9]:>9s} {'err':>8s}" for m in shown))
+                 + " ".join(f"{m:>10s} {'err':>8s}" for m in shown))
     for k, (c, d) in enumerate(zip(st["contacts"], st["dns"])):
         if d["n"] == 0:
             continue
-        cells = [f"{fixed_column(st['models'][m]['peaks'][k]['mean'], 9, 5)} {_pct(st['models'][m]['rel_error'][k]['mean'])}"
+        cells = [f"{fixed_column(st['models'][m]['peaks'][k]['mean'], 10, 5)} {_pct(st['models'][m]['rel_error'][k]['mean'])}"
                  for m in shown]
         lines.append(f"  {c:7d} {d['n']:5d} {fixed_column(d['mean'], 9, 5)} {fixed_column(d['std'], 8, 5)} "
                      + " ".join(cells))

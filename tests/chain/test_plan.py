@@ -98,3 +98,17 @@ def test_force_data_is_asked_for_only_where_the_compiled_engine_could_run():
     assert not P.wants_force_data("compiled", "auto", True)
     assert not P.wants_force_data("compiled", "BDF", False)
     assert not P.wants_force_data("scipy", "auto", False)
+
+
+@pytest.mark.parametrize("engine", ["compiled", "scipy"])
+def test_a_damped_contact_widens_only_the_auto_window(engine):
+    """A dissipative contact term keeps damped_behind(damping) more beads behind an 'auto' window, more for a
+    stronger term, none without one; an explicit width or rule is the caller's."""
+    from pulsemap.solvers.chain.window import damped_behind
+
+    base = make(engine=engine, window="auto").rule
+    weak, strong = (make(engine=engine, window="auto", damping=d).rule for d in (0.05, 1.0))
+    assert damped_behind(0.0) == 0 and 0 < damped_behind(0.05) < damped_behind(1.0)
+    assert weak.behind == base.behind + damped_behind(0.05) and strong.behind == base.behind + damped_behind(1.0)
+    assert (weak.ahead, weak.chunk, weak.threshold) == (base.ahead, base.chunk, base.threshold)
+    assert make(engine=engine, window=40, damping=1.0).rule == rule_for_width(40)

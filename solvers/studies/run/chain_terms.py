@@ -34,7 +34,7 @@ def has_chain_terms(scene) -> bool:
 def mass_relaxed(state, name: str) -> dict:
     """``relaxed`` of a chain whose masses vary (no contact term, no R): the kernel in the local masses fitted to
     the model's own calibration chains (models/mass_kernel.py), from the run's seed peak."""
-    from pulsemap.solvers.models.mass_kernel import MassKernelError, kernel_peaks, mass_kernel
+    from pulsemap.solvers.models.mass_kernel import MassKernelError, bead_velocity_peaks, kernel_peaks, mass_kernel
 
     scene, out = state.scene, state.out
     pert = scene.perturbation
@@ -43,11 +43,14 @@ def mass_relaxed(state, name: str) -> dict:
                             "yet; energy-law and the DNS run it")
     beads, _ = dns_span(scene)
     kernel = mass_kernel(float(scene.exponent))
-    contacts, peaks = kernel_peaks(kernel, scene.masses.bead_masses(beads), float(out["seed"]["peak"]),
-                                   scene.first_perturbed - 1, scene.contacts[1])
+    masses = scene.masses.bead_masses(beads)
+    contacts, peaks = kernel_peaks(kernel, masses, float(out["seed"]["peak"]), scene.first_perturbed - 1,
+                                   scene.contacts[1])
     out["peaks"][name] = on_contacts(state.contacts, contacts, peaks)
+    vbeads, velocity = bead_velocity_peaks(kernel.n, masses, float(out["seed"]["peak"]), contacts, peaks)
     return {"status": "ok", "kernel": "local masses (models/mass_kernel.py)", "calibration_runs": kernel.runs,
-            "bulk_accuracy_log_ratio": kernel.residual}
+            "bulk_accuracy_log_ratio": kernel.residual,
+            "velocity_peaks": {"beads": [int(b) for b in vbeads], "peaks": [float(v) for v in velocity]}}
 
 
 def _law_inputs(scene, beads: int):
