@@ -5,8 +5,10 @@ run imports neither numba nor scipy."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import shutil
 import subprocess
 import sys
 import warnings
@@ -211,7 +213,9 @@ def test_concurrent_first_builds_install_one_module_atomically(tmp_path):
     assert any("ahead of time" in e for _, e in outs)
     peaks = [json.loads(o) for o, _ in outs]
     assert peaks[0] == peaks[1] and len(peaks[0]) > 10
-    files = sorted(p.name for p in aot.iterdir())  # one module and its digest, no temporary folder left
+    runtime = compiled_aot.runtime_folder(aot)  # numba's C runtime, compiled once
+    assert compiled_aot.runtime_objects(runtime) is not None
+    files = sorted(p.name for p in aot.iterdir() if p != runtime)  # one module and its digest, no temporary folder
     assert len(files) == 2 and files[0].startswith(compiled_aot.module_name(plan.METHOD, "dense") + ".")
     assert files[1] == files[0] + ".sha256"
 
@@ -235,3 +239,38 @@ def test_a_warm_cli_run_imports_neither_numba_nor_scipy():
     warm = subprocess.run(cmd, capture_output=True, text=True, check=True, env=os.environ.copy())
     assert warm.stderr.strip().splitlines()[-1] == "[]", warm.stderr[-2000:]
     assert "contact" in warm.stdout and "dns" in warm.stdout
+
+
+def test_the_c_runtime_is_used_only_while_intact(tmp_path):
+    """runtime_objects lists the runtime's object files only when each is the file compile_runtime wrote."""
+    runtime = tmp_path / "runtime_x"
+    assert compiled_aot.runtime_objects(runtime) is None  # none installed
+    runtime.mkdir()
+    for name, data in (("0_a.o", b"object a"), ("1_b.o", b"object b")):
+        (runtime / name).write_bytes(data)
+    listed = "".join(f"{hashlib.sha256((runtime / n).read_bytes()).hexdigest()} {n}\n" for n in ("0_a.o", "1_b.o"))
+    (runtime / compiled_aot.RUNTIME_LIST).write_text(listed)
+    assert compiled_aot.runtime_objects(runtime) == [str(runtime / "0_a.o"), str(runtime / "1_b.o")]
+    (runtime / "1_b.o").write_bytes(b"object b, overwritten")
+    assert compiled_aot.runtime_objects(runtime) is None
+    (runtime / "1_b.o").unlink()
+    assert compiled_aot.runtime_objects(runtime) is None
+
+
+def test_a_later_module_links_the_runtime_compiled_once(tmp_path, monkeypatch):
+    """The C runtime the session's first build installed serves a new module's build without a C compile, and
+    the module gives the session module's numbers bit for bit."""
+    reference = _damped()  # the session's module (its runtime installed beside it)
+    runtime = compiled_aot.runtime_folder(compiled_aot.folder())
+    assert compiled_aot.runtime_objects(runtime) is not None
+    aot = tmp_path / "aot"
+    aot.mkdir()
+    shutil.copytree(runtime, compiled_aot.runtime_folder(aot))
+    monkeypatch.setattr(compiled_aot, "folder", lambda: aot)
+    monkeypatch.setattr(compiled_aot, "_loaded", {})
+    monkeypatch.setattr(compiled_aot, "compile_runtime", lambda *a: pytest.fail("the C runtime compiled again"))
+    again = _damped()
+    name = compiled_aot.module_name(plan.METHOD, "dense")
+    assert compiled_aot._paths(name)[0].parent == aot and compiled_aot._intact(compiled_aot._paths(name)[0])
+    assert compiled_aot._loaded[name] is not None  # this build's module ran
+    assert np.array_equal(again.peaks, reference.peaks) and np.array_equal(again.peak_times, reference.peak_times)
