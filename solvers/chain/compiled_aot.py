@@ -160,10 +160,12 @@ def _import(name: str, path: Path):
     return module.run
 
 
-def build(method: str, form: str, name: str, path: Path) -> None:
+def build(method: str, form: str, name: str, path: Path) -> float:
     """Compile ``run`` of kernel ``method`` for force ``form`` into the extension module ``path``
     (numba.pycc, for this CPU), in a private temporary folder renamed into place, with one line on
-    stderr before the wait; raises on failure with the compiler's output."""
+    stderr before the wait and one with its seconds after; the seconds it took (numba's import
+    included); raises on failure with the compiler's output."""
+    started = time.perf_counter()
     import contextlib
     import io
     import shutil
@@ -181,7 +183,6 @@ def build(method: str, form: str, name: str, path: Path) -> None:
         cc = CC(name)  # raises here when there is no C compiler
         print(f"pulsemap: compiling the chain kernels ({method}, {form} force) ahead of time, once per machine: "
               f"~{BUILD_ESTIMATE_S} s", file=sys.stderr, flush=True)
-        started = time.perf_counter()
         cc.output_dir, cc.output_file, cc.target_cpu, cc.verbose = work, path.name, "host", False
         if isinstance(getattr(cc, "_extra_cflags", None), dict):  # numba's C runtime: halves the C compile
             cc._extra_cflags = {"posix": QUICK_CFLAGS}
@@ -216,6 +217,7 @@ def build(method: str, form: str, name: str, path: Path) -> None:
         shutil.rmtree(work, ignore_errors=True)
     print(f"pulsemap: compiled the chain kernels ({method}, {form} force) in {elapsed:.1f} s", file=sys.stderr,
           flush=True)
+    return elapsed
 
 
 def _low_priority(step, *args):
@@ -307,13 +309,13 @@ def compile_runtime(cc, build_dir: str, runtime: Path) -> list[str]:
 
 
 def kernel(method: str, args: tuple):
-    """The ahead-of-time ``run`` of kernel ``method`` for the arguments ``args`` and the seconds it
-    took to build or load it, or (None, 0.0) when there is none (generated numba force, build failed,
-    cache not writable): the caller then takes numba's JIT kernel. Builds the module at its first use
-    on this machine (build)."""
+    """The ahead-of-time ``run`` of kernel ``method`` for the arguments ``args``, the seconds it took
+    to build or load it and, of those, to build it, or (None, 0.0, 0.0) when there is none (generated
+    numba force, build failed, cache not writable): the caller then takes numba's JIT kernel. Builds
+    the module at its first use on this machine (build)."""
     form = form_of(args)
     if form is None or method not in methods.kernels():
-        return None, 0.0
+        return None, 0.0, 0.0
     return load(method, form)
 
 
@@ -341,13 +343,13 @@ def _paths(name: str) -> tuple[Path, Path]:
 
 def load(method: str, form: str):
     """kernel's answer for kernel ``method`` and force ``form``: the module loaded, built first if this
-    machine has none (a failed build: one note, the ``.failed`` file, and (None, 0.0))."""
+    machine has none (a failed build: one note, the ``.failed`` file, and (None, 0.0, 0.0))."""
     name = module_name(method, form)
     if name in _loaded:
-        return _loaded[name], 0.0
+        return _loaded[name], 0.0, 0.0
     start = time.perf_counter()
     path, failed = _paths(name)
-    run = None
+    run, built = None, 0.0
     if path.exists() and not _intact(path):
         print(f"pulsemap: note: the ahead-of-time kernel {path} is damaged (not the file that was built: its "
               "sha256 differs or is missing): building it again", file=sys.stderr, flush=True)
@@ -358,7 +360,7 @@ def load(method: str, form: str):
             run = None
     if run is None and not failed.exists() and writable(path.parent):
         try:
-            build(method, form, name, path)
+            built = build(method, form, name, path)
             run = _import(name, path)
         except Exception as exc:  # noqa: BLE001 - any build failure: the JIT kernels serve
             why = str(exc).strip() or type(exc).__name__
@@ -371,7 +373,7 @@ def load(method: str, form: str):
             except OSError:
                 pass
     _loaded[name] = run
-    return run, (time.perf_counter() - start) if run is not None else 0.0
+    return (run, time.perf_counter() - start, built) if run is not None else (None, 0.0, 0.0)
 
 
 def to_build(kernels) -> list[tuple[str, str]]:
