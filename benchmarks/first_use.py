@@ -1,7 +1,7 @@
 """What the first-use benchmarks share: a process started as on a new machine, and its CPU time.
 
-Imported by benchmarks/bench_first_run_default.py, bench_first_table.py, bench_first_run.py,
-bench_cold_paths.py and bench_run_overhead.py (run from this folder, which Python puts first on the path).
+Imported by benchmarks/bench_first_run_default.py, bench_first_table.py, bench_first_run.py and
+bench_run_overhead.py (run from this folder, which Python puts first on the path).
 """
 
 from __future__ import annotations
@@ -18,12 +18,12 @@ from pathlib import Path
 EXE = str(Path(sys.executable).with_name("pulsemap"))
 
 
-def new_machine_env(folder: Path) -> dict:
-    """This process's environment with every cache a new machine lacks empty, in ``folder``: the pulsemap cache
-    (scene records, generated modules, the ahead-of-time kernels and their C runtime), numba's cache and the
-    user cache, whatever PULSEMAP_* and NUMBA_* this environment sets (they are dropped). Python's bytecode
+def new_machine_env(folder: Path, base: dict | None = None) -> dict:
+    """``base`` (default: this process's environment) with every cache a new machine lacks empty, in ``folder``:
+    the pulsemap cache (scene records, generated modules, the ahead-of-time kernels and their C runtime), numba's
+    cache and the user cache, whatever PULSEMAP_* and NUMBA_* it sets (they are dropped). Python's bytecode
     stays: an installed package has it."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "PULSEMAP_"))}
+    env = {k: v for k, v in (os.environ if base is None else base).items() if not k.startswith(("NUMBA_", "PULSEMAP_"))}
     env.update(PULSEMAP_CACHE_DIR=str(folder / "pulsemap"), NUMBA_CACHE_DIR=str(folder / "numba"),
                XDG_CACHE_HOME=str(folder / "xdg"))
     return env
