@@ -291,7 +291,8 @@ def compile_runtime(cc, build_dir: str, runtime: Path) -> list[str]:
     shared._mixin_sources, shared._extra_cflags = list(RUNTIME_SOURCES), cc._extra_cflags
     shared._toolchain.verbose = cc.verbose
     objects = shared._compile_mixins(build_dir)
-    shutil.rmtree(runtime, ignore_errors=True)  # a damaged copy (runtime_objects found none intact)
+    if runtime.exists() and runtime_objects(runtime) is None:  # a damaged copy (not one installed meanwhile)
+        shutil.rmtree(runtime, ignore_errors=True)
     staging = Path(tempfile.mkdtemp(prefix=".runtime-", dir=runtime.parent))
     try:
         staging.chmod(0o755)  # as readable as the modules beside it (mkdtemp's folder is its owner's alone)
