@@ -13,8 +13,9 @@ Python ABI and the CPU, so an edit, an upgrade or another machine sharing the ca
 The modules live in the ``aot`` subfolder of numba's kernel cache (kernel_cache_dir: ``NUMBA_CACHE_DIR``
 or the ``numba`` subfolder of the pulsemap cache; a temporary
 folder when that cannot be written), built in a private temporary folder and renamed into
-place, so concurrent first runs are safe. numba's C runtime, which every module holds, is compiled once per
-machine into the ``runtime_<hash>`` folder beside them and linked into each later module. A build that fails (no C compiler) prints one note, leaves a
+place, so concurrent first runs are safe. numba's C runtime, which every module holds, is compiled once
+per machine into the ``runtime_<hash>`` folder beside them and linked into each later module. A build
+that fails (no C compiler) prints one note, leaves a
 ``.failed`` file with the reason (not retried: delete it after installing a compiler) and the run
 takes numba's JIT kernels (solvers/chain/jit.py), as does a generated numba force (JitForce).
 """
