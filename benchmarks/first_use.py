@@ -66,17 +66,19 @@ def first_use(argv: list[str], folder: Path, target_s: float, repeat: int, what:
     warm = min((process(argv, env) for _ in range(repeat)), key=lambda r: r[1])
     kept = folder / "kernels-kept"
     shutil.rmtree(kept, ignore_errors=True)
-    shutil.copytree(aot, kept)
     ahead = []
-    for _ in range(repeat):
-        shutil.copytree(kept, Path(emptied(env)["NUMBA_CACHE_DIR"]) / "aot")
-        ahead.append(process(argv, env))
+    if aot.is_dir():  # none without a C compiler: numba's JIT kernels ran
+        shutil.copytree(aot, kept)
+        for _ in range(repeat):
+            shutil.copytree(kept, Path(emptied(env)["NUMBA_CACHE_DIR"]) / "aot")
+            ahead.append(process(argv, env))
     wall, cpu = min(cold, key=lambda r: r[1])
     print(f"{what}, {repeat} process(es) each, best CPU (the process and its children: kernel build, C compiler)")
     print(f"  cold (every cache empty)       CPU {cpu:7.2f} s  wall {wall:7.2f} s  kernels built: {built}")
     print(f"  warm                           CPU {warm[1]:7.2f} s  wall {warm[0]:7.2f} s")
-    best = min(ahead, key=lambda r: r[1])
-    print(f"  kernels built ahead, rest cold CPU {best[1]:7.2f} s  wall {best[0]:7.2f} s")
+    if ahead:
+        best = min(ahead, key=lambda r: r[1])
+        print(f"  kernels built ahead, rest cold CPU {best[1]:7.2f} s  wall {best[0]:7.2f} s")
     ratio = cpu / target_s
     print(f"ratio: first {what} CPU / {target_s:g} s target = {ratio:.2f} ({'met' if ratio <= 1 else 'NOT met'})")
     return ratio
