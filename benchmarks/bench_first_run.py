@@ -27,6 +27,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from first_use import new_machine_env
+
 #: name: (scene, overrides, simulate keyword arguments); each exercises one kernel specialisation.
 CASES = {
     "RK45, no force (bare chain)": ("fig8-eps0.1", {"perturbation.eps": 0.0}, {}),
@@ -99,7 +101,7 @@ def main() -> None:
                   flush=True)
 
         exe = Path(sys.executable).with_name("pulsemap")
-        env = {**base, "PULSEMAP_CACHE_DIR": str(Path(tmp) / "whole")}
+        env = new_machine_env(Path(tmp) / "whole")
         times = [child([str(exe), "run", "default", "--methods", "dns"], env)[2:] for _ in range(1 + opts.repeats)]
         print(f"\n`pulsemap run default --methods dns`, whole process, empty caches then warm (best of {opts.repeats}):")
         print(f"  cold: wall {times[0][0]:.2f} s, CPU {times[0][1]:.2f} s; warm: wall "

@@ -15,9 +15,9 @@ On vdp-mu3-v2.3 and fig8-eps0.1 (paper Eq. 1 with R = -(u - mu (1 - u^2) v) and 
    (the CPU time is what to read on a shared machine), with the share of imports, which of
    numba/scipy/sympy the process loaded (none: the ahead-of-time kernel, chain/compiled_aot.py) and
    where its CPU time goes (cProfile, one run);
-3. cold vs warm: the CLI process with an empty pulsemap cache directory (scene records, generated
-   modules and, unless NUMBA_CACHE_DIR says otherwise, the kernels: the ahead-of-time build) against
-   the warm one.
+3. cold vs warm: the CLI process with every cache a new machine lacks empty (first_use.new_machine_env:
+   scene records, generated modules, the kernels and numba's cache, whatever NUMBA_CACHE_DIR says)
+   against the warm one.
 """
 
 from __future__ import annotations
@@ -41,6 +41,8 @@ from pulsemap.solvers.studies.bench.lines import script_span
 from pulsemap.solvers.studies.bench.measure import peak_error
 from pulsemap.solvers.studies.extent import dns_span
 from pulsemap.solvers.studies.bench import reference_script
+
+from first_use import new_machine_env
 
 SCENES = ("vdp-mu3-v2.3", "fig8-eps0.1")
 SCRIPT_RTOLS = (1e-6, 1e-7, 1e-8)
@@ -205,7 +207,7 @@ def main() -> None:
         print("\n3. cold (empty pulsemap cache) vs warm CLI process")
         for name in SCENES:
             cli = [PULSEMAP, "run", name, "--methods", "dns", "--quiet"]
-            cold_env = {**env, "PULSEMAP_CACHE_DIR": str(Path(tmp) / f"cold-{name}")}
+            cold_env = new_machine_env(Path(tmp) / f"cold-{name}", env)
             kw, kc = process(cli, cold_env)
             ww, wc = best_process(cli, cold_env, args.processes)
             print(f"  {name:14s} cold wall {kw:6.3f} s cpu {kc:6.3f} s | warm wall {ww:6.3f} s cpu {wc:6.3f} s | "

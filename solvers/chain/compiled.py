@@ -173,18 +173,19 @@ def jit_kernel(method: str):
 
 
 def kernel_for(run: _Run, aot: bool = True) -> tuple:
-    """The kernel that integrates ``run`` and the seconds it took to build or load it: the
-    ahead-of-time module (compiled_aot.py) when one serves, else numba's JIT kernel (``aot=False``:
-    always numba's). Both are compiled from the same functions and give the same numbers."""
+    """The kernel that integrates ``run``, the seconds it took to build, compile or load it and, of those,
+    to build the ahead-of-time module (its first use on this machine): that module (compiled_aot.py) when
+    one serves, else numba's JIT kernel (``aot=False``: always numba's). Both are compiled from the same
+    functions and give the same numbers."""
     args = kernel_args(run)
     if aot:
-        kernel, seconds = compiled_aot.kernel(run.method, args)
+        kernel, seconds, built = compiled_aot.kernel(run.method, args)
         if kernel is not None:
-            return kernel, seconds
+            return kernel, seconds, built
     from pulsemap.solvers.chain.jit import ready
 
     kernel = jit_kernel(run.method)
-    return kernel, ready(kernel, args)
+    return kernel, ready(kernel, args), 0.0
 
 
 def kernel_args(run: _Run) -> tuple:
@@ -252,14 +253,15 @@ def simulate_compiled(chain: "Chain", contacts: tuple[int, int], table: "Monomia
 
     engine_reason = how.reason
     run = prepare(chain, contacts, table, how, integrator, stop)
-    kernel, compile_s = kernel_for(run)
+    kernel, compile_s, build_s = kernel_for(run)
     wall0 = _time.perf_counter()
     code = drive(run, kernel, report=DNSProgress("dns", run.last, enabled=progress) if progress else None)
     if code == K.NONFINITE:  # dns.simulate locates the bead from the failed step's start (lo, y, f, h)
         lo, w = int(run.st[K.LO]), int(run.st[K.HI] - run.st[K.LO])
         raise ForceNotFinite(None, math.nan, math.nan, math.nan, t=float(run.fs[K.T]),
                              state=(lo, run.y[: 2 * w].copy(), run.f[: 2 * w].copy(), float(run.fs[K.H])))
-    res = replace(result(run, code, _time.perf_counter() - wall0, engine_reason), compile_s=compile_s)
+    res = replace(result(run, code, _time.perf_counter() - wall0, engine_reason), compile_s=compile_s,
+                  build_s=build_s)
     if code == K.FAILED and failure_note is not None:
         w = int(run.st[K.HI] - run.st[K.LO])
         res = replace(res, stop_reason=res.stop_reason + failure_note(int(run.st[K.LO]), run.y[: 2 * w]))

@@ -13,7 +13,9 @@ Python ABI and the CPU, so an edit, an upgrade or another machine sharing the ca
 The modules live in the ``aot`` subfolder of numba's kernel cache (kernel_cache_dir: ``NUMBA_CACHE_DIR``
 or the ``numba`` subfolder of the pulsemap cache; a temporary
 folder when that cannot be written), built in a private temporary folder and renamed into
-place, so concurrent first runs are safe. A build that fails (no C compiler) prints one note, leaves a
+place, so concurrent first runs are safe. numba's C runtime, which every module holds, is compiled once
+per machine into the ``runtime_<hash>`` folder beside them and linked into each later module. A build
+that fails (no C compiler) prints one note, leaves a
 ``.failed`` file with the reason (not retried: delete it after installing a compiler) and the run
 takes numba's JIT kernels (solvers/chain/jit.py), as does a generated numba force (JitForce).
 """
@@ -53,6 +55,13 @@ BUILD_ESTIMATE_S = 6
 #: C flags of numba's runtime support code in a module (the kernel itself is LLVM's: they change no
 #: number): unoptimised, no debug information, half the C compile time.
 QUICK_CFLAGS = ["-O0", "-g0"]
+#: numba's C runtime in every module: its module set-up and helper library (modulemixin.c; pycc adds the memory
+#: allocator, nrt.cpp). Compiled once per machine and linked into each module (compile_runtime); numba's typed
+#: containers (dict, list, set, its default) are left out: no kernel uses one (a module that did would not
+#: import, and its kernel's tests in tests/chain/test_compiled_aot.py would fail)
+RUNTIME_SOURCES = ("modulemixin.c",)
+RUNTIME = "pulsemap_runtime"  # the runtime's name in its symbols (pycc_init_pulsemap_runtime), one for every module
+RUNTIME_LIST = "sha256"  # in the runtime's folder: the sha256 and name of each of its object files
 SUBFOLDER = "numba"  # of the pulsemap cache, when numba is given no folder
 _loaded: dict[str, object] = {}  # module name -> its run (None: not available in this process)
 
@@ -152,10 +161,12 @@ def _import(name: str, path: Path):
     return module.run
 
 
-def build(method: str, form: str, name: str, path: Path) -> None:
+def build(method: str, form: str, name: str, path: Path) -> float:
     """Compile ``run`` of kernel ``method`` for force ``form`` into the extension module ``path``
     (numba.pycc, for this CPU), in a private temporary folder renamed into place, with one line on
-    stderr before the wait; raises on failure with the compiler's output."""
+    stderr before the wait and one with its seconds after; the seconds it took (numba's import
+    included); raises on failure with the compiler's output."""
+    started = time.perf_counter()
     import contextlib
     import io
     import shutil
@@ -173,7 +184,6 @@ def build(method: str, form: str, name: str, path: Path) -> None:
         cc = CC(name)  # raises here when there is no C compiler
         print(f"pulsemap: compiling the chain kernels ({method}, {form} force) ahead of time, once per machine: "
               f"~{BUILD_ESTIMATE_S} s", file=sys.stderr, flush=True)
-        started = time.perf_counter()
         cc.output_dir, cc.output_file, cc.target_cpu, cc.verbose = work, path.name, "host", False
         if isinstance(getattr(cc, "_extra_cflags", None), dict):  # numba's C runtime: halves the C compile
             cc._extra_cflags = {"posix": QUICK_CFLAGS}
@@ -186,7 +196,7 @@ def build(method: str, form: str, name: str, path: Path) -> None:
             os.dup2(sink.fileno(), 1)  # the C compiler's own output (a subprocess) goes to the log
             os.dup2(sink.fileno(), 2)
             try:
-                compile_module(cc)
+                compile_module(cc, runtime_folder(path.parent))
             except Exception as exc:
                 os.dup2(out_fd, 1)
                 os.dup2(err_fd, 2)
@@ -208,6 +218,7 @@ def build(method: str, form: str, name: str, path: Path) -> None:
         shutil.rmtree(work, ignore_errors=True)
     print(f"pulsemap: compiled the chain kernels ({method}, {form} force) in {elapsed:.1f} s", file=sys.stderr,
           flush=True)
+    return elapsed
 
 
 def _low_priority(step, *args):
@@ -222,34 +233,91 @@ def _low_priority(step, *args):
     return step(*args)
 
 
-def compile_module(cc) -> None:
-    """``cc.compile()`` with numba's C runtime (its mixin sources) compiled on another core by the C compiler
-    while numba generates the kernel's object code; ``cc.compile()`` itself where pycc lacks those steps."""
+def compile_module(cc, runtime: Path) -> None:
+    """``cc.compile()`` linked with the C runtime installed as ``runtime`` (compile_runtime) where it is intact,
+    else with one compiled on another core by the C compiler while numba generates the kernel's object code
+    (and installed there for the next build); ``cc.compile()`` itself where pycc lacks those steps."""
     from concurrent.futures import ThreadPoolExecutor
 
-    steps = ("_compile_object_files", "_compile_mixins", "_get_extra_ldflags", "_toolchain")
+    steps = ("_compile_object_files", "_compile_mixins", "_get_extra_ldflags", "_toolchain", "_init_function",
+             "_mixin_sources")
     if not all(hasattr(cc, step) for step in steps):
         cc.compile()
         return
     tools = cc._toolchain
     tools.verbose = cc.verbose
+    cc._init_function = f"pycc_init_{RUNTIME}"  # the module's import calls the shared runtime's set-up
     build_dir = tempfile.mkdtemp(prefix="pycc-build-")  # in the build's private folder (build)
+    ready = runtime_objects(runtime)
     with ThreadPoolExecutor(1) as pool:  # the C compiler is a subprocess: the thread waits without the GIL
-        mixins = pool.submit(_low_priority, cc._compile_mixins, build_dir)
+        mixins = None if ready else pool.submit(_low_priority, compile_runtime, cc, build_dir, runtime)
         objects, exports = cc._compile_object_files(build_dir)
-        objects += mixins.result()
+        objects += ready or mixins.result()
     tools.link_shared(os.path.join(cc.output_dir, cc.output_file), objects, tools.get_python_libraries(),
                       tools.get_python_library_dirs(), export_symbols=exports, extra_ldflags=cc._get_extra_ldflags())
 
 
+@lru_cache(maxsize=1)
+def _runtime_stamp() -> str:
+    """The hash of what the C runtime is compiled from and with: numba's and numpy's versions, the Python build,
+    its sources and C flags."""
+    parts = (_numba_version(), np.__version__.encode(), sys.version.encode(), repr((RUNTIME_SOURCES, QUICK_CFLAGS)))
+    return hashlib.sha256(b"\0".join(p if isinstance(p, bytes) else p.encode() for p in parts)).hexdigest()[:16]
+
+
+def runtime_folder(aot: Path) -> Path:
+    """Where the C runtime's object files are kept among the modules of ``aot`` (compile_runtime)."""
+    return aot / f"runtime_{_runtime_stamp()}"
+
+
+def runtime_objects(runtime: Path) -> list[str] | None:
+    """The object files of the C runtime installed as ``runtime``, or None when there is none or one of them is
+    not the file compile_runtime wrote (its sha256 in the folder's list): then it is compiled again."""
+    try:
+        entries = [line.split(" ", 1) for line in (runtime / RUNTIME_LIST).read_text(encoding="utf-8").splitlines()]
+        intact = bool(entries) and all(hashlib.sha256((runtime / name).read_bytes()).hexdigest() == digest
+                                       for digest, name in entries)
+    except (OSError, ValueError, UnicodeDecodeError):
+        return None
+    return [str(runtime / name) for _, name in entries] if intact else None
+
+
+def compile_runtime(cc, build_dir: str, runtime: Path) -> list[str]:
+    """numba's C runtime (RUNTIME_SOURCES, with ``cc``'s C flags) compiled into object files in ``build_dir``,
+    the same names in every module (RUNTIME); a copy is installed as ``runtime`` for every later build, in a
+    private folder renamed into place (when another process got there first, its copy stays)."""
+    import shutil
+
+    shared = type(cc)(RUNTIME)
+    shared._mixin_sources, shared._extra_cflags = list(RUNTIME_SOURCES), cc._extra_cflags
+    shared._toolchain.verbose = cc.verbose
+    objects = shared._compile_mixins(build_dir)
+    if runtime.exists() and runtime_objects(runtime) is None:  # a damaged copy (not one installed meanwhile)
+        shutil.rmtree(runtime, ignore_errors=True)
+    staging = Path(tempfile.mkdtemp(prefix=".runtime-", dir=runtime.parent))
+    try:
+        staging.chmod(0o755)  # as readable as the modules beside it (mkdtemp's folder is its owner's alone)
+        names = [f"{i}_{Path(obj).name}" for i, obj in enumerate(objects)]
+        for obj, name in zip(objects, names):
+            shutil.copyfile(obj, staging / name)
+        listed = "".join(f"{hashlib.sha256((staging / n).read_bytes()).hexdigest()} {n}\n" for n in names)
+        (staging / RUNTIME_LIST).write_text(listed, encoding="utf-8")
+        os.replace(staging, runtime)
+    except OSError:  # another build installed it meanwhile (or the folder cannot be written): this one links its own
+        pass
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return objects
+
+
 def kernel(method: str, args: tuple):
-    """The ahead-of-time ``run`` of kernel ``method`` for the arguments ``args`` and the seconds it
-    took to build or load it, or (None, 0.0) when there is none (generated numba force, build failed,
-    cache not writable): the caller then takes numba's JIT kernel. Builds the module at its first use
-    on this machine (build)."""
+    """The ahead-of-time ``run`` of kernel ``method`` for the arguments ``args``, the seconds it took
+    to build or load it and, of those, to build it, or (None, 0.0, 0.0) when there is none (generated
+    numba force, build failed, cache not writable): the caller then takes numba's JIT kernel. Builds
+    the module at its first use on this machine (build)."""
     form = form_of(args)
     if form is None or method not in methods.kernels():
-        return None, 0.0
+        return None, 0.0, 0.0
     return load(method, form)
 
 
@@ -277,13 +345,13 @@ def _paths(name: str) -> tuple[Path, Path]:
 
 def load(method: str, form: str):
     """kernel's answer for kernel ``method`` and force ``form``: the module loaded, built first if this
-    machine has none (a failed build: one note, the ``.failed`` file, and (None, 0.0))."""
+    machine has none (a failed build: one note, the ``.failed`` file, and (None, 0.0, 0.0))."""
     name = module_name(method, form)
     if name in _loaded:
-        return _loaded[name], 0.0
+        return _loaded[name], 0.0, 0.0
     start = time.perf_counter()
     path, failed = _paths(name)
-    run = None
+    run, built = None, 0.0
     if path.exists() and not _intact(path):
         print(f"pulsemap: note: the ahead-of-time kernel {path} is damaged (not the file that was built: its "
               "sha256 differs or is missing): building it again", file=sys.stderr, flush=True)
@@ -294,7 +362,7 @@ def load(method: str, form: str):
             run = None
     if run is None and not failed.exists() and writable(path.parent):
         try:
-            build(method, form, name, path)
+            built = build(method, form, name, path)
             run = _import(name, path)
         except Exception as exc:  # noqa: BLE001 - any build failure: the JIT kernels serve
             why = str(exc).strip() or type(exc).__name__
@@ -307,7 +375,7 @@ def load(method: str, form: str):
             except OSError:
                 pass
     _loaded[name] = run
-    return run, (time.perf_counter() - start) if run is not None else 0.0
+    return (run, time.perf_counter() - start, built) if run is not None else (None, 0.0, 0.0)
 
 
 def to_build(kernels) -> list[tuple[str, str]]:

@@ -145,7 +145,8 @@ class DNSResult:
     ``speed`` (a property): contacts per unit time from the peak times.
     ``engine``: "compiled" (chain/compiled.py) or "scipy"; ``engine_reason``: why that engine ran.
     ``compile_s``: seconds spent compiling the kernel or loading it from numba's cache (the first run
-    of a kernel in a process; 0.0 otherwise and on the scipy engine), not counted in ``wall_time_s``.
+    of a kernel in a process; 0.0 otherwise and on the scipy engine), not counted in ``wall_time_s``;
+    ``build_s``: the part of it spent building the ahead-of-time kernel (its first use on this machine).
     ``velocity_peaks``: with masses, on the compiled engine, the first maximum in time of each bead's
     velocity, beads 1..last + 1 (NaN where none was seen); None otherwise.
     """
@@ -179,6 +180,7 @@ class DNSResult:
     engine: str = "scipy"
     engine_reason: str = ""
     compile_s: float = 0.0
+    build_s: float = 0.0
     velocity_peaks: Array | None = None
 
     @property

@@ -28,7 +28,8 @@ TRACEBACK_ENV = "PULSEMAP_TRACEBACK"  # set to 1: a bug's message comes with its
 # The sub-command modules, in --help's order: each defines ``register(subparsers)`` and imports what its
 # commands need inside the command functions (so building the parser stays cheap).
 COMMAND_MODULES: tuple[str, ...] = ("pulsemap.solvers.cli.derive", "pulsemap.solvers.cli.scenes", "pulsemap.solvers.cli.sweep",
-                                    "pulsemap.solvers.cli.bench", "pulsemap.solvers.cli.suite")
+                                    "pulsemap.solvers.cli.bench", "pulsemap.solvers.cli.suite",
+                                    "pulsemap.solvers.cli.kernels")
 
 
 class _ArgumentParser(argparse.ArgumentParser):

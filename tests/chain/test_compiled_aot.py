@@ -5,8 +5,10 @@ run imports neither numba nor scipy."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import shutil
 import subprocess
 import sys
 import warnings
@@ -39,7 +41,7 @@ def _run_both(name: str, method: str, **overrides):
     out = []
     for aot in (True, False):
         run = compiled.prepare(Chain(beads, scene.exponent, scene.velocity), span, table, *args)
-        kernel, _ = compiled.kernel_for(run, aot=aot)
+        kernel = compiled.kernel_for(run, aot=aot)[0]
         out.append((kernel, compiled.drive(run, kernel), run))
     return out
 
@@ -85,7 +87,7 @@ def test_form_of_takes_only_what_the_compiled_signatures_accept():
     assert compiled_aot.form_of(base + (exps.astype(np.int32), np.zeros((2, 3))) + bare) is None
     jit_force = JitForce((None, None, None), np.zeros((1, 2)))
     assert compiled_aot.form_of(base + jit_force.kernel_args + bare) is None
-    assert compiled_aot.kernel(plan.METHOD, base + jit_force.kernel_args + bare) == (None, 0.0)
+    assert compiled_aot.kernel(plan.METHOD, base + jit_force.kernel_args + bare) == (None, 0.0, 0.0)
     # a contact law's term or masses take numba's JIT kernels
     masses = kernel_terms(None, np.ones(4))
     dashpot = kernel_terms(ContactTable(np.array([[0.0, 1.0]]), np.ones((1, 3))), None)
@@ -211,7 +213,9 @@ def test_concurrent_first_builds_install_one_module_atomically(tmp_path):
     assert any("ahead of time" in e for _, e in outs)
     peaks = [json.loads(o) for o, _ in outs]
     assert peaks[0] == peaks[1] and len(peaks[0]) > 10
-    files = sorted(p.name for p in aot.iterdir())  # one module and its digest, no temporary folder left
+    runtime = compiled_aot.runtime_folder(aot)  # numba's C runtime, compiled once
+    assert compiled_aot.runtime_objects(runtime) is not None
+    files = sorted(p.name for p in aot.iterdir() if p != runtime)  # one module and its digest, no temporary folder
     assert len(files) == 2 and files[0].startswith(compiled_aot.module_name(plan.METHOD, "dense") + ".")
     assert files[1] == files[0] + ".sha256"
 
@@ -235,3 +239,39 @@ def test_a_warm_cli_run_imports_neither_numba_nor_scipy():
     warm = subprocess.run(cmd, capture_output=True, text=True, check=True, env=os.environ.copy())
     assert warm.stderr.strip().splitlines()[-1] == "[]", warm.stderr[-2000:]
     assert "contact" in warm.stdout and "dns" in warm.stdout
+
+
+def test_the_c_runtime_is_used_only_while_intact(tmp_path):
+    """runtime_objects lists the runtime's object files only when each is the file compile_runtime wrote."""
+    runtime = tmp_path / "runtime_x"
+    assert compiled_aot.runtime_objects(runtime) is None  # none installed
+    runtime.mkdir()
+    for name, data in (("0_a.o", b"object a"), ("1_b.o", b"object b")):
+        (runtime / name).write_bytes(data)
+    listed = "".join(f"{hashlib.sha256((runtime / n).read_bytes()).hexdigest()} {n}\n" for n in ("0_a.o", "1_b.o"))
+    (runtime / compiled_aot.RUNTIME_LIST).write_text(listed)
+    assert compiled_aot.runtime_objects(runtime) == [str(runtime / "0_a.o"), str(runtime / "1_b.o")]
+    (runtime / "1_b.o").write_bytes(b"object b, overwritten")
+    assert compiled_aot.runtime_objects(runtime) is None
+    (runtime / "1_b.o").unlink()
+    assert compiled_aot.runtime_objects(runtime) is None
+
+
+def test_a_later_module_links_the_runtime_compiled_once(tmp_path, monkeypatch):
+    """The C runtime the session's first build installed serves a new module's build without a C compile, and
+    the module gives the session module's numbers bit for bit."""
+    reference = _damped()  # the session's module (its runtime installed beside it)
+    runtime = compiled_aot.runtime_folder(compiled_aot.folder())
+    assert compiled_aot.runtime_objects(runtime) is not None
+    aot = tmp_path / "aot"
+    aot.mkdir()
+    shutil.copytree(runtime, compiled_aot.runtime_folder(aot))
+    monkeypatch.setattr(compiled_aot, "folder", lambda: aot)
+    monkeypatch.setattr(compiled_aot, "_loaded", {})
+    monkeypatch.setattr(compiled_aot, "compile_runtime", lambda *a: pytest.fail("the C runtime compiled again"))
+    name = compiled_aot.module_name(plan.METHOD, "dense")
+    monkeypatch.setitem(sys.modules, name, sys.modules.get(name))  # loading from tmp_path replaces it: back after
+    again = _damped()
+    assert compiled_aot._paths(name)[0].parent == aot and compiled_aot._intact(compiled_aot._paths(name)[0])
+    assert compiled_aot._loaded[name] is not None  # this build's module ran
+    assert np.array_equal(again.peaks, reference.peaks) and np.array_equal(again.peak_times, reference.peak_times)

@@ -50,7 +50,7 @@ def test_the_stiff_kernel_takes_damped_contacts_and_masses():
     ref = peaks(chain, integrator=Integrator(method="Radau", rtol=1e-10, engine="scipy"))
     run = compiled.prepare(chain, (FIRST, LAST), None, Plan("compiled", "Rodas4", None, "", ""),
                            Integrator(rtol=1e-9, atol=1e-12), _rules())
-    kernel, _ = compiled.kernel_for(run)
+    kernel = compiled.kernel_for(run)[0]
     compiled.drive(run, kernel)
     got = compiled.result(run, compiled.K.LAST_PEAKED, 0.0)
     np.testing.assert_allclose(got.peaks, ref, rtol=1e-6)

@@ -32,7 +32,7 @@ def _kernel_peaks(method: str, table: MonomialTable) -> np.ndarray:
     stop = replace(StopRules(), t_max=default_t_max(LAST, 1.0, 1.5), max_steps=default_max_steps(LAST))
     run = compiled.prepare(Chain(N, 1.5, 1.0), (FIRST, LAST), table, plan.Plan("compiled", method, None, "", ""),
                            Integrator(rtol=1e-10, atol=1e-12), stop)
-    kernel, _ = compiled.kernel_for(run)
+    kernel = compiled.kernel_for(run)[0]
     code = compiled.drive(run, kernel)
     res = compiled.result(run, code, 0.0)
     assert res.stop_reason == "last contact peaked", res.stop_reason

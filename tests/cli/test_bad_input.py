@@ -168,6 +168,8 @@ CLI = [
     ("table: no workers", ["table", "fig8-eps0.1", "--workers", "0"], ["--workers must be >= 1, got 0"]),
     ("table: workers not a number", ["table", "fig8-eps0.1", "--workers", "two"], ["expected a number of workers", "'two'"]),
     ("generate: unknown scene", ["generate", "nosuch"], ["'nosuch' not found"]),
+    ("build-kernels: misspelt kernel", ["build-kernels", "RK45:dens"], ["invalid choice: 'RK45:dens'",
+                                                                        "did you mean 'RK45:dense'"]),
     ("ensemble: unknown scene", ["ensemble", "nosuch", "--realisations", "1"], ["'nosuch' not found"]),
     ("bifurcation: unknown scene", ["bifurcation", "nosuch", "--param", "mu", "--range", "0", "1"], ["'nosuch' not found"]),
     ("bifurcation: unknown parameter", ["bifurcation", "vdp-mu3-v2.3", "--param", "nu", "--range", "0", "1"],

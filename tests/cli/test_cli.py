@@ -106,3 +106,27 @@ def test_generate_writes_the_scene_modules_and_is_the_door_to_the_dressed_tables
     out = capsys.readouterr().out
     assert f"{derived.SHIPPED}  <- the dressed law's derived coefficients" in out
     assert f"{calibrated.SHIPPED}  <- the dressed law's calibrated coefficients" in out
+
+
+def test_build_kernels_builds_once_and_a_run_then_only_loads(tmp_path, monkeypatch, capsys):
+    """``pulsemap build-kernels KERNEL`` builds the module a run would build at its first use; asked again it
+    keeps it, and a run takes it without building."""
+    from pulsemap.solvers.chain import compiled_aot
+    from pulsemap.solvers.studies.run import run_scene
+    from pulsemap.solvers.data.scene import load_scene
+
+    monkeypatch.setattr(compiled_aot, "folder", lambda: tmp_path / "aot")
+    monkeypatch.setattr(compiled_aot, "_loaded", {})
+    name = compiled_aot.module_name("RK45", "dense")
+    monkeypatch.setitem(sys.modules, name, sys.modules.get(name))  # loading from tmp_path replaces it: back after
+    assert main(["build-kernels", "RK45:dense"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("RK45:dense") and " built in " in out[0] and str(tmp_path / "aot") in out[-1]
+    assert compiled_aot._intact(compiled_aot._paths(name)[0])
+    monkeypatch.setattr(compiled_aot, "_loaded", {})  # a new process
+    assert main(["build-kernels", "RK45:dense"]) == 0
+    assert capsys.readouterr().out.splitlines()[0].split() == ["RK45:dense", "already", "built"]
+    monkeypatch.setattr(compiled_aot, "_loaded", {})
+    monkeypatch.setattr(compiled_aot, "build", lambda *a: pytest.fail("a run built a kernel built ahead"))
+    timings = run_scene(load_scene("fig8-eps0.1"), methods=["dns"])["timings_s"]
+    assert "dns_build" not in timings and compiled_aot._loaded[name] is not None
