@@ -262,6 +262,16 @@ def test_a_later_module_links_the_runtime_compiled_once(tmp_path, monkeypatch):
     the module gives the session module's numbers bit for bit."""
     reference = _damped()  # the session's module (its runtime installed beside it)
     runtime = compiled_aot.runtime_folder(compiled_aot.folder())
+    if compiled_aot.runtime_objects(runtime) is None:  # a cache whose module predates the shared runtime
+        first = tmp_path / "first"
+        first.mkdir()
+        with monkeypatch.context() as m:
+            m.setattr(compiled_aot, "folder", lambda: first)
+            m.setattr(compiled_aot, "_loaded", {})
+            name = compiled_aot.module_name(plan.METHOD, "dense")
+            m.setitem(sys.modules, name, sys.modules.get(name))
+            reference = _damped()
+        runtime = compiled_aot.runtime_folder(first)
     assert compiled_aot.runtime_objects(runtime) is not None
     aot = tmp_path / "aot"
     aot.mkdir()
