@@ -40,6 +40,7 @@ import numpy as np
 
 from pulsemap.symbolic import cache
 from pulsemap.solvers.models.relaxed_table import (
+    LATTICE,
     NAMESPACE,
     ONSET,
     SegmentTable,
@@ -56,7 +57,8 @@ ONSET_BEADS = ONSET + J_MAX  # beads first_perturbed + 0.. the onset kernel span
 ONSET_DELTA = 0.1  # bump of the onset kernel's runs (second differences: larger than DELTA)
 #: bump of the bulk's second-order runs: a second difference divides the table's fit error (~1e-4 in log r) by
 #: its square, so at 0.1 that noise outweighs the correction on 2:1 contrasts (docs/nonuniform.rst)
-PAIR_DELTA = 0.3
+PAIR_DELTA = 0.5
+PAIR_REACH = 2.0 * math.log(2.0) / LATTICE  # two lattice spacings: the runs bracketing log P for every j
 
 
 @dataclass
@@ -215,18 +217,17 @@ class KernelTable:
         departures of beads c + j and c + j' (relative for R's scale, absolute for a parameter), interpolated
         in log P_{c-1} per entry (clamped at the ends; 0 where no run measured it). ``residual(bump, peaks)``:
         {step m: the run's log(P_m/P_{m-1}) less the model's at P_{m-1}} of a run with ``bump`` (() for the
-        table's own run). Each lattice point is read once, with the tables as they stand when it is first
-        needed (a second difference of residuals of one fit: the fit's later growth moves it little)."""
-        lattice = tuple(self.table.runs)
-        if self._hessian is None or self._hessian["lattice"] != lattice:
-            for lat in lattice:
-                if lat not in self.pair_points:
-                    self.pair_points[lat] = self._hessian_at(lat, residual)
+        table's own run). Each lattice point is read once, when log P first comes within PAIR_REACH of the
+        peaks its steps see, with the tables as they stand then (a second difference of residuals of one
+        fit: the fit's later growth moves it little)."""
+        for lat in [lat for lat in self.table.runs if lat not in self.pair_points and self._near(lat, log_p)]:
+            self.pair_points[lat] = self._hessian_at(lat, residual)
+        if self._hessian is None or self._hessian["lattice"] != tuple(self.pair_points):
             pts: dict = {}
-            for lat in lattice:
+            for lat in self.pair_points:
                 for jk, x, value in self.pair_points[lat]:
                     pts.setdefault(jk, []).append((x, value))
-            self._hessian = {"lattice": lattice, "pts": {jk: _sorted(p) for jk, p in pts.items()}}
+            self._hessian = {"lattice": tuple(self.pair_points), "pts": {jk: _sorted(p) for jk, p in pts.items()}}
         size = J_MAX - J_MIN + 1
         q = np.zeros((size, size))
         value = {jk: float(np.interp(log_p, x, y)) for jk, (x, y) in self._hessian["pts"].items()}
@@ -238,6 +239,11 @@ class KernelTable:
                 q[j - J_MIN, k - J_MIN] = q[k - J_MIN, j - J_MIN] = 0.5 * (v - q[j - J_MIN, j - J_MIN]
                                                                        - q[k - J_MIN, k - J_MIN])
         return q
+
+    def _near(self, lat: int, log_p: float) -> bool:
+        """Whether the steps of lattice run ``lat`` that see the bumped bead start within PAIR_REACH of log P."""
+        x = np.log(self.table.runs[lat][ONSET:BUMP_BEAD + 1 - J_MIN])
+        return x.size > 1 and float(x.min()) - PAIR_REACH <= log_p <= float(x.max()) + PAIR_REACH
 
     def _hessian_at(self, lat: int, residual: Callable) -> list[tuple[tuple[int, int], float, float]]:
         """((j, j'), log P_{m-1}, (rho(+d) + rho(-d) - 2 rho(0)) / d^2) of each step m of lattice run ``lat`` that sees
