@@ -58,6 +58,7 @@ ONSET_DELTA = 0.1  # bump of the onset kernel's runs (second differences: larger
 #: bump of the bulk's second-order runs: a second difference divides the table's fit error (~1e-4 in log r) by
 #: its square, so at 0.1 that noise outweighs the correction on 2:1 contrasts (docs/nonuniform.rst)
 PAIR_DELTA = 0.5
+PAIR_LIFE = 3  # contacts every second-order run must live past a step for it to count (see _hessian_at)
 PAIR_REACH = 2.0 * math.log(2.0) / LATTICE  # two lattice spacings: the runs bracketing log P for every j
 
 
@@ -247,15 +248,18 @@ class KernelTable:
 
     def _hessian_at(self, lat: int, residual: Callable) -> list[tuple[tuple[int, int], float, float]]:
         """((j, j'), log P_{m-1}, (rho(+d) + rho(-d) - 2 rho(0)) / d^2) of each step m of lattice run ``lat`` that sees
-        both bumped beads in its window: Q_jj for j = j', Q_jj + Q_j'j' + 2 Q_jj' for j < j'. Empty for a run
-        without bulk steps."""
+        both bumped beads in its window: Q_jj for j = j', Q_jj + Q_j'j' + 2 Q_jj' for j < j'. Only steps that the run
+        and all its bumped runs outlive by PAIR_LIFE contacts: near a pulse's death at a finite contact (Coulomb
+        friction) a bead's change moves the death, and the response is not quadratic in it."""
         base = self.table.runs[lat]
         if self.table.bulk() is None or len(base) <= ONSET + 1:
             return []
-        last = BUMP_BEAD + 1 - J_MIN  # the last step whose window holds the bumped bead
+        runs = self._pair_peaks(lat)
+        # the steps every run outlives by PAIR_LIFE contacts, up to the last whose window holds the bumped bead
+        last = min(BUMP_BEAD + 1 - J_MIN, min(len(p) for p in [base, *runs]) - 1 - PAIR_LIFE)
         d = self.pair_step()
         rho0 = residual((), base[:last + 1])
-        rho = [residual(bump, peaks[:last + 1]) for bump, peaks in zip(self.pair_bumps(), self._pair_peaks(lat))]
+        rho = [residual(bump, peaks[:last + 1]) for bump, peaks in zip(self.pair_bumps(), runs)]
         out = []
         for gap in range(J_MAX - J_MIN + 1):
             up, down = rho[2 * gap], rho[2 * gap + 1]
