@@ -56,8 +56,9 @@ DELTA = 0.02  # relative change of R on the bumped bead (a one-sided difference:
 ONSET_BEADS = ONSET + J_MAX  # beads first_perturbed + 0.. the onset kernel spans (the last onset step's window)
 ONSET_DELTA = 0.1  # bump of the onset kernel's runs (second differences: larger than DELTA)
 #: bump of the bulk's second-order runs: a second difference divides the table's fit error (~1e-4 in log r) by
-#: its square, so at 0.1 that noise outweighs the correction on 2:1 contrasts (docs/nonuniform.rst)
-PAIR_DELTA = 0.5
+#: its square, so at 0.1 that noise outweighs the correction on 2:1 contrasts; 0.2-0.5 do alike on segment runs
+#: through two-valued chains (docs/nonuniform.rst)
+PAIR_DELTA = 0.3
 PAIR_LIFE = 3  # contacts every second-order run must live past a step for it to count (see _hessian_at)
 PAIR_REACH = 2.0 * math.log(2.0) / LATTICE  # two lattice spacings: the runs bracketing log P for every j
 
