@@ -123,6 +123,7 @@ def test_coulomb_segment_runs_obey_the_scaling_law():
 def test_site_dependent_coulomb_reads_one_scaled_table():
     model = model_for("-mu*sign(v)", 0.05, {"mu": list(np.linspace(0.5, 1.5, 80))})
     assert model.grid is None and model.e == -1.5 and model.units == ("sign(v)", "-(sign(v))")
+    assert not model.second_order  # a jump in R: the response to a bead's mu has kinks (smooth_response)
     run = rl.iterate_relaxed(model, 0.75, 15, 30)
     assert len(run.peaks) >= 6 and set(model.tables) == {-1}
 
