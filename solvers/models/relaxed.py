@@ -20,14 +20,17 @@ Scaling (derive/scaling.py): for a single monomial eps c u^a v^b every ratio is 
 x = eps c A^e only, so the tables are built once for R = +-u^a v^b at eps = 1 and used for any
 eps, c and v0 by the amplitude change A' = |eps c|^(1/e) A. Several monomials (or a non-polynomial
 R, or e = 0) get tables of their own R, eps and params; where R varies along the chain, a homogeneous
-R = c h(u, v) (Coulomb friction sign(v), v*abs(v)) is read through the scaling like a monomial. Below |x| = X_SMALL the log-ratios are
-continued linearly in x (first order in the perturbation), which covers c = 0 exactly.
+R = c h(u, v) (Coulomb friction sign(v), v*abs(v)) is read through the scaling like a monomial.
+Below |x| = X_SMALL the log-ratios are continued linearly in x (first order in the perturbation),
+which covers c = 0 exactly.
 
 Site-dependent R (graded, modulated or random foundations): a bead's coefficient acts on the
 pulse over several contacts, so the step onto contact c mixes the uniform map over the
 coefficients of beads c + j, j = J_MIN..J_MAX: log r_c = sum_j w_j(P) log r(P; c_{c+j}), with
 w_j the shares of a first-order response kernel measured by segment runs with one bumped bead
-(solvers/models/relaxed_kernel.py). The onset steps, whose pulse has not relaxed, are the onset
+(solvers/models/relaxed_kernel.py), plus a second-order term in the window's departures from its
+mean measured as the mixing's own residual on runs with one or two beads changed (none for an R with
+a jump, smooth_response). The onset steps, whose pulse has not relaxed, are the onset
 table at the mean coefficient of the beads they see plus a second-order onset kernel in the
 departures from it (runs with one or two bumped beads). Where the window is uniform the map and
 the onset are the local ones, bit for bit. A single monomial (or homogeneous R) reads the
@@ -61,9 +64,10 @@ class RelaxedModel:
 
     ``coefficients``: eps_i c_i per bead (1-based at index i-1) for the monomial path, the
     site-dependent parameter's values on the grid path, None for a table of the scene's own R.
-    ``e``: the monomial's scaling exponent, ``units`` the texts of its tables of coefficient +1 and -1. ``tables``: one per sign of the coefficient (monomial
-    path), one per grid point (grid path: ``grid`` the parameter ``param``'s values), or {0: the
-    scene's table}. ``kernels``: the response kernel of each table a site-dependent R needs.
+    ``e``: the monomial's scaling exponent, ``units`` the texts of its tables of coefficient +1 and -1.
+    ``tables``: one per sign of the coefficient (monomial path), one per grid point (grid path: ``grid``
+    the parameter ``param``'s values), or {0: the scene's table}. ``kernels``: the response kernel of
+    each table a site-dependent R needs.
     """
 
     n: float
@@ -296,7 +300,7 @@ class RelaxedModel:
         def residual(bump, peaks: list[float]) -> dict[int, float]:
             coef = base.copy()
             for b, delta, _ in bump:
-                coef[fp - 1 + b] = coef[fp - 1 + b] + delta if self.grid is not None else coef[fp - 1 + b] * (1.0 + delta)
+                coef[fp - 1 + b] += delta if self.grid is not None else coef[fp - 1 + b] * delta
             run = replace(self, coefficients=coef, first_perturbed=fp, second_order=False)
             out = {}
             for m in range(self.spec.onset + 1, len(peaks)):
@@ -340,7 +344,8 @@ class RelaxedModel:
         return sum(len(t.runs) for t in self.tables.values()) + self.kernel_runs()
 
     def kernel_runs(self) -> int:
-        """Bumped segment runs of the response kernels: the bulk kernel's and the onset kernel's."""
+        """Bumped segment runs of the response kernels: the bulk kernel's, the onset kernel's and the second-order
+        runs."""
         onset = sum(len(k.onset_bumps()) for k in self.kernels.values() for h in k.onset_runs.values() if h is not None)
         pairs = sum(len(k.pair_bumps()) * len(k.pair_runs) for k in self.kernels.values())
         return sum(len(k.runs) for k in self.kernels.values()) + onset + pairs
@@ -440,9 +445,10 @@ def build_model(R, R_text: str, used: tuple[str, ...], values: Mapping[str, obje
     """The relaxed model of eps R (sympy ``R``, its text, used parameter names and values).
 
     ``coefficients``: eps_i R_i(1, 1) per bead (the monomial's local coefficient); needed for a
-    single monomial or a site-dependent homogeneous R (``scaling_form``), ignored otherwise. ``first_perturbed`` (default: the first bead with a nonzero
-    coefficient; required for a site-dependent R of several monomials): beads before it are the
-    bare chain the segment runs enter from. A site-dependent R of several monomials takes one
+    single monomial or a site-dependent homogeneous R (``scaling_form``), ignored otherwise.
+    ``first_perturbed`` (default: the first bead with a nonzero coefficient; required for a
+    site-dependent R of several monomials): beads before it are the bare chain the segment runs enter
+    from. A site-dependent R of several monomials takes one
     site-dependent parameter and no explicit bead index i (``_grid_model``).
     """
     if not (math.isfinite(eps) and eps >= 0):

@@ -250,8 +250,8 @@ class KernelTable:
     def _hessian_at(self, lat: int, residual: Callable) -> list[tuple[tuple[int, int], float, float]]:
         """((j, j'), log P_{m-1}, (rho(+d) + rho(-d) - 2 rho(0)) / d^2) of each step m of lattice run ``lat`` that sees
         both bumped beads in its window: Q_jj for j = j', Q_jj + Q_j'j' + 2 Q_jj' for j < j'. Only steps that the run
-        and all its bumped runs outlive by PAIR_LIFE contacts: near a pulse's death at a finite contact (Coulomb
-        friction) a bead's change moves the death, and the response is not quadratic in it."""
+        and all its bumped runs outlive by PAIR_LIFE contacts: near a pulse's death a bead's change moves the death,
+        and the response is not quadratic in it."""
         base = self.table.runs[lat]
         if self.table.bulk() is None or len(base) <= ONSET + 1:
             return []

@@ -42,7 +42,7 @@ def canonical_model(pattern: np.ndarray, second_order: bool, shared: dict) -> rl
 
 
 def bulk_drift(model: rl.RelaxedModel, peaks: list[float]) -> np.ndarray:
-    """The model's relative error on each bulk step of a segment run, iterated from the run's peak at the onset's end."""
+    """The model's relative error on each bulk step of a segment run, iterated from its peak at the onset's end."""
     _, _, entry = SPEC.geometry()
     p, out = peaks[rt.ONSET], []
     for m in range(rt.ONSET + 1, len(peaks)):
