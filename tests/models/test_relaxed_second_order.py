@@ -107,6 +107,12 @@ def test_homogeneous_form(R, text, e):
     assert got == (None if text is None else (text, e))
 
 
+@pytest.mark.parametrize("R, smooth", [("-mu*sign(v)", False), ("-mu*heaviside(v)*v", False), ("-mu*v*abs(v)", True),
+                                       ("-(mu*u + v)", True)])
+def test_only_an_r_without_a_jump_gets_the_second_order_term(R, smooth):
+    assert rl.smooth_response(make_perturbation(R, 0.1, {"mu": 1.0}).R) is smooth
+
+
 def test_coulomb_segment_runs_obey_the_scaling_law():
     """The DNS of eps mu sign(v) at amplitude A is the canonical sign(v) run at |eps mu|^(1/e) A, scaled: the
     symmetry the site-dependent Coulomb model reads its one table through (the DNS's ramp is 1e-9 wide)."""
