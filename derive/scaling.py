@@ -9,7 +9,7 @@ coefficient x = eps c A^e,
 
 and every amplitude ratio (P_{k+1}/P_k) is a function of x alone.
 
-Importing this module loads no sympy (only monomial_exponents does, when called): the numeric
+Importing this module loads no sympy (only monomial_exponents and homogeneous_form do, when called): the numeric
 side (solvers/models) takes scaling_exponent from here.
 """
 
