@@ -9,7 +9,7 @@ coefficient x = eps c A^e,
 
 and every amplitude ratio (P_{k+1}/P_k) is a function of x alone.
 
-Importing this module loads no sympy (only monomial_exponents does, when called): the numeric
+Importing this module loads no sympy (only monomial_exponents and homogeneous_form do, when called): the numeric
 side (solvers/models) takes scaling_exponent from here.
 """
 
@@ -41,6 +41,30 @@ def monomial_exponents(R: "sympy.Expr") -> tuple[int, int] | None:
     if coeff.free_symbols & {u, v}:
         return None
     return int(a), int(b)
+
+
+def homogeneous_form(R: "sympy.Expr", n: float) -> tuple[str, float] | None:
+    """(text of h, e) when R = c h(u, v) with c free of u and v and h homogeneous under the symmetry of Eq. 1,
+    h(l u, l^(1+s) v) = l^d h(u, v) for l > 0 (sign(v): d = 0; v*abs(v): d = 2 (1 + s)), scaled to h(1, 1) = 1;
+    e = d - n, as a monomial's. None when R is not of that form or h(1, 1) = 0."""
+    import sympy
+
+    from .expression import formula, symbol
+
+    u, v = symbol("u"), symbol("v")
+    lam = sympy.Symbol("lambda_scale", positive=True)
+    coef, h = sympy.expand(R).as_independent(u, v, as_Add=False)
+    if not (h.free_symbols & {u, v}) or h.free_symbols - {u, v}:
+        return None
+    ratio = sympy.simplify(h.subs({u: lam * u, v: lam ** (1 + (sympy.nsimplify(n) - 1) / 2) * v},
+                                  simultaneous=True) / h)
+    if ratio.free_symbols - {lam}:
+        return None
+    degree = sympy.simplify(sympy.expand_log(sympy.log(ratio), force=True) / sympy.log(lam))
+    at_one = h.subs({u: 1, v: 1})
+    if not (degree.is_number and at_one.is_number and at_one.is_finite and at_one != 0):
+        return None
+    return formula(h / at_one), float(degree) - float(n)
 
 
 def scaling_exponent(a: int, b: int, n: float) -> float:

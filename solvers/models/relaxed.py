@@ -19,18 +19,22 @@ The model (tables: solvers/models/relaxed_table.py):
 Scaling (derive/scaling.py): for a single monomial eps c u^a v^b every ratio is a function of
 x = eps c A^e only, so the tables are built once for R = +-u^a v^b at eps = 1 and used for any
 eps, c and v0 by the amplitude change A' = |eps c|^(1/e) A. Several monomials (or a non-polynomial
-R, or e = 0) get tables of their own R, eps and params. Below |x| = X_SMALL the log-ratios are
-continued linearly in x (first order in the perturbation), which covers c = 0 exactly.
+R, or e = 0) get tables of their own R, eps and params; where R varies along the chain, a homogeneous
+R = c h(u, v) (Coulomb friction sign(v), v*abs(v)) is read through the scaling like a monomial.
+Below |x| = X_SMALL the log-ratios are continued linearly in x (first order in the perturbation),
+which covers c = 0 exactly.
 
 Site-dependent R (graded, modulated or random foundations): a bead's coefficient acts on the
 pulse over several contacts, so the step onto contact c mixes the uniform map over the
 coefficients of beads c + j, j = J_MIN..J_MAX: log r_c = sum_j w_j(P) log r(P; c_{c+j}), with
 w_j the shares of a first-order response kernel measured by segment runs with one bumped bead
-(solvers/models/relaxed_kernel.py). The onset steps, whose pulse has not relaxed, are the onset
+(solvers/models/relaxed_kernel.py), plus a second-order term in the window's departures from its
+mean measured as the mixing's own residual on runs with one or two beads changed (none for an R with
+a jump, smooth_response). The onset steps, whose pulse has not relaxed, are the onset
 table at the mean coefficient of the beads they see plus a second-order onset kernel in the
 departures from it (runs with one or two bumped beads). Where the window is uniform the map and
-the onset are the local ones, bit for bit. A single monomial reads the coefficient
-c_i = eps_i R_i(1, 1); several monomials take one site-dependent parameter and uniform tables at
+the onset are the local ones, bit for bit. A single monomial (or homogeneous R) reads the
+coefficient c_i = eps_i R_i(1, 1); several monomials take one site-dependent parameter and uniform tables at
 GRID_POINTS values across its range, linear in the parameter between them. Every table and kernel is calibrated on segment runs only.
 """
 
@@ -60,9 +64,10 @@ class RelaxedModel:
 
     ``coefficients``: eps_i c_i per bead (1-based at index i-1) for the monomial path, the
     site-dependent parameter's values on the grid path, None for a table of the scene's own R.
-    ``e``: the monomial's scaling exponent. ``tables``: one per sign of the coefficient (monomial
-    path), one per grid point (grid path: ``grid`` the parameter ``param``'s values), or {0: the
-    scene's table}. ``kernels``: the response kernel of each table a site-dependent R needs.
+    ``e``: the monomial's scaling exponent, ``units`` the texts of its tables of coefficient +1 and -1.
+    ``tables``: one per sign of the coefficient (monomial path), one per grid point (grid path: ``grid``
+    the parameter ``param``'s values), or {0: the scene's table}. ``kernels``: the response kernel of
+    each table a site-dependent R needs.
     """
 
     n: float
@@ -70,11 +75,12 @@ class RelaxedModel:
     tables: dict
     coefficients: np.ndarray | None = None
     e: float | None = None
-    exponents: tuple[int, int] | None = None
+    units: tuple[str, str] | None = None
     first_perturbed: int = 1
     kernels: dict = field(default_factory=dict)
     grid: tuple[float, ...] | None = None
     param: str | None = None
+    second_order: bool = True  # the bulk's second-order term (False: the mixing alone; smooth_response)
 
     # ------------------------------------------------------------ amplitude change
     def _scale(self, c: float | None) -> tuple[int, float] | None:
@@ -169,7 +175,7 @@ class RelaxedModel:
             params = tuple(sorted({**dict(self.spec.params), self.param: float(self.grid[key])}.items()))
             self.tables[key] = SegmentTable(replace(self.spec, params=params))
         if key not in self.tables:
-            text = _monomial_text(*self.exponents, key)
+            text = self.units[0 if key > 0 else 1]
             self.tables[key] = SegmentTable(SegmentSpec(text, (), 1.0, self.n, self.spec.rtol,
                                                         self.spec.window_accuracy))
         return self.tables[key]
@@ -250,12 +256,61 @@ class RelaxedModel:
         return out
 
     def bulk_ratio(self, peak: float, contact: int) -> float | None:
-        """F(P)/P for the step onto ``contact``; None where no relaxed pulse exists (it dies)."""
+        """F(P)/P for the step onto ``contact``; None where no relaxed pulse exists (it dies). A non-uniform
+        window adds the second-order term (``second_order_term``) to the mixing of uniform maps."""
         terms = [(w, self._log_bulk(c, peak)) for w, c in self.mix(contact, peak)]
         if any(v is None for _, v in terms):
             value = self._linear_bulk(contact, peak) if len(terms) > 1 else None
             return None if value is None else math.exp(value)
-        return math.exp(sum(w * v for w, v in terms))
+        value = sum(w * v for w, v in terms)
+        if len(terms) > 1 and self.second_order:
+            value += self.second_order_term(contact, peak)
+        return math.exp(value)
+
+    def second_order_term(self, contact: int, peak: float) -> float:
+        """1/2 sum_jj' Q_jj'(P) e_j e_j': what the mixing of uniform maps misses at second order in the window's
+        departures e_j from its mean (relative for a monomial's coefficient, absolute for a parameter), Q
+        the second derivatives of the model's own one-step residual on segment runs with one or two beads
+        changed (relaxed_kernel.KernelTable.hessian) at the window's mean, where the kernel's shares are read.
+        Without it the mixing decays too fast by a share growing as the departures' square (0.2-0.3 % a step
+        at a 5:1 contrast). 0 where a coefficient is 0 or of the other sign than the mean (the first-order
+        mixing alone there)."""
+        own, window = self._bulk_window(contact)
+        mean = float(np.mean(window))
+        if self.grid is None and (mean == 0.0 or any(c * mean <= 0.0 for c in window)):
+            return 0.0
+        key, tab, at = self._reference(window, own, peak)
+        if not tab.cover(at):
+            return 0.0
+        e = self._departures(window, mean)
+        return 0.5 * float(e @ self.kernel(key).hessian(at, self._residual(key)) @ e)
+
+    def _residual(self, key: int):
+        """residual(bump, peaks) -> {step m: log(P_m/P_{m-1}) less the mixing's at P_{m-1}} for a segment run of
+        table ``key`` with ``bump`` (KernelTable.hessian): the model without its second-order term on the run's
+        chain (R's scale or the parameter on bead first_perturbed + b changed), sharing its tables and kernels."""
+        tab = self.table(key)
+        _, fp, entry = tab.spec.geometry()
+        beads = entry + tab.spec.recorded + 2 * (J_MAX - J_MIN) + 2
+        if self.grid is not None:
+            base = np.full(beads, float(self.grid[key]))
+        else:
+            base = np.where(np.arange(1, beads + 1) >= fp, float(key), 0.0)
+
+        def residual(bump, peaks: list[float]) -> dict[int, float]:
+            coef = base.copy()
+            for b, delta, _ in bump:
+                coef[fp - 1 + b] += delta if self.grid is not None else coef[fp - 1 + b] * delta
+            run = replace(self, coefficients=coef, first_perturbed=fp, second_order=False)
+            out = {}
+            for m in range(self.spec.onset + 1, len(peaks)):
+                r = run.bulk_ratio(peaks[m - 1], entry + m)
+                if r is None:
+                    break
+                out[m] = math.log(peaks[m] / peaks[m - 1]) - math.log(r)
+            return out
+
+        return residual
 
     def _linear_bulk(self, contact: int, peak: float) -> float | None:
         """log F(P)/P as the uniform map at the window's mean coefficient cm plus the kernel's first-order
@@ -289,9 +344,11 @@ class RelaxedModel:
         return sum(len(t.runs) for t in self.tables.values()) + self.kernel_runs()
 
     def kernel_runs(self) -> int:
-        """Bumped segment runs of the response kernels: the bulk kernel's and the onset kernel's."""
+        """Bumped segment runs of the response kernels: the bulk kernel's, the onset kernel's and the second-order
+        runs."""
         onset = sum(len(k.onset_bumps()) for k in self.kernels.values() for h in k.onset_runs.values() if h is not None)
-        return sum(len(k.runs) for k in self.kernels.values()) + onset
+        pairs = sum(len(k.pair_bumps()) * len(k.pair_runs) for k in self.kernels.values())
+        return sum(len(k.runs) for k in self.kernels.values()) + onset + pairs
 
 
 @dataclass(frozen=True)
@@ -353,32 +410,60 @@ def _monomial_text(a: int, b: int, sign: int) -> str:
     return body if sign > 0 else f"-{body}"
 
 
+def varies(R, used: tuple[str, ...], values: Mapping[str, object]) -> bool:
+    """Whether eps R changes along the chain: a per-bead parameter, or the bead index i in R."""
+    return any(np.ndim(values[k]) for k in used) or "i" in {s.name for s in R.free_symbols}
+
+
+def smooth_response(R) -> bool:
+    """Whether the pulse's response to a bead's coefficient is smooth enough for the bulk's second-order term: not
+    for an R with a jump (sign, Heaviside: Coulomb friction), whose beads stick behind the pulse where the force
+    is below the jump, so the response has kinks; on segment runs through U[0.5, 1.5] friction the term
+    came out 3x the mixing's residual (docs/nonuniform.rst)."""
+    import sympy
+
+    return not R.has(sympy.sign, sympy.Heaviside)
+
+
+def scaling_form(R, n: float, site: bool) -> tuple[tuple[str, str], float] | None:
+    """((the texts of the tables of coefficient +1 and -1), e) of an R the scaling of Eq. 1 carries: a single
+    monomial c u^a v^b; and, where R varies along the chain, a homogeneous R = c h(u, v) (sign(v), v*abs(v):
+    derive/scaling.homogeneous_form), which otherwise gets a grid of tables linear in c between them. None:
+    neither (a uniform non-monomial R keeps its own table)."""
+    from pulsemap.symbolic.scaling import homogeneous_form, monomial_exponents, scaling_exponent
+
+    mono = monomial_exponents(R)
+    if mono is not None:
+        return (_monomial_text(*mono, 1), _monomial_text(*mono, -1)), scaling_exponent(*mono, n)
+    form = homogeneous_form(R, n) if site else None
+    return None if form is None else ((form[0], f"-({form[0]})"), form[1])
+
+
 def build_model(R, R_text: str, used: tuple[str, ...], values: Mapping[str, object], eps: float, n: float,
                 coefficients: np.ndarray | None, *, rtol: float = 1e-9,
                 first_perturbed: int | None = None) -> RelaxedModel:
     """The relaxed model of eps R (sympy ``R``, its text, used parameter names and values).
 
     ``coefficients``: eps_i R_i(1, 1) per bead (the monomial's local coefficient); needed for a
-    single monomial, ignored otherwise. ``first_perturbed`` (default: the first bead with a nonzero
-    coefficient; required for a site-dependent R of several monomials): beads before it are the
-    bare chain the segment runs enter from. A site-dependent R of several monomials takes one
+    single monomial or a site-dependent homogeneous R (``scaling_form``), ignored otherwise.
+    ``first_perturbed`` (default: the first bead with a nonzero coefficient; required for a
+    site-dependent R of several monomials): beads before it are the bare chain the segment runs enter
+    from. A site-dependent R of several monomials takes one
     site-dependent parameter and no explicit bead index i (``_grid_model``).
     """
-    from pulsemap.symbolic.scaling import monomial_exponents, scaling_exponent
-
     if not (math.isfinite(eps) and eps >= 0):
         raise RelaxedError(f"eps must be a finite number >= 0, got {eps!r}")
-    site = any(np.ndim(values[k]) for k in used) or "i" in {s.name for s in R.free_symbols}
-    mono = monomial_exponents(R)
-    e = None if mono is None else scaling_exponent(*mono, n)
-    if mono is not None and abs(e) > 1e-12:
+    site = varies(R, used, values)
+    form = scaling_form(R, n, site)
+    if form is not None and abs(form[1]) > 1e-12:
         if coefficients is None:
-            raise RelaxedError("a single-monomial R needs its per-bead coefficients eps_i R_i(1, 1)")
-        spec = SegmentSpec(_monomial_text(*mono, 1), (), 1.0, float(n), rtol)
+            raise RelaxedError("a single-monomial or homogeneous R needs its per-bead coefficients eps_i R_i(1, 1)")
+        spec = SegmentSpec(form[0][0], (), 1.0, float(n), rtol)
         coef = np.asarray(coefficients, float)
         if first_perturbed is None:
             first_perturbed = int(np.argmax(coef != 0.0)) + 1 if np.any(coef != 0.0) else 1
-        return RelaxedModel(float(n), spec, {}, coef, e, mono, int(first_perturbed))
+        return RelaxedModel(float(n), spec, {}, coef, form[1], form[0], int(first_perturbed),
+                            second_order=smooth_response(R))
     if site:
         return _grid_model(R, R_text, used, values, eps, n, rtol, first_perturbed)
     params = tuple(sorted((k, float(values[k])) for k in used))
@@ -411,7 +496,8 @@ def _grid_model(R, R_text: str, used: tuple[str, ...], values: Mapping[str, obje
     grid = tuple(np.linspace(lo, hi, GRID_POINTS).tolist()) if hi > lo else (lo, lo + 1.0)
     params = tuple(sorted((k, float(values[k]) if k != name else lo) for k in used))
     spec = SegmentSpec(R_text, params, float(eps), float(n), rtol)
-    return RelaxedModel(float(n), spec, {}, theta, None, None, int(first_perturbed), grid=grid, param=name)
+    return RelaxedModel(float(n), spec, {}, theta, None, None, int(first_perturbed), grid=grid, param=name,
+                        second_order=smooth_response(R))
 
 
 def bead_coefficients(force_mod, used: tuple[str, ...], values: Mapping[str, object], eps: float,
@@ -452,14 +538,13 @@ def contact_model(scene, values: Mapping[str, object], rtol: float) -> RelaxedMo
 def model_for_scene(scene, values: Mapping[str, object], *, rtol: float = 1e-9) -> RelaxedModel:
     """The relaxed model of a scene's eps R (``values``: its parameters, scalars or per-bead arrays), with its
     contact-law term when it has one (contact_model)."""
-    from pulsemap.symbolic.scaling import monomial_exponents
     from pulsemap.solvers.models.codeload import force_module
 
     if getattr(scene, "contact", None) is not None or getattr(scene, "masses", None) is not None:
         return contact_model(scene, values, rtol)
     pert = scene.perturbation
     coef = None
-    if monomial_exponents(pert.R) is not None:
+    if scaling_form(pert.R, float(scene.exponent), varies(pert.R, pert.used_parameters, values)) is not None:
         lengths = [np.size(values[k]) for k in pert.used_parameters if np.ndim(values[k])]
         beads = min(lengths) if lengths else int(scene.contacts[1]) + 2
         coef = bead_coefficients(force_module(pert.text, pert.used_parameters), pert.used_parameters, values,

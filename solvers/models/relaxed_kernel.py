@@ -1,4 +1,4 @@
-"""Response of the relaxed map to neighbouring beads' coefficients (bulk: first order, onset: second), from segment runs.
+"""Response of the relaxed map to neighbouring beads' coefficients (bulk and onset: to second order), from segment runs.
 
 A bead's on-site coefficient acts on the primary pulse over several contacts, not only on the step
 whose first bead it is. For a segment table (relaxed_table.SegmentTable, uniform R) the kernel is
@@ -21,17 +21,26 @@ The onset (the ONSET steps after the bare entry) is not translation invariant an
 relaxed, so it has a kernel of its own (``onset_kernel``): the first and second derivatives of its
 log ratios in the coefficients of beads first_perturbed + 0..ONSET_BEADS-1, from runs with one bead
 (+-ONSET_DELTA) or two beads (+ONSET_DELTA each) bumped, at the entry peak of the base run.
+
+The bulk's second order (``hessian``) is what the map's mixing of uniform maps misses: the second
+derivatives Q_jj' of the model's own one-step residual (the run's log ratio less the model's, read at
+the run's incoming peak) in the coefficients of beads c + j and c + j', from runs with bead BUMP_BEAD
+and bead BUMP_BEAD + d changed together by +-PAIR_DELTA (d = 0: that bead alone), each run's
+residual less the base run's. The sum of the +PAIR_DELTA and -PAIR_DELTA runs cancels the odd orders
+(the first-order kernel's own error among them).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import Callable
 
 import numpy as np
 
 from pulsemap.symbolic import cache
 from pulsemap.solvers.models.relaxed_table import (
+    LATTICE,
     NAMESPACE,
     ONSET,
     SegmentTable,
@@ -46,6 +55,12 @@ SLOPE_STEP = 1e-3  # half-step in log P of the bulk map's slope d log r / d log 
 DELTA = 0.02  # relative change of R on the bumped bead (a one-sided difference: the kernel's shares to O(DELTA))
 ONSET_BEADS = ONSET + J_MAX  # beads first_perturbed + 0.. the onset kernel spans (the last onset step's window)
 ONSET_DELTA = 0.1  # bump of the onset kernel's runs (second differences: larger than DELTA)
+#: bump of the bulk's second-order runs: a second difference divides the table's fit error (~1e-4 in log r) by
+#: its square, so at 0.1 that noise outweighs the correction on 2:1 contrasts; 0.2-0.5 do alike on segment runs
+#: through two-valued chains (docs/nonuniform.rst)
+PAIR_DELTA = 0.3
+PAIR_LIFE = 3  # contacts every second-order run must live past a step for it to count (see _hessian_at)
+PAIR_REACH = 2.0 * math.log(2.0) / LATTICE  # two lattice spacings: the runs bracketing log P for every j
 
 
 @dataclass
@@ -56,7 +71,10 @@ class KernelTable:
     param: str = ""  # "": R's scale on the bead; else the parameter the kernel is of
     runs: dict = field(default_factory=dict)  # lattice j -> peaks of the bumped run
     onset_runs: dict = field(default_factory=dict)  # lattice j -> its onset kernel (H, H2), or None
+    pair_runs: dict = field(default_factory=dict)  # lattice j -> peaks of the second-order runs (pair_bumps order)
+    pair_points: dict = field(default_factory=dict)  # lattice j -> its second-order points (_hessian_at)
     _fits: dict | None = None
+    _hessian: dict | None = None
 
     def step(self) -> tuple[float, float]:
         """(the bump, the change of the varied quantity it makes: log scale of R, or the parameter)."""
@@ -175,11 +193,88 @@ class KernelTable:
         return [((b, d, name),) for b in range(ONSET_BEADS)] + [((b, -d, name),) for b in range(ONSET_BEADS)] + pairs
 
     def _onset_peaks(self, lat: int) -> list[list[float]]:
-        """Peaks of the onset kernel's runs at lattice point ``lat`` (onset_bumps order), through the on-disk
-        cache as one entry: one write per lattice point, not one per run (each write is synced to disk)."""
-        bumps = self.onset_bumps()
+        """Peaks of the onset kernel's runs at lattice point ``lat`` (onset_bumps order), cached as one entry."""
+        return self._bumped_set(lat, self.onset_bumps(), "onset-kernel")
+
+    # ------------------------------------------------------------ bulk, second order
+    def pair_step(self) -> float:
+        """The bump of the second-order runs: a relative change of R, or a change of the parameter."""
+        return PAIR_DELTA if not self.param else PAIR_DELTA * max(abs(dict(self.table.spec.params)[self.param]), 0.1)
+
+    def pair_bumps(self) -> list[tuple[tuple[int, float, str], ...]]:
+        """The bumps of one lattice point's second-order runs: for d = 0..J_MAX-J_MIN, beads BUMP_BEAD and
+        BUMP_BEAD + d (d = 0: the one bead) changed by +d, then by -d."""
+        d, name = self.pair_step(), self.param
+        return [tuple((b, s * d, name) for b in sorted({BUMP_BEAD, BUMP_BEAD + gap}))
+                for gap in range(J_MAX - J_MIN + 1) for s in (1.0, -1.0)]
+
+    def _pair_peaks(self, lat: int) -> list[list[float]]:
+        """Peaks of the second-order runs at lattice point ``lat`` (pair_bumps order), cached as one entry."""
+        if lat not in self.pair_runs:
+            self.pair_runs[lat] = self._bumped_set(lat, self.pair_bumps(), "pair-kernel")
+        return self.pair_runs[lat]
+
+    def hessian(self, log_p: float, residual: Callable) -> np.ndarray:
+        """Q_jj' at log P (j, j' = J_MIN..J_MAX): the second derivatives of the model's one-step residual in the
+        departures of beads c + j and c + j' (relative for R's scale, absolute for a parameter), interpolated
+        in log P_{c-1} per entry (clamped at the ends; 0 where no run measured it). ``residual(bump, peaks)``:
+        {step m: the run's log(P_m/P_{m-1}) less the model's at P_{m-1}} of a run with ``bump`` (() for the
+        table's own run). Each lattice point is read once, when log P first comes within PAIR_REACH of the
+        peaks its steps see, with the tables as they stand then (a second difference of residuals of one
+        fit: the fit's later growth moves it little)."""
+        for lat in [lat for lat in self.table.runs if lat not in self.pair_points and self._near(lat, log_p)]:
+            self.pair_points[lat] = self._hessian_at(lat, residual)
+        if self._hessian is None or self._hessian["lattice"] != tuple(self.pair_points):
+            pts: dict = {}
+            for lat in self.pair_points:
+                for jk, x, value in self.pair_points[lat]:
+                    pts.setdefault(jk, []).append((x, value))
+            self._hessian = {"lattice": tuple(self.pair_points), "pts": {jk: _sorted(p) for jk, p in pts.items()}}
+        size = J_MAX - J_MIN + 1
+        q = np.zeros((size, size))
+        value = {jk: float(np.interp(log_p, x, y)) for jk, (x, y) in self._hessian["pts"].items()}
+        for (j, k), v in value.items():
+            if j == k:
+                q[j - J_MIN, j - J_MIN] = v
+        for (j, k), v in value.items():
+            if j != k:
+                q[j - J_MIN, k - J_MIN] = q[k - J_MIN, j - J_MIN] = 0.5 * (v - q[j - J_MIN, j - J_MIN]
+                                                                       - q[k - J_MIN, k - J_MIN])
+        return q
+
+    def _near(self, lat: int, log_p: float) -> bool:
+        """Whether the steps of lattice run ``lat`` that see the bumped bead start within PAIR_REACH of log P."""
+        x = np.log(self.table.runs[lat][ONSET:BUMP_BEAD + 1 - J_MIN])
+        return x.size > 1 and float(x.min()) - PAIR_REACH <= log_p <= float(x.max()) + PAIR_REACH
+
+    def _hessian_at(self, lat: int, residual: Callable) -> list[tuple[tuple[int, int], float, float]]:
+        """((j, j'), log P_{m-1}, (rho(+d) + rho(-d) - 2 rho(0)) / d^2) of each step m of lattice run ``lat`` that sees
+        both bumped beads in its window: Q_jj for j = j', Q_jj + Q_j'j' + 2 Q_jj' for j < j'. Only steps that the run
+        and all its bumped runs outlive by PAIR_LIFE contacts: near a pulse's death a bead's change moves the death,
+        and the response is not quadratic in it."""
+        base = self.table.runs[lat]
+        if self.table.bulk() is None or len(base) <= ONSET + 1:
+            return []
+        runs = self._pair_peaks(lat)
+        # the steps every run outlives by PAIR_LIFE contacts, up to the last whose window holds the bumped bead
+        last = min(BUMP_BEAD + 1 - J_MIN, min(len(p) for p in [base, *runs]) - 1 - PAIR_LIFE)
+        d = self.pair_step()
+        rho0 = residual((), base[:last + 1])
+        rho = [residual(bump, peaks[:last + 1]) for bump, peaks in zip(self.pair_bumps(), runs)]
+        out = []
+        for gap in range(J_MAX - J_MIN + 1):
+            up, down = rho[2 * gap], rho[2 * gap + 1]
+            for m in sorted(set(up) & set(down) & set(rho0)):
+                j = BUMP_BEAD + 1 - m
+                if J_MIN <= j and j + gap <= J_MAX:
+                    out.append(((j, j + gap), math.log(base[m - 1]), (up[m] + down[m] - 2.0 * rho0[m]) / d ** 2))
+        return out
+
+    def _bumped_set(self, lat: int, bumps: list, kind: str) -> list[list[float]]:
+        """Peaks of the runs with ``bumps`` at lattice point ``lat``, through the on-disk cache as one entry: one
+        write per lattice point, not one per run (each write is synced to disk)."""
         spec = self.table.spec
-        key = f"{spec.key(lat)}|onset-kernel|" + ";".join(
+        key = f"{spec.key(lat)}|{kind}|" + ";".join(
             ",".join(f"fp+{b}:{name or 'R'}:{x!r}" for b, x, name in bump) for bump in bumps)
         hit = cache.load(NAMESPACE, key)
         if (isinstance(hit, list) and len(hit) == len(bumps)
@@ -188,3 +283,8 @@ class KernelTable:
         peaks = [segment_peaks(replace(spec, bump=bump), lattice_amplitude(lat)) for bump in bumps]
         cache.store(NAMESPACE, key, peaks)
         return peaks
+
+
+def _sorted(points: list) -> tuple[np.ndarray, np.ndarray]:
+    points = sorted(points)
+    return np.array([a for a, _ in points]), np.array([b for _, b in points])
