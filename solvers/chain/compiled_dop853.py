@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: 373cc2f88d2252cf
+# numba cache stamp: b3123a1538fa8d27
 from __future__ import annotations
 
 import numpy as np

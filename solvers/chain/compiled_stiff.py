@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: 373cc2f88d2252cf
+# numba cache stamp: b3123a1538fa8d27
 from __future__ import annotations
 
 import numpy as np
