@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: b3123a1538fa8d27
+# numba cache stamp: 8b97b67443086d87
 from __future__ import annotations
 
 import numpy as np
@@ -153,8 +153,15 @@ def _onsite_slopes(x, v, b0, exps, coef):
 # --- the contact law's term eps_c P_k(d, w) and the bead masses (chain/contact_force.py's kernel_terms): one
 # array ``ct`` (1 + M, 2 + L): row 0 holds the inverse masses in columns 2.., row 1 + m the exponents a_m, b_m in
 # columns 0, 1 and the per-contact coefficients in columns 2.. (column 2 + min(k0, L - 1)); or, for the Hertz chain
-# of unit masses, a 1-d ``ct`` (the bare form): numba then compiles each helper to exactly the arithmetic of the
-# bare chain (same numbers). One array, not three: every right-hand-side call passes it.
+# of unit masses, a 1-d ``ct`` (the bare form; None once lean() has dropped it): numba then compiles each helper to
+# exactly the arithmetic of the bare chain (same numbers). One array, not three: every right-hand-side call passes it.
+
+
+def lean(exps, coef, ct):  # pragma: no cover - numba replaces it (overload below)
+    """(exps, coef, ct) with what the form never reads as None: exps in the dense form, ct in the bare form. Each
+    kernel's run hands these on, so the bare chain's calls do not copy an array no helper reads (a numba array
+    argument is 5 + 2 ndim machine words in every call of the right-hand side)."""
+    raise NotImplementedError("compiled code only")
 
 
 def contact_force(d, wd, k0, n, ct):  # pragma: no cover - numba replaces it (overload below)
@@ -210,7 +217,19 @@ def pos_pow(d: float, n: float) -> float:
 
 
 def _bare(ct) -> bool:
-    return isinstance(ct, types.Array) and ct.ndim == 1
+    return ct is types.none or (isinstance(ct, types.Array) and ct.ndim == 1)
+
+
+@overload(lean)
+def _lean(exps, coef, ct):
+    dense = isinstance(coef, types.Array) and coef.ndim == 3
+    if dense and _bare(ct):
+        return lambda exps, coef, ct: (None, coef, None)
+    if dense:
+        return lambda exps, coef, ct: (None, coef, ct)
+    if _bare(ct):
+        return lambda exps, coef, ct: (exps, coef, None)
+    return lambda exps, coef, ct: (exps, coef, ct)
 
 
 @njit(cache=True)

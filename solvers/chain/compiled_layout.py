@@ -5,7 +5,7 @@ fs, st: the kernels' resumable float and int state; cf, ci: their float and int 
 (solvers/chain/compiled.prepare fills them; compiled_track.py and the kernels read them).
 """
 
-# numba cache stamp: b3123a1538fa8d27
+# numba cache stamp: 8b97b67443086d87
 from __future__ import annotations
 
 # --- return codes of a kernel's run (solvers/chain/compiled.py turns them into PeakTracker's messages)

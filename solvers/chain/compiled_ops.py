@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: b3123a1538fa8d27
+# numba cache stamp: 8b97b67443086d87
 from __future__ import annotations
 
 from pulsemap.solvers.chain.jit import njit
