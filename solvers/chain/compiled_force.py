@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 8b97b67443086d87
+# numba cache stamp: d995918f01ea7553
 from __future__ import annotations
 
 import numpy as np

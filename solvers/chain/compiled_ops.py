@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 8b97b67443086d87
+# numba cache stamp: d995918f01ea7553
 from __future__ import annotations
 
 from pulsemap.solvers.chain.jit import njit
@@ -76,7 +76,7 @@ def _accelerations(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, 
         return
     prev = push(left_x + left_v * (t - left_t) - y[0], left_v - y[1], lo - 1, n, ct) if has_left else 0.0
     tail = tail_force(exps, coef)
-    split = min(max(tail_start(exps, coef) - lo, 0), w - 1)
+    split = max(min(tail_start(exps, coef) - lo, w - 1), 0)  # >= 0 as written: no negative-index test per bead
     for j in range(split):
         prev = _bead(j, prev, y, out, lo, n, exps, coef, ct, tail, False)
     for j in range(split, w - 1):
