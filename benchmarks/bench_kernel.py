@@ -41,6 +41,7 @@ from pulsemap.solvers.studies.forcing import make_force
 #: The kernels before their vectorised right-hand side and fused error norm (docs/benchmarks.rst, "The kernel").
 BASELINE = "3be6e1f"
 REPO = Path(__file__).resolve().parents[1]
+METHODS = ("RK45", "DOP853")  # the explicit kernels simulate runs by name (Rodas4 only for a stiff force)
 LONG = (15, 10_000)  # contacts of the per-contact line (vdp-mu3-v2.3's chain, as many beads as it needs)
 #: The child that builds the baseline's modules: prints each module's path (argv: the source folder, methods).
 BUILD = ("import sys\nimport pulsemap\nfrom pulsemap.solvers.chain import compiled_aot as aot\n"
@@ -144,9 +145,12 @@ def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--baseline", default=BASELINE)
     parser.add_argument("--rounds", type=int, default=15)
-    parser.add_argument("--methods", default="RK45,DOP853")
+    parser.add_argument("--methods", default=",".join(METHODS))
     opts = parser.parse_args(argv)
     methods = opts.methods.split(",")
+    unknown = [m for m in methods if m not in METHODS]
+    if unknown:
+        parser.error(f"--methods: {', '.join(unknown)} not benchmarked here; choose from {', '.join(METHODS)}")
     print(f"bench_kernel: this checkout against {opts.baseline}, best of {opts.rounds} interleaved rounds; "
           f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores", flush=True)
     with tempfile.TemporaryDirectory(prefix="bench-kernel-") as tmp:

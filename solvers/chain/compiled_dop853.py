@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: d995918f01ea7553
+# numba cache stamp: c774826d2e7b7c50
 from __future__ import annotations
 
 import numpy as np

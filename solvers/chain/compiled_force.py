@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: d995918f01ea7553
+# numba cache stamp: c774826d2e7b7c50
 from __future__ import annotations
 
 import numpy as np

@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: d995918f01ea7553
+# numba cache stamp: c774826d2e7b7c50
 from __future__ import annotations
 
 import numpy as np

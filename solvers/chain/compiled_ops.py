@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: d995918f01ea7553
+# numba cache stamp: c774826d2e7b7c50
 from __future__ import annotations
 
 from pulsemap.solvers.chain.jit import njit
@@ -43,14 +43,13 @@ def _no_nrt_options() -> dict:
         known = isinstance(getattr(CPUTargetOptions, "_nrt", None), TargetOptions.Mapping)
     except (ImportError, AttributeError):
         known = False
-    return dict(cache=True, error_model="numpy", _nrt=False) if known else dict(cache=True, error_model="numpy")
+    return dict(cache=True, _nrt=False) if known else dict(cache=True)
 
 
-#: numba options of every kernel function that allocates nothing: cached, compiled without
+#: numba options of every kernel function that allocates nothing: cached, and compiled without
 #: reference counting (numba's increfs and decrefs of every array argument cost about a quarter of a
-#: run: docs/dns.rst), and with numpy's error model (a division is a division, not a test for a zero
-#: divisor that raises; no kernel divides by zero). Only each kernel's ``run`` allocates (its scratch
-#: arrays) and then calls its loop, compiled with these options.
+#: run: docs/dns.rst). Only each kernel's ``run`` allocates (its scratch arrays) and then calls its
+#: loop, compiled with these options.
 NO_NRT = _no_nrt_options()
 
 

@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: d995918f01ea7553
+# numba cache stamp: c774826d2e7b7c50
 from __future__ import annotations
 
 import numpy as np

@@ -19,7 +19,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci) and return codes: compiled_layout.py.
 """
 
-# numba cache stamp: d995918f01ea7553
+# numba cache stamp: c774826d2e7b7c50
 from __future__ import annotations
 
 import numpy as np
