@@ -18,7 +18,7 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: c774826d2e7b7c50
+# numba cache stamp: b6266238713c7034
 from __future__ import annotations
 
 import numpy as np
@@ -130,8 +130,7 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef
     scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
     cap = ci[CAPACITY]
     return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, *lean(exps, coef, ct),
-                 np.empty((18, 2 * cap)),
-                 np.empty((DENSE_ROWS, 2 * cap)))
+                 np.empty((18, 2 * cap)), np.empty((DENSE_ROWS, 2 * cap)))
 
 
 @njit(**NO_NRT)

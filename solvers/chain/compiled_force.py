@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: c774826d2e7b7c50
+# numba cache stamp: b6266238713c7034
 from __future__ import annotations
 
 import numpy as np

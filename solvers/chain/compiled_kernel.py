@@ -15,7 +15,7 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: c774826d2e7b7c50
+# numba cache stamp: b6266238713c7034
 from __future__ import annotations
 
 import numpy as np
@@ -35,8 +35,7 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef
     Allocates the scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
     cap = ci[CAPACITY]
     return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, *lean(exps, coef, ct),
-                 np.empty((10, 2 * cap)),
-                 np.empty((4, 2 * cap)))
+                 np.empty((10, 2 * cap)), np.empty((4, 2 * cap)))
 
 
 @njit(**NO_NRT)

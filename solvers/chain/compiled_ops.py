@@ -7,7 +7,7 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: c774826d2e7b7c50
+# numba cache stamp: b6266238713c7034
 from __future__ import annotations
 
 from pulsemap.solvers.chain.jit import njit
@@ -60,8 +60,10 @@ def _bead(j, prev, y, out, lo, n, exps, coef, ct, tail, uniform):
     x = y[2 * j]
     v = y[2 * j + 1]
     fj = push(x - y[2 * j + 2], v - y[2 * j + 3], lo + j, n, ct)
-    acc = add_tail(prev - fj, x, v, lo + j, tail, exps, coef) if uniform else add_onsite(prev - fj, x, v, lo + j,
-                                                                                           exps, coef)
+    if uniform:
+        acc = add_tail(prev - fj, x, v, lo + j, tail, exps, coef)
+    else:
+        acc = add_onsite(prev - fj, x, v, lo + j, exps, coef)
     out[2 * j] = v
     out[2 * j + 1] = acc * inverse_mass(lo + j, ct)
     return fj

@@ -18,7 +18,7 @@ new point is the next step's first stage). Window, peaks, stop rules: compiled_t
 explicit kernel (compiled_kernel.py), with the same state layout.
 """
 
-# numba cache stamp: c774826d2e7b7c50
+# numba cache stamp: b6266238713c7034
 from __future__ import annotations
 
 import numpy as np
@@ -201,8 +201,7 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef
     reference counting) does the work."""
     cap = ci[CAPACITY]
     return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, *lean(exps, coef, ct),
-                 np.empty((10, 2 * cap)),
-                 np.empty((7, cap + 1)), np.empty((STAGES, 2 * cap)), np.empty((4, 2 * cap)))
+                 np.empty((10, 2 * cap)), np.empty((7, cap + 1)), np.empty((STAGES, 2 * cap)), np.empty((4, 2 * cap)))
 
 
 @njit(**NO_NRT)
