@@ -15,7 +15,8 @@ both sides alike; the time is the CPU time of the kernel's calls):
 * vdp-mu3-v2.3's chain over contacts 15..10000 at rtol 1e-6: kernel time per contact in us (target <= 5).
 
 Each line also says whether the two kernels' peaks are the same bit for bit and their largest relative difference
-(the kernels' changes keep the arithmetic: expected 0).
+(the kernels' changes keep the arithmetic: expected 0). The baseline's kernels must take this checkout's arguments
+(``run(..., exps, coef, ct)``: commits since the contact table's ``ct``).
 """
 
 from __future__ import annotations
@@ -60,14 +61,19 @@ def modules(commit: str | None, methods: list[str], folder: Path) -> dict:
     if commit is not None:
         src = folder / "src" / "pulsemap"
         src.mkdir(parents=True)
-        archive = subprocess.run(["git", "-C", str(REPO), "archive", "--format=tar", commit], check=True,
-                                 capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(src)], input=archive, check=True)
+        archive = subprocess.run(["git", "-C", str(REPO), "archive", "--format=tar", commit], capture_output=True)
+        if archive.returncode != 0:
+            sys.exit(f"bench_kernel: git cannot archive {commit!r} ({archive.stderr.decode().strip()}): run it from a "
+                     "git checkout that has the commit, or give another --baseline")
+        subprocess.run(["tar", "-x", "-C", str(src)], input=archive.stdout, check=True)
         (src / "symbolic").symlink_to("derive")  # pyproject's package-dir: pulsemap.symbolic is derive/
         env["PYTHONPATH"] = str(src.parent)
-    out = subprocess.run([sys.executable, "-c", BUILD, str(src), *methods], env=env, cwd=str(folder),
-                         check=True, capture_output=True, text=True).stdout.split()
-    return {m: _load(Path(p)) for m, p in zip(methods, out)}
+    built = subprocess.run([sys.executable, "-c", BUILD, str(src), *methods], env=env, cwd=str(folder),
+                           capture_output=True, text=True)
+    if built.returncode != 0:
+        said = built.stderr.strip().splitlines()[-1:] or ["no output"]
+        sys.exit(f"bench_kernel: building the kernels of {commit or 'this checkout'} failed ({said[0]})")
+    return {m: _load(Path(p)) for m, p in zip(methods, built.stdout.split())}
 
 
 def _load(path: Path):
