@@ -18,12 +18,13 @@ reopening contacts (Van der Pol), every (.)_+^(3/2) kink caps the step and order
 Hence opt-in (simulate(..., integrator=Integrator(method="DOP853"))), not the default.
 """
 
-# numba cache stamp: 373cc2f88d2252cf
+# numba cache stamp: b6266238713c7034
 from __future__ import annotations
 
 import numpy as np
 from pulsemap.solvers.chain.jit import njit
 
+from pulsemap.solvers.chain.compiled_force import lean
 from pulsemap.solvers.chain.compiled_ops import NO_NRT, rhs
 from pulsemap.solvers.chain.compiled_layout import ATOL, CAPACITY, EXP, H, NFEV, NONFINITE, REJECTED, RTOL, T
 from pulsemap.solvers.chain.compiled_track import start, finish_step, next_step, peak_in_step, track_step, window_now
@@ -128,8 +129,8 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef
     compiled_kernel.run (same bookkeeping after each accepted step: compiled_track). Allocates the
     scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
     cap = ci[CAPACITY]
-    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct, np.empty((18, 2 * cap)),
-                 np.empty((DENSE_ROWS, 2 * cap)))
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, *lean(exps, coef, ct),
+                 np.empty((18, 2 * cap)), np.empty((DENSE_ROWS, 2 * cap)))
 
 
 @njit(**NO_NRT)

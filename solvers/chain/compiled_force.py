@@ -12,7 +12,7 @@ polynomial R (two: the dense form and the general table) and one every other R. 
 column/row min(b0, L - 1) for the 0-based bead b0 (a uniform tail is stored once).
 """
 
-# numba cache stamp: 373cc2f88d2252cf
+# numba cache stamp: b6266238713c7034
 from __future__ import annotations
 
 import numpy as np
@@ -30,6 +30,40 @@ def onsite_slopes(x, v, b0, exps, coef):  # pragma: no cover - numba replaces it
     raise NotImplementedError("compiled code only")
 
 
+def tail_start(exps, coef):  # pragma: no cover - numba replaces it (overload below)
+    """The first 0-based bead of the uniform tail: it and every bead after it read the force's last column."""
+    raise NotImplementedError("compiled code only")
+
+
+def tail_force(exps, coef):  # pragma: no cover - numba replaces it (overload below)
+    """The tail's force as add_tail reads it: the dense form's eight coefficients (held in registers across a
+    loop over beads), else 0.0 (add_tail is add_onsite)."""
+    raise NotImplementedError("compiled code only")
+
+
+def add_tail(acc, x, v, b0, tail, exps, coef):  # pragma: no cover - numba replaces it (overload below)
+    """add_onsite of a bead b0 >= tail_start, from tail_force's ``tail`` (the same arithmetic)."""
+    raise NotImplementedError("compiled code only")
+
+
+@njit(cache=True)
+def _table_onsite(acc, x, v, b0, exps, coef):
+    """add_onsite of the general monomial table (a call, not inlined: numba inlines no loop cleanly)."""
+    col = b0
+    if col >= coef.shape[1]:
+        col = coef.shape[1] - 1
+    for m in range(exps.shape[0]):
+        c = coef[m, col]
+        if c != 0.0:
+            p = c
+            for _ in range(exps[m, 0]):
+                p *= x
+            for _ in range(exps[m, 1]):
+                p *= v
+            acc += p
+    return acc
+
+
 @overload(add_onsite, inline="always")
 def _add_onsite(acc, x, v, b0, exps, coef):
     if isinstance(coef, types.Array) and coef.ndim == 3:
@@ -41,27 +75,45 @@ def _add_onsite(acc, x, v, b0, exps, coef):
 
         return dense
     if isinstance(exps, types.Array):
-        def table(acc, x, v, b0, exps, coef):
-            col = b0
-            if col >= coef.shape[1]:
-                col = coef.shape[1] - 1
-            for m in range(exps.shape[0]):
-                c = coef[m, col]
-                if c != 0.0:
-                    p = c
-                    for _ in range(exps[m, 0]):
-                        p *= x
-                    for _ in range(exps[m, 1]):
-                        p *= v
-                    acc += p
-            return acc
-
-        return table
+        return lambda acc, x, v, b0, exps, coef: _table_onsite(acc, x, v, b0, exps, coef)
 
     def function(acc, x, v, b0, exps, coef):
         return acc + exps[0](x, v, b0 + 1.0, coef[min(b0, coef.shape[0] - 1)].ctypes)
 
     return function
+
+
+@overload(tail_start, inline="always")
+def _tail_start(exps, coef):
+    if isinstance(coef, types.Array) and coef.ndim == 3:
+        return lambda exps, coef: coef.shape[2] - 1
+    if isinstance(exps, types.Array):
+        return lambda exps, coef: coef.shape[1] - 1
+    return lambda exps, coef: coef.shape[0] - 1
+
+
+@overload(tail_force, inline="always")
+def _tail_force(exps, coef):
+    if isinstance(coef, types.Array) and coef.ndim == 3:
+        def dense(exps, coef):
+            c = coef.shape[2] - 1
+            return (coef[0, 0, c], coef[0, 1, c], coef[0, 2, c], coef[0, 3, c],
+                    coef[1, 0, c], coef[1, 1, c], coef[1, 2, c], coef[1, 3, c])
+
+        return dense
+    return lambda exps, coef: 0.0
+
+
+@overload(add_tail, inline="always")
+def _add_tail(acc, x, v, b0, tail, exps, coef):
+    if isinstance(coef, types.Array) and coef.ndim == 3:
+        def dense(acc, x, v, b0, tail, exps, coef):  # add_onsite's dense form, term for term
+            p0 = ((tail[3] * x + tail[2]) * x + tail[1]) * x + tail[0]
+            p1 = ((tail[7] * x + tail[6]) * x + tail[5]) * x + tail[4]
+            return acc + (p0 + v * p1)
+
+        return dense
+    return lambda acc, x, v, b0, tail, exps, coef: add_onsite(acc, x, v, b0, exps, coef)
 
 
 @overload(onsite_slopes, inline="always")
@@ -101,8 +153,15 @@ def _onsite_slopes(x, v, b0, exps, coef):
 # --- the contact law's term eps_c P_k(d, w) and the bead masses (chain/contact_force.py's kernel_terms): one
 # array ``ct`` (1 + M, 2 + L): row 0 holds the inverse masses in columns 2.., row 1 + m the exponents a_m, b_m in
 # columns 0, 1 and the per-contact coefficients in columns 2.. (column 2 + min(k0, L - 1)); or, for the Hertz chain
-# of unit masses, a 1-d ``ct`` (the bare form): numba then compiles each helper to exactly the arithmetic of the
-# bare chain (same numbers). One array, not three: every right-hand-side call passes it.
+# of unit masses, a 1-d ``ct`` (the bare form; None once lean() has dropped it): numba then compiles each helper to
+# exactly the arithmetic of the bare chain (same numbers). One array, not three: every right-hand-side call passes it.
+
+
+def lean(exps, coef, ct):  # pragma: no cover - numba replaces it (overload below)
+    """(exps, coef, ct) with what the form never reads as None: exps in the dense form, ct in the bare form. Each
+    kernel's run hands these on, so the bare chain's calls do not copy an array no helper reads (a numba array
+    argument is 5 + 2 ndim machine words in every call of the right-hand side)."""
+    raise NotImplementedError("compiled code only")
 
 
 def contact_force(d, wd, k0, n, ct):  # pragma: no cover - numba replaces it (overload below)
@@ -112,6 +171,11 @@ def contact_force(d, wd, k0, n, ct):  # pragma: no cover - numba replaces it (ov
 
 def contact_slopes(d, wd, k0, n, ct):  # pragma: no cover - numba replaces it (overload below)
     """(dF/dd, dF/dw) of contact k0 at overlap d > 0 and rate wd."""
+    raise NotImplementedError("compiled code only")
+
+
+def push(d, wd, k0, n, ct):  # pragma: no cover - numba replaces it (overload below)
+    """contact_force of contact k0 when it is closed (d > 0), else 0: what the bead behind it pushes with."""
     raise NotImplementedError("compiled code only")
 
 
@@ -153,7 +217,19 @@ def pos_pow(d: float, n: float) -> float:
 
 
 def _bare(ct) -> bool:
-    return isinstance(ct, types.Array) and ct.ndim == 1
+    return ct is types.none or (isinstance(ct, types.Array) and ct.ndim == 1)
+
+
+@overload(lean)
+def _lean(exps, coef, ct):
+    dense = isinstance(coef, types.Array) and coef.ndim == 3
+    if dense and _bare(ct):
+        return lambda exps, coef, ct: (None, coef, None)
+    if dense:
+        return lambda exps, coef, ct: (None, coef, ct)
+    if _bare(ct):
+        return lambda exps, coef, ct: (exps, coef, None)
+    return lambda exps, coef, ct: (exps, coef, ct)
 
 
 @njit(cache=True)
@@ -204,6 +280,19 @@ def _contact_slopes(d, wd, k0, n, ct):
     if _bare(ct):
         return lambda d, wd, k0, n, ct: (n * pos_pow(d, n - 1.0), 0.0)
     return lambda d, wd, k0, n, ct: _table_slopes(d, wd, k0, n, ct)
+
+
+@overload(push)
+def _push(d, wd, k0, n, ct):
+    if _bare(ct):
+        def bare(d, wd, k0, n, ct):
+            f = 0.0
+            if d > 0.0:
+                f = pos_pow(d, n)
+            return f
+
+        return bare
+    return lambda d, wd, k0, n, ct: _table_force(d, wd, k0, n, ct) if d > 0.0 else 0.0
 
 
 @overload(inverse_mass, inline="always")

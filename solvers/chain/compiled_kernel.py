@@ -15,12 +15,13 @@ State layout: interleaved y = [x_lo, v_lo, x_lo+1, v_lo+1, ...] for the window b
 at rest (x = 0); bead lo-1, if dropped, coasts with the velocity it had when dropped.
 """
 
-# numba cache stamp: 373cc2f88d2252cf
+# numba cache stamp: b6266238713c7034
 from __future__ import annotations
 
 import numpy as np
 from pulsemap.solvers.chain.jit import njit
 
+from pulsemap.solvers.chain.compiled_force import lean
 from pulsemap.solvers.chain.compiled_ops import (
     A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65, A71, A73, A74, A75, A76, BETA, C2, C3,
     C4, C5, E1, E3, E4, E5, E6, E7, FAC_MAX, FAC_MIN, NO_NRT, SAFE, dopri_dense, rhs)
@@ -33,8 +34,8 @@ def run(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef
     """Integrate until a stop rule fires; returns its code (state in y, f, fs, st for a resume).
     Allocates the scratch arrays, then ``steps`` (compiled without reference counting) does the work."""
     cap = ci[CAPACITY]
-    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, exps, coef, ct, np.empty((10, 2 * cap)),
-                 np.empty((4, 2 * cap)))
+    return steps(y, f, fs, st, cf, ci, peaks, times, pulse_e, total_e, vpeaks, *lean(exps, coef, ct),
+                 np.empty((10, 2 * cap)), np.empty((4, 2 * cap)))
 
 
 @njit(**NO_NRT)

@@ -5,7 +5,7 @@ fs, st: the kernels' resumable float and int state; cf, ci: their float and int 
 (solvers/chain/compiled.prepare fills them; compiled_track.py and the kernels read them).
 """
 
-# numba cache stamp: 373cc2f88d2252cf
+# numba cache stamp: b6266238713c7034
 from __future__ import annotations
 
 # --- return codes of a kernel's run (solvers/chain/compiled.py turns them into PeakTracker's messages)

@@ -7,12 +7,13 @@ Dormand-Prince 5(4) tableau and its dense output's coefficients, and the pulse-l
 peaks.primary_pulse_lost.
 """
 
-# numba cache stamp: 373cc2f88d2252cf
+# numba cache stamp: b6266238713c7034
 from __future__ import annotations
 
 from pulsemap.solvers.chain.jit import njit
 
-from pulsemap.solvers.chain.compiled_force import add_onsite, contact_force, inverse_mass, kinetic, pos_pow
+from pulsemap.solvers.chain.compiled_force import (add_onsite, add_tail, inverse_mass, kinetic, pos_pow, push,
+                                                    tail_force, tail_start)
 
 # --- Dormand-Prince 5(4) (Hairer & Wanner's DOPRI5), dense output of order 4 (CONTD5)
 C2, C3, C4, C5 = 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0
@@ -52,33 +53,52 @@ def _no_nrt_options() -> dict:
 NO_NRT = _no_nrt_options()
 
 
+@njit(cache=True, inline="always")
+def _bead(j, prev, y, out, lo, n, exps, coef, ct, tail, uniform):
+    """Bead j of the window but the last: its velocity and acceleration into out, returns the force it pushes
+    bead j + 1 with (``uniform``, a constant: the bead is in the force's uniform tail, read from ``tail``)."""
+    x = y[2 * j]
+    v = y[2 * j + 1]
+    fj = push(x - y[2 * j + 2], v - y[2 * j + 3], lo + j, n, ct)
+    if uniform:
+        acc = add_tail(prev - fj, x, v, lo + j, tail, exps, coef)
+    else:
+        acc = add_onsite(prev - fj, x, v, lo + j, exps, coef)
+    out[2 * j] = v
+    out[2 * j + 1] = acc * inverse_mass(lo + j, ct)
+    return fj
+
+
+@njit(cache=True, inline="always")
+def _accelerations(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef, ct):
+    """rhs's loops over the beads (inlined twice by rhs: n a constant 1.5 in one): the beads with a force of
+    their own, then those of the force's uniform tail (its coefficients read once), then the last bead."""
+    if w == 0:
+        return
+    prev = push(left_x + left_v * (t - left_t) - y[0], left_v - y[1], lo - 1, n, ct) if has_left else 0.0
+    tail = tail_force(exps, coef)
+    split = max(min(tail_start(exps, coef) - lo, w - 1), 0)  # >= 0 as written: no negative-index test per bead
+    for j in range(split):
+        prev = _bead(j, prev, y, out, lo, n, exps, coef, ct, tail, False)
+    for j in range(split, w - 1):
+        prev = _bead(j, prev, y, out, lo, n, exps, coef, ct, tail, True)
+    j = w - 1  # the last bead: against the wall at rest, or free
+    x = y[2 * j]
+    v = y[2 * j + 1]
+    fj = push(x, v, lo + j, n, ct) if wall else 0.0
+    out[2 * j] = v
+    out[2 * j + 1] = add_onsite(prev - fj, x, v, lo + j, exps, coef) * inverse_mass(lo + j, ct)
+
+
 @njit(**NO_NRT)
 def rhs(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef, ct):
     """Eq. 1 on the window's w beads (interleaved), the on-site force (exps, coef), the contact law's term
     and the masses (ct) as compiled_force.py reads them:
     m_j x_j'' = F(d_(j-1), w_(j-1)) - F(d_j, w_j) + F_j(x_j, v_j)."""
-    prev = 0.0
-    if has_left:
-        d = left_x + left_v * (t - left_t) - y[0]
-        if d > 0.0:
-            prev = contact_force(d, left_v - y[1], lo - 1, n, ct)
-    for j in range(w):
-        x = y[2 * j]
-        v = y[2 * j + 1]
-        if j < w - 1:
-            d = x - y[2 * j + 2]
-            wd = v - y[2 * j + 3]
-        elif wall:
-            d = x
-            wd = v
-        else:
-            d = 0.0
-            wd = 0.0
-        fj = contact_force(d, wd, lo + j, n, ct) if d > 0.0 else 0.0
-        acc = add_onsite(prev - fj, x, v, lo + j, exps, coef)
-        out[2 * j] = v
-        out[2 * j + 1] = acc * inverse_mass(lo + j, ct)
-        prev = fj
+    if n == 1.5:  # the Hertz exponent as a constant: d^n by a square root, without a test of n per bead
+        _accelerations(t, y, out, w, lo, 1.5, has_left, left_x, left_v, left_t, wall, exps, coef, ct)
+    else:
+        _accelerations(t, y, out, w, lo, n, has_left, left_x, left_v, left_t, wall, exps, coef, ct)
 
 
 @njit(**NO_NRT)

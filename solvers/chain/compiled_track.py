@@ -19,7 +19,7 @@ DOP853 fills rc0..rc6 (order 7, compiled_dop853.dense_output).
 Array layouts (fs, st, cf, ci) and return codes: compiled_layout.py.
 """
 
-# numba cache stamp: 373cc2f88d2252cf
+# numba cache stamp: b6266238713c7034
 from __future__ import annotations
 
 import numpy as np

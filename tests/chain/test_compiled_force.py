@@ -50,6 +50,47 @@ def test_dense_form_is_the_table_bead_by_bead():
             np.testing.assert_allclose(window_rhs((exps, dense), y, lo), general, rtol=1e-13, atol=1e-13)
 
 
+def eq1_in_numpy(t, y, lo, n, left, wall, table, masses):
+    """Eq. 1 on the window written out in numpy: the coasting left bead (``left``: x, v, t0, or None) and the wall
+    at rest as two more beads, the on-site force of ``table`` (its last column for every later bead), masses."""
+    x, v = y[0::2], y[1::2]
+    xs = np.concatenate([[left[0] + left[1] * (t - left[2])] if left else [], x, [0.0] if wall else []])
+    d = xs[:-1] - xs[1:]
+    push = np.where(d > 0.0, np.maximum(d, 0.0) ** n, 0.0)
+    behind = np.concatenate([[0.0] if not left else [], push])[:W]
+    ahead = np.concatenate([push[1:] if left else push, [0.0] if not wall else []])[:W]
+    cols = np.minimum(lo + np.arange(W), table.coefficients.shape[1] - 1)
+    onsite = sum(table.coefficients[m, cols] * x**a * v**b for m, (a, b) in enumerate(table.exponents))
+    out = np.empty_like(y)
+    out[0::2], out[1::2] = v, (behind - ahead + onsite) / masses[lo: lo + W]
+    return out
+
+
+@pytest.mark.parametrize("n", [1.5, 2.5, 1.1])
+@pytest.mark.parametrize("dense", [True, False])
+def test_window_rhs_is_eq1_in_numpy(n, dense):
+    """The kernels' right-hand side (compiled_ops.rhs: the Hertz power as a constant when n = 1.5, the force's
+    uniform tail read once, the last bead apart) is Eq. 1 in numpy, on windows that start before, on and past the
+    table's last column, with and without the coasting left bead and the wall, open and closed contacts, unit
+    masses (the bare form) and random ones, both force forms."""
+    from pulsemap.solvers.chain.compiled_ops import rhs
+
+    rng = np.random.default_rng(3)
+    table = random_table(rng, DENSE_EXPONENTS if dense else [[1, 0], [0, 1], [4, 0], [0, 3]])
+    args = table.kernel_args if dense else (table.exponents, table.coefficients)
+    assert (args[1].ndim == 3) == dense
+    for trial, lo in enumerate((0, 2, 4, 9)):
+        y = rng.normal(size=2 * W) * 0.3  # about half the contacts open
+        left = (0.4, 0.7, 0.1) if trial % 2 == 0 else None
+        wall = trial < 2
+        for masses in (None, rng.uniform(0.5, 2.0, size=lo + W + 2)):
+            out = np.empty_like(y)
+            rhs(0.3, y, out, W, lo, n, left is not None, *(left or (0.0, 0.0, 0.0)), wall, *args,
+                kernel_terms(None, masses))
+            want = eq1_in_numpy(0.3, y, lo, n, left, wall, table, np.ones(lo + W) if masses is None else masses)
+            np.testing.assert_allclose(out, want, rtol=1e-12, atol=1e-14)
+
+
 def test_dense_slopes_are_the_tables():
     """The Rosenbrock kernel's banded Jacobian (dF/dx, dF/dv on its diagonal) is the same in both forms."""
     from pulsemap.solvers.chain.compiled_stiff import jacobian
