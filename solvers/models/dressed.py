@@ -73,11 +73,11 @@ from ln A(i0) = ln A0 + sum_j Delta_j k1_j x_j(A0)/(1 - rho_j x_j(A0)) (the onse
 LSODA (rtol 1e-11). It stops where A falls to 1e-12 A0 (extinction), grows to 1e12 A0, or some
 |rho_j x_j| reaches 0.95 (the second-order term as large as the first: the series, and its Pade
 form, have lost their meaning; a restoring foundation near extinction, x = c A^(-1/2)): contacts
-past the end carry None. ``beyond`` is the first contact index where some |x_j| exceeds its validity bound;
-the law gives no values past it either (status "beyond its validity bound"): it stays quiet where its
-two-term form is not trusted. Each value carries an estimate of its relative error (``evaluate_dressed_law``:
-the onset shift relaxing by ONSET_RATIO per contact, plus SAFETY times the calibrated next terms carried along
-the chain by d rate/d ln A); where it passes ACCURACY the law gives no value (status "beyond its accuracy").
+past the end carry None. ``beyond`` is the first contact index where some |x_j| exceeds its (calibrated)
+validity bound: a warning, not a cut. Each value carries an estimate of its relative error, measured on the
+law's own short DNS segments (``MeasuredError``, studies/run/dressed.py) and carried along the chain by the
+law's own sensitivity (``error_bound``); where it passes ACCURACY the law gives no value (status "beyond its
+accuracy"): the validity cut is the estimate's.
 Measured on Van der Pol, the law's stationary-peak error is O(eps^(3/2)) (docs/models.rst).
 """
 
@@ -443,22 +443,13 @@ class DressedCoefficients:
         return sum(d * k1 * x / (1.0 - r * x) for d, k1, r, x in zip(self.lag, self.k1, self.rho, xs))
 
 
-def law_step(coef: DressedCoefficients, lnA: float, i_from: float, i_to: float, at: float | None = None) -> float:
-    """ln A at ``i_to`` of the law's rate (no onset shift) from ln A at ``i_from``; ``at``: the coefficients
-    frozen at that contact index (a launched segment's uniform chain), else c_j(i) along the way."""
-    from scipy.integrate import solve_ivp  # scipy loads only when a law is evaluated
-
-    sol = solve_ivp(lambda i, y: [coef.rate(math.exp(y[0]), i if at is None else at)], (i_from, i_to), [lnA],
-                    method="LSODA", rtol=1e-11, atol=1e-13)
-    return float(sol.y[0, -1])
-
-
 @dataclass(frozen=True)
 class MeasuredError:
     """What the law's own short DNS segments measured (studies/run/dressed.py, ``measure_law_error``).
 
     ``contacts``/``lnA``: ln A of the scene's own chain (kicked, cut short after the last of ``contacts``) at
-    contacts i0 + 1 .. iL: there the law's error is measured, to the segments' peak accuracy ``tol``.
+    contacts i0 + 1 .. iL: there the law's error is measured, to the DNS's stated peak accuracy ``tol`` (the
+    looser of its rtol and the moving window's 1e-8: the accuracy of any DNS it is compared with).
     ``nodes_lnA``/``residual``: |true rate - law rate| per contact at amplitudes along the law's path, each
     from an exact wave launched at that amplitude into a uniform chain carrying the coefficients there, read
     after its own onset has relaxed (inf: the launched pulse was lost). ``offset``: |kicked - launched| rate
@@ -509,14 +500,17 @@ def error_bound(coef: DressedCoefficients, sol, measured: MeasuredError, contact
             h = min(ERROR_STEP, c - i)
             mid = i + h / 2
             lnA = float(sol.sol(mid)[0])
-            sigma = h * (coef.slope(math.exp(lnA), mid) if D == 0 else
-                         max(coef.rate(math.exp(lnA + D), mid) - coef.rate(math.exp(lnA), mid),
-                             coef.rate(math.exp(lnA), mid) - coef.rate(math.exp(lnA - D), mid)) / D)
-            q = (measured.residual_bound(lnA - D, lnA + D) + measured.offset) * h
-            if not (math.isfinite(sigma) and math.isfinite(q)):
+            try:  # past float64 or the law's pole the bound has lost its meaning: inf
+                sigma = h * (coef.slope(math.exp(lnA), mid) if D == 0 else
+                             max(coef.rate(math.exp(lnA + D), mid) - coef.rate(math.exp(lnA), mid),
+                                 coef.rate(math.exp(lnA), mid) - coef.rate(math.exp(lnA - D), mid)) / D)
+                q = (measured.residual_bound(lnA - D, lnA + D) + measured.offset) * h
+                D = D * math.exp(sigma) + (q * math.expm1(sigma) / sigma if abs(sigma) > 1e-12 else q)
+            except (OverflowError, ZeroDivisionError):
+                D = math.inf
+            if not math.isfinite(D):
                 D = math.inf
                 break
-            D = D * math.exp(sigma) + (q * math.expm1(sigma) / sigma if abs(sigma) > 1e-12 else q)
             i += h
         carried[c] = D
         if D == math.inf:

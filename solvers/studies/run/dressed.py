@@ -11,7 +11,7 @@ import numpy as np
 
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
-from pulsemap.solvers.models.dressed import MeasuredError, evaluate_dressed_law, law_step
+from pulsemap.solvers.models.dressed import MeasuredError, evaluate_dressed_law
 from pulsemap.solvers.studies.extent import on_contacts
 from pulsemap.solvers.studies.run.state import RunState
 
@@ -46,40 +46,54 @@ def provenance(law, kind: str) -> list[str]:
 
 
 SEED_SPAN = 12  # contacts after the seed run on the scene's own chain: the kicked pulse's onset (<= 8) and 4 more
-SETTLE = 12  # contacts a launched wave runs before its decrements are read (its onset relaxes ~0.56 per contact)
-READ = 4  # contacts over which a residual rate is read
-NODE_STEP = 0.1  # the largest change of ln A between two launched segments (the residual is taken as the larger)
-SEGMENT_RTOL = 1e-10  # the launched segments' tolerance: their peaks to ~1e-9, far below any residual that matters
+SETTLE = 12  # contacts a launched wave runs before its residual is read (its onset relaxes ~0.56 per contact)
+READ = 4  # contacts per window over which a residual rate is read (two windows per launched wave)
+NODE_STEP = 0.1  # the largest change of ln A between two launched waves (between them the larger residual holds)
+SEGMENT_RTOL = 1e-10  # the launched waves' tolerance: peaks to ~1e-9, far below any residual that matters
 
 
-def _launched_residual(coef, n: float, S0: float, lnA: float, at: float) -> float:
-    """|true rate - law rate| per contact at amplitude exp(lnA): an exact wave launched into a uniform chain
-    carrying the law's monomials with their coefficients at contact index ``at``, read over two windows of READ
-    contacts after SETTLE; the larger of the two plus their difference (its spread along the chain: the launched
-    wave's wake is younger than a long chain's). inf where the pulse is lost."""
+def rate_residual(coef, lnA, at) -> float:
+    """True rate - law rate per contact over consecutive contacts: (ln A_last - ln A_first)/span minus the law's
+    rate averaged along the true path (trapezoid; the coefficients at the contact indices ``at``)."""
+    rates = [coef.rate(math.exp(v), i) for v, i in zip(lnA, at)]
+    span = len(lnA) - 1
+    return (lnA[-1] - lnA[0]) / span - (sum(rates) - (rates[0] + rates[-1]) / 2) / span
+
+
+def _launched_residuals(coef, n: float, S0: float, lnA: float, at: float) -> tuple[float, float] | None:
+    """The rate residual per contact at amplitude exp(lnA) in two consecutive windows of READ contacts: an exact
+    wave launched into a uniform chain carrying the law's monomials with their coefficients at contact index
+    ``at``, read after SETTLE contacts (a pulse that dies sooner: its last 2 READ contacts, after at least READ).
+    None where the pulse dies within 3 READ contacts."""
     centre = min_centre(n) + 1
     first = centre + 8
-    last = first - 1 + SETTLE + 2 * READ
+    last = first + SETTLE + 2 * READ
     beads = last + 6
     mask = np.zeros(beads)
     mask[first - 1:] = 1.0
     cs = coef.c if coef.c_of_i is None else [f(at) for f in coef.c_of_i]
     monos = list(zip(cs, coef.monomials))
     force = OnSiteForce(force=lambda x, v: mask * sum(c * x**a * v**b for c, (a, b) in monos))
-    res = launch(beads, n, math.exp(lnA), centre, (first - 1 + SETTLE, last), force, rtol=SEGMENT_RTOL)
-    if any(p is None for p in res.peaks[::READ]):
-        return math.inf
-    lnP = [math.log(p / S0) for p in res.peaks[::READ]]
-    r1, r2 = ((end - law_step(coef, start, 0.0, float(READ), at=at)) / READ for start, end in zip(lnP, lnP[1:]))
-    return max(abs(r1), abs(r2)) + abs(r1 - r2)
+    res = launch(beads, n, math.exp(lnA), centre, (first, last), force, rtol=SEGMENT_RTOL)
+    live = next((k for k, p in enumerate(res.peaks) if p is None), len(res.peaks))
+    start = SETTLE if live > SETTLE + 2 * READ else live - 1 - 2 * READ
+    if start < READ:
+        return None
+    lnP = [math.log(p / S0) for p in res.peaks[start:start + 2 * READ + 1]]
+    return (rate_residual(coef, lnP[:READ + 1], [at] * (READ + 1)),
+            rate_residual(coef, lnP[READ:], [at] * (READ + 1)))
 
 
-def measure_law_error(state: "RunState", coef, seed_A: float, S0: float, path) -> MeasuredError | None:
+def measure_law_error(state: "RunState", coef, S0: float, path) -> MeasuredError | None:
     """The law's error measured on its own short DNS segments (models/dressed.py, ``MeasuredError``): the scene's
     chain cut after contact iL = i0 + SEED_SPAN (kicked as the scene is, same integrator), and exact waves launched
-    at amplitudes along the law's ``path`` (an evaluation without estimate) at most NODE_STEP apart in ln A.
-    None where the law gives no value past the seed."""
+    at amplitudes along the law's ``path`` (an evaluation without estimate) at most NODE_STEP apart in ln A. A
+    node's residual: the larger of its two windows plus their difference (its spread: a transient not yet
+    relaxed, a launched wave's wake younger than a long chain's; inf: the pulse was lost); the offset: the kicked
+    chain's residual over its last READ contacts minus the launched one's at the same amplitude. None where the
+    law gives no value past the seed."""
     from pulsemap.solvers.chain.dns import simulate
+    from pulsemap.solvers.chain.window import window_accuracy_for
     from pulsemap.solvers.studies.extent import dns_integrator
     from pulsemap.solvers.studies.forcing import make_force
     from pulsemap.solvers.studies.run import dns_chain
@@ -93,20 +107,21 @@ def measure_law_error(state: "RunState", coef, seed_A: float, S0: float, path) -
     beads = iL + min_centre(n) + 2
     res = simulate(dns_chain(scene, beads, make_force(scene, beads)), (i0, iL), integrator=dns_integrator(scene.dns))
     peaks = dict(zip((int(c) for c in res.contacts), res.peaks))
-    seg = [(c, math.log(peaks[c] / S0)) for c in range(i0 + 1, iL + 1)
-           if c in peaks and np.isfinite(peaks[c]) and peaks[c] > 0]
-    if not seg or seg[-1][0] != iL:
+    seg = [(c, math.log(peaks[c] / S0)) for c in range(i0, iL + 1) if c in peaks and np.isfinite(peaks[c]) and peaks[c] > 0]
+    if len(seg) != iL - i0 + 1:
         return None
-    lnA_L = seg[-1][1]
-    back = dict(seg).get(iL - READ, math.log(seed_A) if iL - READ == i0 else None)
-    kicked = (abs(lnA_L - law_step(coef, back, float(iL - READ), float(iL))) / READ if back is not None else 0.0)
-    nodes = [(lnA_L, float(iL))]
+    window = seg[-1 - min(READ, iL - i0):]
+    kicked = rate_residual(coef, [v for _, v in window], [float(c) for c, _ in window])
+    nodes = [(seg[-1][1], float(iL))]
     for c, a in live:
         if c > iL and (abs(math.log(a) - nodes[-1][0]) >= NODE_STEP or c == live[-1][0]):
             nodes.append((math.log(a), float(c)))
-    residual = [_launched_residual(coef, n, S0, lnA, at) for lnA, at in nodes]
-    return MeasuredError(tuple(float(c) for c, _ in seg), tuple(v for _, v in seg), float(res.rtol),
-                         tuple(v for v, _ in nodes), tuple(residual), abs(kicked - residual[0]))
+    pairs = [_launched_residuals(coef, n, S0, lnA, at) for lnA, at in nodes]
+    bound = [math.inf if p is None else max(abs(p[0]), abs(p[1])) + abs(p[0] - p[1]) for p in pairs]
+    offset = math.inf if pairs[0] is None else abs(kicked - pairs[0][0])
+    return MeasuredError(tuple(float(c) for c, _ in seg[1:]), tuple(v for _, v in seg[1:]),
+                         window_accuracy_for(res.rtol, None),
+                         tuple(v for v, _ in nodes), tuple(bound), offset)
 
 
 def run_dressed(state: "RunState", name: str, law, seed_A: float, S0: float) -> dict:
@@ -121,7 +136,7 @@ def run_dressed(state: "RunState", name: str, law, seed_A: float, S0: float) -> 
     if not scene.perturbation.is_uniform:  # c_j(i) along the chain (bead i + 1/2 at contact index i)
         coef = replace(coef, c_of_i=site_coefficient_functions(scene.perturbation, law, i0, float(scene.contacts[1])))
     path = evaluate_dressed_law(coef, S0, seed_A, i0, state.contacts)
-    measured = measure_law_error(state, coef, seed_A, S0, path)
+    measured = measure_law_error(state, coef, S0, path)
     ev = evaluate_dressed_law(coef, S0, seed_A, i0, state.contacts, measured) if measured is not None else path
     run, beyond = ev.run, ev.beyond
     state.timings[name] = time.perf_counter() - t0
