@@ -60,11 +60,24 @@ def rate_residual(coef, lnA, at) -> float:
     return (lnA[-1] - lnA[0]) / span - (sum(rates) - (rates[0] + rates[-1]) / 2) / span
 
 
-def _launched_residuals(coef, n: float, S0: float, lnA: float, at: float) -> tuple[float, float] | None:
-    """The rate residual per contact at amplitude exp(lnA) in two consecutive windows of READ contacts: an exact
-    wave launched into a uniform chain carrying the law's monomials with their coefficients at contact index
-    ``at``, read after SETTLE contacts (a pulse that dies sooner: its last 2 READ contacts, after at least READ).
-    None where the pulse dies within 3 READ contacts."""
+def _launch_amplitude(coef, lnA: float, at: float, contacts: float) -> float:
+    """ln A to launch at so that the law (coefficients at ``at``) reaches ln A after ``contacts`` contacts."""
+    from scipy.integrate import solve_ivp
+
+    try:
+        sol = solve_ivp(lambda i, y: [coef.rate(math.exp(y[0]), at)], (contacts, 0.0), [lnA], rtol=1e-8, atol=1e-10)
+        back = float(sol.y[0, -1])
+    except (OverflowError, ZeroDivisionError):
+        return lnA
+    return back if sol.status == 0 and math.isfinite(back) and back < lnA + 5 else lnA
+
+
+def _launched_residuals(coef, n: float, S0: float, lnA: float, at: float, ahead: float):
+    """Rate residuals per contact in two consecutive windows of READ contacts: an exact wave launched into a
+    uniform chain carrying the law's monomials with their coefficients at contact index ``at``, read after SETTLE
+    contacts, launched where the law puts ln A at ``ahead`` contacts after SETTLE (a pulse that dies sooner: its
+    last two windows of up to READ contacts, after at least one). ((mid ln A, residual) per window), or None where
+    the pulse dies within 3 contacts."""
     centre = min_centre(n) + 1
     first = centre + 8
     last = first + SETTLE + 2 * READ
@@ -74,23 +87,26 @@ def _launched_residuals(coef, n: float, S0: float, lnA: float, at: float) -> tup
     cs = coef.c if coef.c_of_i is None else [f(at) for f in coef.c_of_i]
     monos = list(zip(cs, coef.monomials))
     force = OnSiteForce(force=lambda x, v: mask * sum(c * x**a * v**b for c, (a, b) in monos))
-    res = launch(beads, n, math.exp(lnA), centre, (first, last), force, rtol=SEGMENT_RTOL)
+    start_lnA = _launch_amplitude(coef, lnA, at, SETTLE + ahead)
+    res = launch(beads, n, math.exp(start_lnA), centre, (first, last), force, rtol=SEGMENT_RTOL)
     live = next((k for k, p in enumerate(res.peaks) if p is None), len(res.peaks))
-    start = SETTLE if live > SETTLE + 2 * READ else live - 1 - 2 * READ
-    if start < READ:
+    read = READ if live > SETTLE + 2 * READ else min(READ, (live - 1) // 3)  # a dying pulse: what it has left
+    if read < 1:
         return None
-    lnP = [math.log(p / S0) for p in res.peaks[start:start + 2 * READ + 1]]
-    return (rate_residual(coef, lnP[:READ + 1], [at] * (READ + 1)),
-            rate_residual(coef, lnP[READ:], [at] * (READ + 1)))
+    start = SETTLE if live > SETTLE + 2 * READ else live - 1 - 2 * read
+    lnP = [math.log(p / S0) for p in res.peaks[start:start + 2 * read + 1]]
+    windows = (lnP[:read + 1], lnP[read:])
+    return [((w[0] + w[-1]) / 2, rate_residual(coef, w, [at] * (read + 1))) for w in windows]
 
 
 def measure_law_error(state: "RunState", coef, S0: float, path) -> MeasuredError | None:
     """The law's error measured on its own short DNS segments (models/dressed.py, ``MeasuredError``): the scene's
     chain cut after contact iL = i0 + SEED_SPAN (kicked as the scene is, same integrator), and exact waves launched
-    at amplitudes along the law's ``path`` (an evaluation without estimate) at most NODE_STEP apart in ln A. A
-    node's residual: the larger of its two windows plus their difference (its spread: a transient not yet
-    relaxed, a launched wave's wake younger than a long chain's; inf: the pulse was lost); the offset: the kicked
-    chain's residual over its last READ contacts minus the launched one's at the same amplitude. None where the
+    so that their reading windows straddle amplitudes along the law's ``path`` (an evaluation without estimate) at
+    most NODE_STEP apart in ln A. Each window's residual stands at the mid ln A it was read at, plus the
+    difference of the wave's two windows (its spread: a transient not yet relaxed, a wake younger than a long
+    chain's); inf below where a launched pulse was lost. The offset: the kicked chain's residual over its last
+    READ contacts minus that of a wave launched to read its first window at the same amplitude. None where the
     law gives no value past the seed."""
     from pulsemap.solvers.chain.dns import simulate
     from pulsemap.solvers.chain.window import window_accuracy_for
@@ -116,12 +132,21 @@ def measure_law_error(state: "RunState", coef, S0: float, path) -> MeasuredError
     for c, a in live:
         if c > iL and (abs(math.log(a) - nodes[-1][0]) >= NODE_STEP or c == live[-1][0]):
             nodes.append((math.log(a), float(c)))
-    pairs = [_launched_residuals(coef, n, S0, lnA, at) for lnA, at in nodes]
-    bound = [math.inf if p is None else max(abs(p[0]), abs(p[1])) + abs(p[0] - p[1]) for p in pairs]
-    offset = math.inf if pairs[0] is None else abs(kicked - pairs[0][0])
+    kicked_mid = (window[0][1] + window[-1][1]) / 2
+    reads = [_launched_residuals(coef, n, S0, kicked_mid, float(iL), READ / 2)]  # window 1 on the kicked one's
+    reads += [_launched_residuals(coef, n, S0, lnA, at, READ) for lnA, at in nodes]  # the windows straddle ln A
+    at_, bound = [], []
+    for target, w in zip([kicked_mid] + [lnA for lnA, _ in nodes], reads):
+        if w is None:  # the pulse was lost: no residual known around the amplitude it was to be read at
+            at_.append(target)
+            bound.append(math.inf)
+            continue
+        (x1, r1), (x2, r2) = w
+        at_ += [x1, x2]
+        bound += [abs(r1) + abs(r1 - r2), abs(r2) + abs(r1 - r2)]
+    offset = math.inf if reads[0] is None else abs(kicked - reads[0][0][1])
     return MeasuredError(tuple(float(c) for c, _ in seg[1:]), tuple(v for _, v in seg[1:]),
-                         window_accuracy_for(res.rtol, None),
-                         tuple(v for v, _ in nodes), tuple(bound), offset)
+                         window_accuracy_for(res.rtol, None), tuple(at_), tuple(bound), offset)
 
 
 def run_dressed(state: "RunState", name: str, law, seed_A: float, S0: float) -> dict:
