@@ -9,8 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from pulsemap.solvers.chain.equations import OnSiteForce
-from pulsemap.solvers.chain.launch import launch, min_centre
+from pulsemap.solvers.chain.launch import min_centre
 from pulsemap.solvers.models.dressed import MeasuredError, evaluate_dressed_law
 from pulsemap.solvers.studies.extent import on_contacts
 from pulsemap.solvers.studies.run.state import RunState
@@ -72,29 +71,50 @@ def _launch_amplitude(coef, lnA: float, at: float, contacts: float) -> float:
     return back if sol.status == 0 and math.isfinite(back) and back < lnA + 5 else lnA
 
 
+def _launched_peaks(coef, n: float, A: float, at: float) -> list:
+    """Peaks of contacts first .. first + SETTLE + 2 READ (None past the pulse's death) of an exact wave of scale
+    A launched at contact first - 8 into a chain whose beads >= first carry the law's monomials with their
+    coefficients at contact index ``at`` (the compiled DNS; the force's code generated once per monomial set)."""
+    from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+    from pulsemap.solvers.chain.launch import Launch
+    from pulsemap.solvers.models.codeload import force_module
+    from pulsemap.solvers.models.onsite import onsite_force
+
+    centre = min_centre(n) + 1
+    first = centre + 8
+    last = first + SETTLE + 2 * READ
+    beads = last + min_centre(n) + 2
+    names = tuple(f"c{j}" for j in range(len(coef.monomials)))
+    R = " + ".join(f"{name}*" + "*".join([f"u^{a}"] * (a > 0) + [f"v^{b}"] * (b > 0))
+                   for name, (a, b) in zip(names, coef.monomials))
+    cs = coef.c if coef.c_of_i is None else [f(at) for f in coef.c_of_i]
+    force = onsite_force(force_module(R, names), beads, first, 1.0, dict(zip(names, cs)))
+    scale = min(1.0, A, A ** ((n + 1.0) / 2.0))
+    res = simulate(Chain(beads, n, 1.0, force, launch=Launch(float(A), centre)), (first, last),
+                   integrator=Integrator(rtol=SEGMENT_RTOL, atol=SEGMENT_RTOL * 1e-2 * scale))
+    found = dict(zip((int(c) for c in res.contacts), zip(res.peaks, res.alive)))
+    out = []
+    for c in range(first, last + 1):
+        p, alive = found.get(c, (math.nan, False))
+        out.append(float(p) if alive and math.isfinite(p) else None)
+    dead = next((k for k, p in enumerate(out) if p is None), len(out))
+    return out[:dead] + [None] * (len(out) - dead)
+
+
 def _launched_residuals(coef, n: float, S0: float, lnA: float, at: float, ahead: float):
     """Rate residuals per contact in two consecutive windows of READ contacts: an exact wave launched into a
     uniform chain carrying the law's monomials with their coefficients at contact index ``at``, read after SETTLE
     contacts, launched where the law puts ln A at ``ahead`` contacts after SETTLE (a pulse that dies sooner: its
     last two windows of up to READ contacts, after at least one). ((mid ln A, residual) per window), or None where
     the pulse dies within 3 contacts."""
-    centre = min_centre(n) + 1
-    first = centre + 8
-    last = first + SETTLE + 2 * READ
-    beads = last + 6
-    mask = np.zeros(beads)
-    mask[first - 1:] = 1.0
-    cs = coef.c if coef.c_of_i is None else [f(at) for f in coef.c_of_i]
-    monos = list(zip(cs, coef.monomials))
-    force = OnSiteForce(force=lambda x, v: mask * sum(c * x**a * v**b for c, (a, b) in monos))
     start_lnA = _launch_amplitude(coef, lnA, at, SETTLE + ahead)
-    res = launch(beads, n, math.exp(start_lnA), centre, (first, last), force, rtol=SEGMENT_RTOL)
-    live = next((k for k, p in enumerate(res.peaks) if p is None), len(res.peaks))
+    peaks = _launched_peaks(coef, n, math.exp(start_lnA), at)
+    live = next((k for k, p in enumerate(peaks) if p is None), len(peaks))
     read = READ if live > SETTLE + 2 * READ else min(READ, (live - 1) // 3)  # a dying pulse: what it has left
     if read < 1:
         return None
     start = SETTLE if live > SETTLE + 2 * READ else live - 1 - 2 * read
-    lnP = [math.log(p / S0) for p in res.peaks[start:start + 2 * read + 1]]
+    lnP = [math.log(p / S0) for p in peaks[start:start + 2 * read + 1]]
     windows = (lnP[:read + 1], lnP[read:])
     return [((w[0] + w[-1]) / 2, rate_residual(coef, w, [at] * (read + 1))) for w in windows]
 
