@@ -210,6 +210,22 @@ def test_dressed_law_cut_follows_its_estimate_not_its_validity_bound():
     assert all(a <= ACCURACY and abs(p / d - 1) <= a for p, d, a in given)
 
 
+def test_rate_residual_is_the_true_rate_minus_the_law_rate_along_the_true_path():
+    """A law with rate -k x, x = c A^e, and a true path decaying at the constant rate g per contact: the residual
+    is g minus the law's rate averaged along that path (here by its closed form), not the law integrated from the
+    window's start (which drifts away from the path)."""
+    from pulsemap.solvers.models.dressed import DressedCoefficients
+    from pulsemap.solvers.studies.run.dressed import rate_residual
+
+    c, e, k1 = -0.1, -0.25, -4 / 9
+    coef = DressedCoefficients((c,), (e,), (k1,), (0.0,), (0.0,), (math.inf,))
+    g, lnA0 = -0.05, math.log(0.4)
+    lnA = [lnA0 + g * k for k in range(5)]
+    mean = -k1 * c * math.exp(e * lnA0) * math.expm1(e * g * 4) / (e * g * 4)  # (1/4) int_0^4 rate(A(i)) di
+    assert rate_residual(coef, lnA, [0.0] * 5) == pytest.approx(g - mean, abs=2e-6)  # trapezoid's error
+    assert rate_residual(coef, lnA, [0.0] * 5) == pytest.approx(g - mean, rel=1e-3)
+
+
 def test_the_estimate_holds_where_the_old_one_understated_the_error():
     """R = -u^2 at eps 0.05 (a monomial no constant was set on): the law's error grows to ~4 % along the chain,
     where the former estimate (onset relaxing, calibrated next terms) shrank to 0.02 %. Every value given is

@@ -88,7 +88,7 @@ def _launched_peaks(coef, n: float, A: float, at: float) -> list:
     R = " + ".join(f"{name}*" + "*".join([f"u^{a}"] * (a > 0) + [f"v^{b}"] * (b > 0))
                    for name, (a, b) in zip(names, coef.monomials))
     cs = coef.c if coef.c_of_i is None else [f(at) for f in coef.c_of_i]
-    force = onsite_force(force_module(R, names), beads, first, 1.0, dict(zip(names, cs)))
+    force = onsite_force(force_module(R, names), beads, first, 1.0, dict(zip(names, cs))) if names else None
     scale = min(1.0, A, A ** ((n + 1.0) / 2.0))
     res = simulate(Chain(beads, n, 1.0, force, launch=Launch(float(A), centre)), (first, last),
                    integrator=Integrator(rtol=SEGMENT_RTOL, atol=SEGMENT_RTOL * 1e-2 * scale))
