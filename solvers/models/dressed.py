@@ -490,6 +490,8 @@ def error_bound(coef: DressedCoefficients, sol, measured: MeasuredError, contact
     larger secant slope of the rate over ln A -+ D: the measured rate residuals carried along the chain by the
     law's own sensitivity, where the true path may be (a bound on e' = rate(lnA + e) - rate(lnA) + r(lnA + e)).
     None where no value."""
+    if not measured.contacts:  # nothing was measured: no value has an estimate
+        return [math.inf if ok else None for ok in given]
     seed = dict(zip((int(c) for c in measured.contacts), measured.lnA))
     iL = max(measured.contacts)
     D_L = abs(float(sol.sol(iL)[0]) - seed[int(iL)]) + measured.tol

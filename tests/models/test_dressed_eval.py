@@ -116,8 +116,9 @@ def test_residual_bound_is_the_larger_neighbour():
 
 def test_the_law_is_quiet_where_its_estimated_error_passes_its_accuracy():
     """A large measured residual: the estimate passes ACCURACY, no value there, one line saying why; every value
-    given carries an estimate within ACCURACY; a lost launched pulse (residual inf) gives no value past it."""
-    from pulsemap.solvers.models.dressed import ACCURACY
+    given carries an estimate within ACCURACY; a lost launched pulse (residual inf) gives no value past it, nor does
+    a chain whose pulse died in the seed segment, and nothing measured gives no value at all."""
+    from pulsemap.solvers.models.dressed import ACCURACY, MeasuredError
 
     coef = DressedCoefficients(**GAIN_LOSS)
     ev = evaluate_dressed_law(coef, 1.0, 0.35, 15.0, np.arange(16, 300), _measured(coef, 0.35, 15.0, 2e-3))
@@ -128,3 +129,10 @@ def test_the_law_is_quiet_where_its_estimated_error_passes_its_accuracy():
     assert all(e is None for a, e in zip(ev.run.A, ev.accuracy) if a is None)
     lost = evaluate_dressed_law(coef, 1.0, 0.35, 15.0, np.arange(16, 60), _measured(coef, 0.35, 15.0, math.inf))
     assert [c for c, a in zip(lost.run.contacts, lost.run.A) if a is not None] == list(range(16, 28))
+    # the chain's pulse died within the seed segment (an inf residual past it), or before it: no value past it
+    short = _measured(coef, 0.35, 15.0, 0.0, span=5)
+    dead = MeasuredError(short.contacts, short.lnA, short.tol, (short.lnA[-1],), (math.inf,), math.inf)
+    ev = evaluate_dressed_law(coef, 1.0, 0.35, 15.0, np.arange(16, 60), dead)
+    assert [c for c, a in zip(ev.run.contacts, ev.run.A) if a is not None] == list(range(16, 21))
+    none = MeasuredError((), (), 1e-8, (), (), math.inf)
+    assert all(a is None for a in evaluate_dressed_law(coef, 1.0, 0.35, 15.0, np.arange(16, 60), none).run.A)

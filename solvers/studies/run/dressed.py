@@ -127,7 +127,8 @@ def measure_law_error(state: "RunState", coef, S0: float, path) -> MeasuredError
     difference of the wave's two windows (its spread: a transient not yet relaxed, a wake younger than a long
     chain's); inf below where a launched pulse was lost. The offset: the kicked chain's residual over its last
     READ contacts minus that of a wave launched to read its first window at the same amplitude. None where the
-    law gives no value past the seed."""
+    law gives no value past the seed; no seed contacts where the chain's pulse is gone by i0 + 1, an inf residual
+    past the contact where it dies within the seed segment."""
     from pulsemap.solvers.chain.dns import simulate
     from pulsemap.solvers.chain.window import window_accuracy_for
     from pulsemap.solvers.studies.extent import dns_integrator
@@ -143,9 +144,17 @@ def measure_law_error(state: "RunState", coef, S0: float, path) -> MeasuredError
     beads = iL + min_centre(n) + 2
     res = simulate(dns_chain(scene, beads, make_force(scene, beads)), (i0, iL), integrator=dns_integrator(scene.dns))
     peaks = dict(zip((int(c) for c in res.contacts), res.peaks))
-    seg = [(c, math.log(peaks[c] / S0)) for c in range(i0, iL + 1) if c in peaks and np.isfinite(peaks[c]) and peaks[c] > 0]
-    if len(seg) != iL - i0 + 1:
-        return None
+    seg = []
+    for c in range(i0, iL + 1):  # up to the last contact the chain's pulse reaches
+        if not (c in peaks and np.isfinite(peaks[c]) and peaks[c] > 0):
+            break
+        seg.append((c, math.log(peaks[c] / S0)))
+    tol = window_accuracy_for(res.rtol, None)
+    if len(seg) < 2:  # the chain's pulse is gone by the seed's next contact: nothing to measure the law on
+        return MeasuredError((), (), tol, (), (), math.inf)
+    if seg[-1][0] < iL:  # the chain's pulse died within the seed segment: no value past it
+        return MeasuredError(tuple(float(c) for c, _ in seg[1:]), tuple(v for _, v in seg[1:]), tol, (seg[-1][1],),
+                             (math.inf,), math.inf)
     window = seg[-1 - min(READ, iL - i0):]
     kicked = rate_residual(coef, [v for _, v in window], [float(c) for c, _ in window])
     nodes = [(seg[-1][1], float(iL))]
@@ -166,8 +175,8 @@ def measure_law_error(state: "RunState", coef, S0: float, path) -> MeasuredError
         at_ += [x1, x2]
         bound += [abs(r1) + abs(r1 - r2), abs(r2) + abs(r1 - r2)]
     offset = math.inf if reads[0] is None else abs(kicked - reads[0][0][1])
-    return MeasuredError(tuple(float(c) for c, _ in seg[1:]), tuple(v for _, v in seg[1:]),
-                         window_accuracy_for(res.rtol, None), tuple(at_), tuple(bound), offset)
+    return MeasuredError(tuple(float(c) for c, _ in seg[1:]), tuple(v for _, v in seg[1:]), tol, tuple(at_),
+                         tuple(bound), offset)
 
 
 def run_dressed(state: "RunState", name: str, law, seed_A: float, S0: float) -> dict:
