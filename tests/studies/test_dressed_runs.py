@@ -265,6 +265,14 @@ ACCURACY_SCENES = [  # no constant of the estimate was set on any of them
     ("fig8-eps0.1", {"chain.exponent": 2.0, "perturbation.R": "-(u^3 + v)", "perturbation.eps": 0.05}),  # n = 2
     ("fig8-eps0.1", {"perturbation.R": "v - u^2*v", "perturbation.eps": 0.05}),  # gain and loss
     ("fig6-eps0.1", {"perturbation.R": "-k*u", "perturbation.eps": 0.01, "perturbation.params.k": "1 + (i - 16)/50"}),
+    # run only after the estimate was built (benchmarks/bench_dressed_accuracy.py: LATER, LAST)
+    ("fig8-eps0.1", {"chain.exponent": 3.0, "perturbation.R": "-(u^3 + v)", "perturbation.eps": 0.03}),
+    ("fig8-eps0.1", {"chain.exponent": 2.5, "perturbation.R": "-(u + v)", "perturbation.eps": 0.03}),
+    ("fig8-eps0.1", {"chain.exponent": 1.8, "perturbation.eps": 0.05}),
+    ("fig8-eps0.1", {"perturbation.R": "-(0.5*u^2 + v)", "perturbation.eps": 0.04}),
+    ("vdp-mu3-v2.3", {"perturbation.params.mu": 4.0, "perturbation.eps": 0.03, "excitation.velocity": 1.2,
+                      "output.contacts": [16, 250]}),
+    ("fig6-eps0.1", {"perturbation.R": "-k*u^3", "perturbation.eps": 0.05, "perturbation.params.k": "1 + (i - 16)/80"}),
 ]
 
 
