@@ -21,8 +21,10 @@ from pulsemap.solvers.studies.run.dressed import SEED_SPAN
 
 SCENES = {
     "u2-eps0.05": ("fig6-eps0.1", {"perturbation.R": "-u^2", "perturbation.eps": 0.05}),
-    "n3-found-damp-0.05": ("fig8-eps0.1", {"chain.exponent": 3.0, "perturbation.R": "-(u + v)", "perturbation.eps": 0.05}),
-    "n3-found-damp-0.1": ("fig8-eps0.1", {"chain.exponent": 3.0, "perturbation.R": "-(u + v)", "perturbation.eps": 0.1}),
+    "n3-found-damp-0.05": ("fig8-eps0.1", {"chain.exponent": 3.0, "perturbation.R": "-(u + v)",
+                                           "perturbation.eps": 0.05}),
+    "n3-found-damp-0.1": ("fig8-eps0.1", {"chain.exponent": 3.0, "perturbation.R": "-(u + v)",
+                                          "perturbation.eps": 0.1}),
     "cubic-found-0.1": ("fig6-eps0.1", {"perturbation.R": "-u^3", "perturbation.eps": 0.1}),
     "fig8-eps0.1": ("fig8-eps0.1", {}),
     "fig8-eps0.3": ("fig8-eps0.3", {}),
@@ -35,9 +37,11 @@ SCENES = {
     "vdp-mu5-eps0.025": ("vdp-mu3-v2.3", {"perturbation.params.mu": 5.0, "perturbation.eps": 0.025,
                                           "excitation.velocity": 0.9, "output.contacts": [16, 300]}),
     "mixed-0.2": ("fig8-eps0.1", {"perturbation.R": "-(u + u^3 + v)", "perturbation.eps": 0.2}),
-    "n2-cubic-damp": ("fig8-eps0.1", {"chain.exponent": 2.0, "perturbation.R": "-(u^3 + v)", "perturbation.eps": 0.05}),
+    "n2-cubic-damp": ("fig8-eps0.1", {"chain.exponent": 2.0, "perturbation.R": "-(u^3 + v)",
+                                      "perturbation.eps": 0.05}),
     "gain-loss": ("fig8-eps0.1", {"perturbation.R": "v - u^2*v", "perturbation.eps": 0.05}),
-    "graded": ("fig6-eps0.1", {"perturbation.R": "-k*u", "perturbation.eps": 0.01, "perturbation.params.k": "1 + (i - 16)/50"}),
+    "graded": ("fig6-eps0.1", {"perturbation.R": "-k*u", "perturbation.eps": 0.01,
+                               "perturbation.params.k": "1 + (i - 16)/50"}),
 }
 # run only after the estimate was settled, to check it on scenes it had never met
 LATER = {
@@ -49,7 +53,8 @@ LATER = {
     "vdp-mu2-eps0.05": ("vdp-mu3-v2.3", {"perturbation.params.mu": 2.0, "perturbation.eps": 0.05,
                                          "excitation.velocity": 1.5, "output.contacts": [16, 200]}),
     "n3-cubic-damp": ("fig8-eps0.1", {"chain.exponent": 3.0, "perturbation.R": "-(u^3 + v)", "perturbation.eps": 0.03}),
-    "graded-damp": ("fig8-eps0.1", {"perturbation.R": "-k*v", "perturbation.eps": 0.1, "perturbation.params.k": "1 + (i - 16)/100"}),
+    "graded-damp": ("fig8-eps0.1", {"perturbation.R": "-k*v", "perturbation.eps": 0.1,
+                                    "perturbation.params.k": "1 + (i - 16)/100"}),
 }
 # run once more after a fix the LATER ones prompted (the rate residual's quadrature), on scenes new again
 LAST = {
@@ -72,8 +77,10 @@ def uncut(scene, res: dict) -> dict:
     coef = coefficients(law)
     i0 = float(scene.first_perturbed - 1)
     if not scene.perturbation.is_uniform:
-        coef = replace(coef, c_of_i=site_coefficient_functions(scene.perturbation, law, i0, float(scene.contacts[1])))
-    ev = evaluate_dressed_law(coef, exact_profile(scene.exponent).S0, res["seed"]["A"], i0, res["contacts"])
+        ends = float(scene.contacts[1])
+        coef = replace(coef, c_of_i=site_coefficient_functions(scene.perturbation, law, i0, ends))
+    S0 = exact_profile(scene.exponent).S0
+    ev = evaluate_dressed_law(coef, S0, res["seed"]["A"], i0, res["contacts"])
     return dict(zip(res["contacts"], ev.run.A))
 
 
@@ -91,7 +98,8 @@ def main(names) -> None:
         given = [(c, abs(q / d - 1), a) for c, d, q, a in rows if q is not None]
         past = [g for g in given if g[0] > scene.first_perturbed - 1 + SEED_SPAN]
         held = [(c, d) for c, d, q, _ in rows if q is None]
-        A = uncut(scene, res) if held and "seed" in res and "failed" not in info and "refused" not in info else {}
+        ran = held and "seed" in res and "failed" not in info and "refused" not in info
+        A = uncut(scene, res) if ran else {}
         S0 = exact_profile(scene.exponent).S0
         good = sum(1 for c, d in held if A.get(c) is not None and abs(A[c] * S0 / d - 1) <= ACCURACY)
         counts = (len(given), sum(e <= a for _, e, a in given), len(past), sum(e <= a for _, e, a in past),

@@ -450,10 +450,11 @@ class MeasuredError:
     ``contacts``/``lnA``: ln A of the scene's own chain (kicked, cut short after the last of ``contacts``) at
     contacts i0 + 1 .. iL: there the law's error is measured, to the DNS's stated peak accuracy ``tol`` (the
     looser of its rtol and the moving window's 1e-8: the accuracy of any DNS it is compared with).
-    ``nodes_lnA``/``residual``: |true rate - law rate| per contact at amplitudes along the law's path, each
-    from an exact wave launched at that amplitude into a uniform chain carrying the coefficients there, read
-    after its own onset has relaxed (inf: the launched pulse was lost). ``offset``: |kicked - launched| rate
-    residual at iL (the kicked pulse is not an exact wave), carried along with the residuals."""
+    ``nodes_lnA``/``residual``: bounds on |true rate - law rate| per contact at amplitudes along the law's path,
+    each read on an exact wave launched into a uniform chain carrying the coefficients there, after its own onset
+    has relaxed, at the ln A where it was read (inf: the launched pulse was lost; the chain's pulse died within
+    the seed segment). ``offset``: |kicked - launched| rate residual at iL (the kicked pulse is not an exact
+    wave), carried along with the residuals. No ``contacts``: nothing could be measured (no value is given)."""
 
     contacts: tuple[float, ...]
     lnA: tuple[float, ...]

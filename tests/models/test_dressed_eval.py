@@ -100,7 +100,8 @@ def test_error_estimate_is_the_fixed_point_shift_of_a_measured_residual():
     assert math.log1p(ev.accuracy[-1]) == pytest.approx(moved, rel=1e-3)  # the seed's miss has relaxed by 400
     assert moved > r / abs(coef.slope(star))  # the tangent alone would understate it
     # the offset adds to the residual as a rate error; nothing measured: no estimate, every value given
-    both = evaluate_dressed_law(coef, 1.0, star, 15.0, np.arange(16, 400), _measured(coef, star, 15.0, r / 2, r / 2, miss=0.003))
+    halves = _measured(coef, star, 15.0, r / 2, r / 2, miss=0.003)
+    both = evaluate_dressed_law(coef, 1.0, star, 15.0, np.arange(16, 400), halves)
     assert both.accuracy[-1] == pytest.approx(ev.accuracy[-1], rel=1e-9)
     bare = evaluate_dressed_law(coef, 1.0, star, 15.0, np.arange(16, 400))
     assert all(a is None for a in bare.accuracy) and all(a is not None for a in bare.run.A)
