@@ -44,18 +44,18 @@ def provenance(law, kind: str) -> list[str]:
     return out + [f"cross:{ct.first} x {ct.second}" for ct in law.cross if ct.method.startswith(kind)]
 
 
-SEED_SPAN = 12  # contacts after the seed run on the scene's own chain: the kicked pulse's onset (<= 8) and 4 more
-SETTLE = 12  # contacts a launched wave runs before its residual is read (its onset relaxes ~0.56 per contact)
+SEED_SPAN = 12  # contacts of the scene's own chain past the seed: the kicked pulse's onset and a window after it
+SETTLE = 12  # contacts a launched wave runs before it is read: its own onset has relaxed (docs/models.rst)
 READ = 4  # contacts per window over which a residual rate is read (two windows per launched wave)
 NODE_STEP = 0.25  # the largest change of ln A between two launched waves (between them the larger residual holds)
-SEGMENT_RTOL = 1e-8  # the launched waves' tolerance: peaks to ~1e-8, residuals to ~1e-8, below any that matters
+SEGMENT_RTOL = 1e-8  # the launched waves' tolerance: their residuals far below any that matters (docs/models.rst)
 
 
 def rate_residual(coef, lnA, at) -> float:
     """True rate - law rate per contact over consecutive contacts: (ln A_last - ln A_first)/span minus the law's
     rate averaged along the true path (the coefficients at the contact indices ``at``). The average is the
     trapezoid's corrected by the trapezoid's own error on the law's path from the same start (its exact step
-    minus its trapezoid): where the rate changes by a few % per contact that error is as large as the residual."""
+    minus its trapezoid): where the rate changes fast along the window that error rivals the residual."""
     from scipy.integrate import solve_ivp
 
     span = len(lnA) - 1
