@@ -185,7 +185,8 @@ def coefficients(law: DressedLaw) -> DressedCoefficients:
         rho=tuple(t.rho for t in law.terms), lag=tuple(t.lag for t in law.terms),
         x_bound=tuple(t.x_bound()[0] for t in law.terms), cross=cross,
         next_coef=tuple(t.next_coefficient for t in law.terms),
-        next_power=tuple(1.5 if t.next_kind == "|x|^(3/2)" else 2.0 for t in law.terms))
+        next_power=tuple(1.5 if t.next_kind == "|x|^(3/2)" else 2.0 for t in law.terms),
+        monomials=tuple(tuple(t.exponents) for t in law.terms))
 
 
 def coefficient_at(coefficient: sympy.Expr, pert: Perturbation, bead: float) -> float:

@@ -86,8 +86,8 @@ def test_dressed_law_beats_the_energy_law_on_damping():
 
 def test_dressed_law_follows_a_graded_foundation_and_refuses_the_pade_profile():
     """k = 1 + (i - 16)/50, eps = 0.01, contacts 16-120: c_j(i) along the chain (bead i + 1/2). Measured
-    against the DNS over the contacts it gives (16-79; quiet past them, its estimated error passing 5 %):
-    dressed RMS 0.16 %, max 0.45 %; energy law RMS 11.3 % over 16-120."""
+    against the DNS over the contacts it gives (16-87; quiet past them, its estimated error passing 5 %):
+    dressed RMS 0.27 %, max 0.92 %; energy law RMS 11.3 % over 16-120."""
     from pulsemap.solvers.data.scene import parse_scene
     from pulsemap.solvers.studies.run import run_scene
 
@@ -194,23 +194,56 @@ def test_dressed_law_refuses_a_coefficient_that_jumps_from_bead_to_bead():
     assert res["peaks"]["dressed-law"] is None
 
 
-def test_dressed_law_is_quiet_past_its_validity_bound():
-    """k rising from 0.1 to 1 at eps 0.1: the law passes its validity bound near contact 68; it gives no
-    value past it, and before it stays within 10 % of the DNS (measured: RMS 2.0 %, max 7.6 %; with the
-    values past the bound it was RMS 34 %, max 179 %)."""
+def test_dressed_law_cut_follows_its_estimate_not_its_validity_bound():
+    """k rising from 0.1 to 1 at eps 0.1: the law passes its calibrated validity bound inside the range (reported,
+    a warning); the values it gives are those whose measured-and-carried estimate stays within 5 %, each within its
+    estimate of the DNS, the message one line."""
+    from pulsemap.solvers.models.dressed import ACCURACY
     from pulsemap.solvers.studies.run import run_scene
 
     res = run_scene(_foundation("0.1 + 0.00865*(i - 16)", 0.1, ["dressed-law", "dns"]))
     info = res["dressed-law"]
-    bound = info["beyond_validity_at"]
-    assert info["status"] == "beyond its validity bound" and 20 < bound < 120 and "\n" not in info["message"]
-    law, dns = res["peaks"]["dressed-law"], res["peaks"]["dns"]
-    assert all(p is None for c, p in zip(res["contacts"], law) if c > bound)
-    errs = [abs(p - d) / d for p, d in zip(law, dns) if p is not None and d is not None]
-    assert len(errs) > 20 and max(errs) < 0.10
+    assert 20 < info["beyond_validity_at"] < 120 and "\n" not in info["message"]
+    given = [(p, d, a) for p, d, a in zip(res["peaks"]["dressed-law"], res["peaks"]["dns"], info["accuracy"])
+             if p is not None and d is not None]
+    assert len(given) > 10
+    assert all(a <= ACCURACY and abs(p / d - 1) <= a for p, d, a in given)
 
 
-ACCURACY_SCENES = [
+def test_rate_residual_is_the_true_rate_minus_the_law_rate_along_the_true_path():
+    """A law with rate -k x, x = c A^e, and a true path decaying at the constant rate g per contact: the residual
+    is g minus the law's rate averaged along that path (here by its closed form), not the law integrated from the
+    window's start (which drifts away from the path)."""
+    from pulsemap.solvers.models.dressed import DressedCoefficients
+    from pulsemap.solvers.studies.run.dressed import rate_residual
+
+    c, e, k1 = -0.1, -0.25, -4 / 9
+    coef = DressedCoefficients((c,), (e,), (k1,), (0.0,), (0.0,), (math.inf,))
+    g, lnA0 = -0.05, math.log(0.4)
+    lnA = [lnA0 + g * k for k in range(5)]
+    mean = -k1 * c * math.exp(e * lnA0) * math.expm1(e * g * 4) / (e * g * 4)  # (1/4) int_0^4 rate(A(i)) di
+    assert rate_residual(coef, lnA, [0.0] * 5) == pytest.approx(g - mean, abs=2e-6)  # trapezoid's error
+    assert rate_residual(coef, lnA, [0.0] * 5) == pytest.approx(g - mean, rel=1e-3)
+
+
+def test_the_estimate_holds_where_the_old_one_understated_the_error():
+    """R = -u^2 at eps 0.05 (a monomial no constant was set on): the law's error grows to ~4 % along the chain,
+    where the former estimate (onset relaxing, calibrated next terms) shrank to 0.02 %. Every value given is
+    within its printed estimate, past the measured seed segment included, and none is more than 5 % off."""
+    import pulsemap
+    from pulsemap.solvers.studies.run.dressed import SEED_SPAN
+
+    res = pulsemap.run(pulsemap.scene("fig6-eps0.1", **{"perturbation.R": "-u^2", "perturbation.eps": 0.05,
+                                                         "output.contacts": [16, 45]}),
+                       methods=["dns", "dressed-law"]).to_dict()
+    rows = [(c, q / d - 1, a) for c, d, q, a in zip(res["contacts"], res["peaks"]["dns"], res["peaks"]["dressed-law"],
+                                                   res["dressed-law"]["accuracy"]) if q is not None and d is not None]
+    past = [r for r in rows if r[0] > 15 + SEED_SPAN]
+    assert len(past) >= 8 and max(abs(e) for _, e, _ in past) > 0.03  # the error that grows is there
+    assert all(abs(e) <= a <= 0.05 for _, e, a in rows)
+
+
+ACCURACY_SCENES = [  # no constant of the estimate was set on any of them
     ("fig8-eps0.1", {}),  # uniform damping
     ("fig8-eps0.3", {}),
     ("fig6-eps0.1", {}),  # uniform linear foundation
@@ -225,14 +258,30 @@ ACCURACY_SCENES = [
     ("vdp-mu3-v2.3", {"perturbation.eps": 0.0125, "excitation.velocity": 0.9, "output.contacts": [16, 300]}),
     ("vdp-mu3-v2.3", {"perturbation.params.mu": 5.0, "perturbation.eps": 0.025, "excitation.velocity": 0.9,
                       "output.contacts": [16, 300]}),
+    ("fig6-eps0.1", {"perturbation.R": "-u^2", "perturbation.eps": 0.05}),  # where the former estimate understated
+    ("fig6-eps0.1", {"perturbation.R": "-u^3", "perturbation.eps": 0.1}),  # cubic foundation
+    ("fig8-eps0.1", {"chain.exponent": 3.0, "perturbation.R": "-(u + v)", "perturbation.eps": 0.05}),  # n = 3
+    ("fig8-eps0.1", {"chain.exponent": 3.0, "perturbation.R": "-(u + v)", "perturbation.eps": 0.1}),
+    ("fig8-eps0.1", {"chain.exponent": 2.0, "perturbation.R": "-(u^3 + v)", "perturbation.eps": 0.05}),  # n = 2
+    ("fig8-eps0.1", {"perturbation.R": "v - u^2*v", "perturbation.eps": 0.05}),  # gain and loss
+    ("fig6-eps0.1", {"perturbation.R": "-k*u", "perturbation.eps": 0.01, "perturbation.params.k": "1 + (i - 16)/50"}),
+    # run only after the estimate was built (benchmarks/bench_dressed_accuracy.py: LATER, LAST)
+    ("fig8-eps0.1", {"chain.exponent": 3.0, "perturbation.R": "-(u^3 + v)", "perturbation.eps": 0.03}),
+    ("fig8-eps0.1", {"chain.exponent": 2.5, "perturbation.R": "-(u + v)", "perturbation.eps": 0.03}),
+    ("fig8-eps0.1", {"chain.exponent": 1.8, "perturbation.eps": 0.05}),
+    ("fig8-eps0.1", {"perturbation.R": "-(0.5*u^2 + v)", "perturbation.eps": 0.04}),
+    ("vdp-mu3-v2.3", {"perturbation.params.mu": 4.0, "perturbation.eps": 0.03, "excitation.velocity": 1.2,
+                      "output.contacts": [16, 250]}),
+    ("fig6-eps0.1", {"perturbation.R": "-k*u^3", "perturbation.eps": 0.05, "perturbation.params.k": "1 + (i - 16)/80"}),
 ]
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name, overrides", ACCURACY_SCENES)
 def test_dressed_law_is_within_its_printed_accuracy_or_says_why_not(name, overrides):
-    """Every value the law gives on the DNS's live range is within its own estimated error of the DNS peak;
-    every contact without a value is explained in one line; the run's text prints the estimate."""
+    """Every value the law gives on the DNS's live range is within its own estimated error of the DNS peak (and so
+    within 5 % of it); every contact without a value is explained in one line; the run's text prints the
+    estimate."""
     import pulsemap
     from pulsemap.solvers.models.dressed import ACCURACY
 
