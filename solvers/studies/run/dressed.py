@@ -86,10 +86,9 @@ def _launched_peaks(coef, n: float, A: float, at: float) -> list:
     """Peaks of contacts first .. first + SETTLE + 2 READ (None past the pulse's death) of an exact wave of scale
     A launched at contact first - 8 into a chain whose beads >= first carry the law's monomials with their
     coefficients at contact index ``at`` (the compiled DNS; the force's code generated once per monomial set)."""
-    from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
+    from pulsemap.solvers.chain.dns import Integrator, simulate
     from pulsemap.solvers.chain.launch import Launch
-    from pulsemap.solvers.models.codeload import force_module
-    from pulsemap.solvers.models.onsite import onsite_force
+    from pulsemap.solvers.models.chain_build import ChainSpec, build_chain
 
     centre = min_centre(n) + 1
     first = centre + 8
@@ -99,9 +98,9 @@ def _launched_peaks(coef, n: float, A: float, at: float) -> list:
     R = " + ".join(f"{name}*" + "*".join([f"u^{a}"] * (a > 0) + [f"v^{b}"] * (b > 0))
                    for name, (a, b) in zip(names, coef.monomials))
     cs = coef.c if coef.c_of_i is None else [f(at) for f in coef.c_of_i]
-    force = onsite_force(force_module(R, names), beads, first, 1.0, dict(zip(names, cs))) if names else None
+    spec = ChainSpec(beads, n, 1.0, R if names else "0", names, dict(zip(names, cs)), 1.0, first)
     scale = min(1.0, A, A ** ((n + 1.0) / 2.0))
-    res = simulate(Chain(beads, n, 1.0, force, launch=Launch(float(A), centre)), (first, last),
+    res = simulate(build_chain(spec, keep=False, launch=Launch(float(A), centre)), (first, last),
                    integrator=Integrator(rtol=SEGMENT_RTOL, atol=SEGMENT_RTOL * 1e-2 * scale))
     found = dict(zip((int(c) for c in res.contacts), zip(res.peaks, res.alive)))
     out = []
@@ -143,8 +142,7 @@ def measure_law_error(state: "RunState", coef, S0: float, path) -> MeasuredError
     from pulsemap.solvers.chain.dns import simulate
     from pulsemap.solvers.chain.window import window_accuracy_for
     from pulsemap.solvers.studies.extent import dns_integrator
-    from pulsemap.solvers.studies.forcing import make_force
-    from pulsemap.solvers.studies.run import dns_chain
+    from pulsemap.solvers.studies.forcing import scene_chain
 
     scene, n = state.scene, float(state.scene.exponent)
     i0 = scene.first_perturbed - 1
@@ -153,7 +151,7 @@ def measure_law_error(state: "RunState", coef, S0: float, path) -> MeasuredError
         return None
     iL = min(i0 + SEED_SPAN, live[-1][0])
     beads = iL + min_centre(n) + 2
-    res = simulate(dns_chain(scene, beads, make_force(scene, beads)), (i0, iL), integrator=dns_integrator(scene.dns))
+    res = simulate(scene_chain(scene, beads), (i0, iL), integrator=dns_integrator(scene.dns))
     peaks = dict(zip((int(c) for c in res.contacts), res.peaks))
     seg = []
     for c in range(i0, iL + 1):  # up to the last contact the chain's pulse reaches
