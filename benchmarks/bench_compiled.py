@@ -41,7 +41,7 @@ from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bench import Point, cost_at, peak_error
 from pulsemap.solvers.studies.extent import dns_span, on_contacts
 from pulsemap.solvers.studies.bench.reference_script import script_peaks
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 
 TARGET = 1e-6
 SCENES = ("vdp-mu3-v2.3", "fig8-eps0.1")

@@ -44,7 +44,7 @@ import json, sys, time
 t0 = time.perf_counter()
 import pulsemap
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 from pulsemap.solvers.studies.extent import dns_span
 t_import = time.perf_counter() - t0
 name, overrides, kwargs = json.loads(sys.argv[1])

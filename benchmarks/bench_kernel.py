@@ -37,7 +37,7 @@ from pulsemap.solvers.chain import compiled
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 
 #: The kernels before their vectorised right-hand side and fused error norm (docs/benchmarks.rst, "The kernel").
 BASELINE = "3be6e1f"

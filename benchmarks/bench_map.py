@@ -13,7 +13,7 @@ import time
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.models import codeload
 from pulsemap.solvers.models.map_iteration import iterate_map
-from pulsemap.solvers.studies.forcing import parameter_values
+from pulsemap.solvers.studies.scene_chain import parameter_values
 
 CONTACTS = 2000
 

@@ -28,7 +28,7 @@ from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.bench import best_of
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 
 CASES = (("-mu*sin(u)", 1.0, "DOP853"), ("-mu*v/(1+v^2)", 1.0, "DOP853"), ("-mu*sin(u)*exp(-v^2)", 1.0, "DOP853"),
          ("-mu*v/(1+v^2)", 10000.0, "Radau"), ("-mu*sign(v)", 0.2, "BDF"), ("-mu*v*abs(v)", 1.0, "DOP853"))
@@ -38,7 +38,7 @@ t0 = time.process_time()
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 scene = with_overrides(load_scene("fig8-eps0.1"), R=sys.argv[1], params={"mu": 1.0})
 beads, span = dns_span(scene)
 res = simulate(Chain(beads, scene.exponent, scene.velocity, make_force(scene, beads)), span, window="auto",

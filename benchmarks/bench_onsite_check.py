@@ -27,7 +27,7 @@ from pulsemap.solvers.chain.equations import make_rhs
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.models.codeload import force_module
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 
 CALLS = 20_000
 

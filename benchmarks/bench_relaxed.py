@@ -16,7 +16,7 @@ import time
 
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.models.relaxed import iterate_relaxed, model_for_scene
-from pulsemap.solvers.studies.forcing import parameter_values
+from pulsemap.solvers.studies.scene_chain import parameter_values
 from pulsemap.solvers.studies.run import run_scene
 
 SCENES = ["fig6-eps0.3", "fig7-eps0.3", "fig8-eps0.3", "vdp-mu3-v2.3"]

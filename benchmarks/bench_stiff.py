@@ -33,7 +33,7 @@ from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.bench import best_of
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 from pulsemap.solvers.studies.run import run_scene
 from pulsemap.solvers.studies.suite import resolve
 

@@ -88,7 +88,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                        progress=not args.quiet, seed_peak=args.seed_peak, snapshots=snapshots)
     why = nothing_ran(result)
     if why:
-        from pulsemap.solvers.studies.forcing import out_of_range
+        from pulsemap.solvers.studies.scene_chain import out_of_range
 
         strong = out_of_range(scene)
         raise UsageError(f"{strong}: {why}" if strong else why)

@@ -21,7 +21,7 @@ from pulsemap.solvers.chain.window import rule_for_accuracy
 import pulsemap.solvers.data as data_package
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 from pulsemap.solvers.studies.run import run_scene
 
 PEAK_TOL = 1e-7

@@ -26,7 +26,7 @@ from pulsemap.solvers.chain.force_table import JitForce, MonomialTable
 from pulsemap.solvers.chain.peaks import StopRules
 from pulsemap.solvers.chain.window import rule_for_accuracy
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 
 STATE = ("peaks", "times", "pulse_e", "total_e", "st", "fs", "y")
 

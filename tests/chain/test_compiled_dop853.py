@@ -19,7 +19,7 @@ from pulsemap.solvers.chain import compiled_dop853 as dop
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 
 PEAK_TOL = 1e-7
 COMPILED = dict(method="DOP853", rtol=1e-11, atol=1e-13, window=WindowSpec(accuracy=1e-8))

@@ -18,7 +18,7 @@ from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 
 W, N = 7, 1.5
 DENSE_EXPONENTS = [[0, 1], [1, 0], [2, 1], [3, 0], [3, 1], [2, 0], [1, 1]]

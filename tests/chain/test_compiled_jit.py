@@ -29,7 +29,7 @@ from pulsemap.solvers.chain.equations import default_max_steps, make_rhs
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.models.codeload import force_module, jit_force_module
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 
 PEAK_TOL = 1e-7
 FAST = Integrator(rtol=1e-10, atol=1e-12)

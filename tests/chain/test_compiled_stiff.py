@@ -19,7 +19,7 @@ from pulsemap.solvers.chain.force_table import MonomialTable
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 from pulsemap.solvers.studies.suite import resolve
 
 STIFF_TOL = 1e-7

@@ -34,7 +34,7 @@ def test_a_launch_into_a_perturbed_chain_agrees_on_both_engines(R, stiff):
     (explicit, or Rodas4 when stiff) gives the scipy engine's peaks within the tolerances, same live range."""
     from pulsemap.solvers.data.scene.overrides import with_sets
     from pulsemap.solvers.data.scene import load_scene
-    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.studies.scene_chain import make_force
 
     beads, centre, first = 60, 8, 14
     scene = with_sets(load_scene("fig8-eps0.1"), [f"perturbation.R={R}", f"perturbation.params.mu={1000.0 if stiff else 0.3}",

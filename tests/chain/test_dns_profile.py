@@ -53,7 +53,7 @@ def test_overtake_predicate():
 
 def test_wake_overtaking_a_dying_pulse_ends_the_primary_pulse():
     """Linear foundation (paper Fig. 6, eps = 0.1): the pulse fades, the wake arrives first."""
-    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.studies.scene_chain import make_force
     from pulsemap.solvers.data.scene import load_scene
 
     sc = load_scene("fig6-eps0.1")
@@ -76,7 +76,7 @@ def test_delay_jump_ends_the_primary_pulse():
 
 def test_strong_damping_stops_at_the_end_of_the_solitary_front():
     """eps mu = 1 (Fig. 8, eps = 1): a slow compression follows the pulse; it is not the pulse."""
-    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.studies.scene_chain import make_force
     from pulsemap.solvers.data.scene import load_scene
 
     sc = load_scene("fig8-eps1")

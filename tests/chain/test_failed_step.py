@@ -11,7 +11,7 @@ import pytest
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.chain.equations import largest_force
 from pulsemap.solvers.data.scene import load_scene, with_overrides
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 from pulsemap.solvers.studies.extent import dns_span
 
 ENGINES = {  # name: (Integrator keywords, window)

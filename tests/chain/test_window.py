@@ -197,7 +197,7 @@ def test_exact_stepper_is_the_method_order():
 
 def test_scene_force_is_restricted_to_the_window():
     """run.make_force gives restrict(): windowed scene DNS = full chain, O(window) force calls."""
-    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.studies.scene_chain import make_force
     from pulsemap.solvers.data.scene import load_scene
 
     scene = load_scene("fig8-eps0.1")
@@ -216,7 +216,7 @@ def test_windowed_chain_energy_only_without_R(engine):
     """With R the beads a window dropped go on losing energy out of sight: no total_energy then (the
     full chain has it); without R the window's count is the chain's energy (conserved)."""
     from pulsemap.solvers.data.scene import load_scene
-    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.studies.scene_chain import make_force
 
     scene = load_scene("fig8-eps0.1")
     force = make_force(scene, 140)

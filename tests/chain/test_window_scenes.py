@@ -11,7 +11,7 @@ from pulsemap.solvers.chain.window import WindowSpec
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import builtin_scenes, load_scene
 from pulsemap.solvers.data.scene.files import suite_scene_names
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 from pulsemap.solvers.studies.extent import dns_span
 
 ACCURACIES = (1e-8, 1e-6)  # simulate's default for rtol <= 1e-8 (the rule `run` uses), and for rtol 1e-6

@@ -81,7 +81,7 @@ def test_expressions_of_i_are_not_recorded(tmp_path):
 def test_a_recorded_scene_and_its_force_load_no_sympy(tmp_path):
     path = write_scene(tmp_path, scene_toml("rec5", contacts=(16, 30)))
     code = ("import sys; from pulsemap.solvers.data.scene import load_scene; "
-            "from pulsemap.solvers.studies.forcing import make_force; "
+            "from pulsemap.solvers.studies.scene_chain import make_force; "
             f"s = load_scene({str(path)!r}); make_force(s, 40); print('sympy' in sys.modules)")
     env = dict(os.environ)
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)

@@ -8,7 +8,7 @@ import pytest
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.models import codeload
 from pulsemap.solvers.models.map_iteration import MapIterationError, iterate_map
-from pulsemap.solvers.studies.forcing import parameter_values
+from pulsemap.solvers.studies.scene_chain import parameter_values
 
 VDP = "-(u - mu*(1-u**2)*v)"
 

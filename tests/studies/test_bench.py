@@ -129,7 +129,7 @@ def test_the_bench_chain_carries_the_scenes_contact_term_and_masses():
 
     import pulsemap
     from pulsemap.solvers.studies.bench.lines import scripts_refusal
-    from pulsemap.solvers.studies.forcing import scene_chain
+    from pulsemap.solvers.studies.scene_chain import scene_chain
     from pulsemap.solvers.studies.extent import dns_span
 
     sc = pulsemap.scene(CONTACT_SCENE)

@@ -15,7 +15,7 @@ from conftest import scene_toml
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
 from pulsemap.solvers.studies.bench import peak_error
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 from pulsemap.solvers.studies.extent import dns_span, on_contacts
 from pulsemap.solvers.studies.bench.reference_script import script_peaks
 

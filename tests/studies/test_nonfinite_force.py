@@ -16,7 +16,7 @@ from pulsemap.solvers.chain.dns import Chain, ForceNotFinite, Integrator, simula
 from pulsemap.solvers.data.scene import load_scene, with_overrides
 from pulsemap.solvers.models.codeload import force_module, jit_force_module
 from pulsemap.solvers.studies.extent import dns_span
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 from pulsemap.solvers.studies.run import run_scene
 
 SINGULAR = "u*exp(1/(u-1))"  # infinite just past u = 1, which every bead of the default chain passes

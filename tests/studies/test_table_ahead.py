@@ -12,7 +12,7 @@ import pytest
 from pulsemap.solvers.chain import compiled_aot
 from pulsemap.solvers.chain.dns import Chain, Integrator, compiled_kernel_of, simulate
 from pulsemap.solvers.data.scene import load_scene, with_overrides
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 from pulsemap.solvers.studies.extent import dns_span
 
 SHORT = (15, 24)

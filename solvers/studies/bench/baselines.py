@@ -141,7 +141,7 @@ def script_force(scene, beads: int) -> Callable[[int, float, float], float]:
     first_perturbed.
     """
     from pulsemap.solvers.models.codeload import force_module
-    from pulsemap.solvers.studies.forcing import parameter_values
+    from pulsemap.solvers.studies.scene_chain import parameter_values
 
     pert = scene.perturbation
     mod = force_module(pert.text, pert.used_parameters)

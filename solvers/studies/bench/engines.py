@@ -46,7 +46,7 @@ def reference_points(scene, contacts: list[int], ref: list, ladder: Ladder,
                      log: Callable[[str], None]) -> list[Point]:
     """The careful user's script over ``ladder.script_rtols`` (warm-up, then one timed run each)."""
     from pulsemap.solvers.studies.bench.lines import script_span
-    from pulsemap.solvers.studies.forcing import make_force
+    from pulsemap.solvers.studies.scene_chain import make_force
     from pulsemap.solvers.studies.extent import dns_span, on_contacts
     from pulsemap.solvers.studies.bench.reference_script import GRID_STEP, script_peaks
 
@@ -123,7 +123,7 @@ def _child(scene, job: dict) -> dict:
 def _first_call(scene_path: str, job: dict) -> dict:
     """In the child: build the force (not timed), then time the first call of the job's line."""
     from pulsemap.solvers.chain.dns import Integrator, simulate
-    from pulsemap.solvers.studies.forcing import scene_chain
+    from pulsemap.solvers.studies.scene_chain import scene_chain
     from pulsemap.solvers.studies.extent import dns_span, on_contacts
     from pulsemap.solvers.studies.bench.reference_script import GRID_STEP, script_peaks
 

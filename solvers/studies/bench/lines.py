@@ -42,7 +42,7 @@ def dns_points(scene, contacts: list[int], ref: list, ladder: Ladder, window, me
     (window or full chain) on ``engine`` ("scipy": the reference engine, "compiled": the numba one)."""
     from pulsemap.solvers.chain.dns import Integrator, simulate
     from pulsemap.solvers.studies.extent import dns_span, on_contacts
-    from pulsemap.solvers.studies.forcing import scene_chain
+    from pulsemap.solvers.studies.scene_chain import scene_chain
 
     beads, span = dns_span(scene)
     chain = scene_chain(scene, beads)
@@ -71,7 +71,7 @@ def script_span(scene) -> tuple[float, float]:
     """(t_end, contact time) of a script run: 3 contact times past the last live peak of a windowed
     DNS at rtol 1e-8 (as short as a user who knows when the pulse gets there would make it)."""
     from pulsemap.solvers.chain.dns import Integrator, contact_rate, simulate
-    from pulsemap.solvers.studies.forcing import scene_chain
+    from pulsemap.solvers.studies.scene_chain import scene_chain
     from pulsemap.solvers.studies.extent import dns_span
 
     beads, span = dns_span(scene)

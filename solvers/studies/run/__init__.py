@@ -9,7 +9,7 @@ the DNS peak at the last unperturbed contact (first_perturbed - 1), converted by
 they entered, :func:`pulsemap.solvers.api.checks.run_choices`), the DNS or a reused one
 (:func:`run_dns`, :func:`reuse_dns_run`), the reduced models
 (:func:`pulsemap.solvers.studies.run.models.run_models`) and the errors against the DNS
-(:func:`compare_with_dns`). The chain is :mod:`~pulsemap.solvers.studies.forcing`'s, the error
+(:func:`compare_with_dns`). The chain is :mod:`~pulsemap.solvers.studies.scene_chain`'s, the error
 measures :mod:`~pulsemap.solvers.studies.errors`, the outputs
 :mod:`~pulsemap.solvers.studies.run.report`.
 """
@@ -29,7 +29,7 @@ from pulsemap.solvers.chain.front import Snapshots
 from pulsemap.solvers.chain.dns import compiled_kernel_of, simulate
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
-from pulsemap.solvers.studies.forcing import force_failure, scene_chain
+from pulsemap.solvers.studies.scene_chain import force_failure, scene_chain
 from pulsemap.solvers.studies.methods import EPS_WARN, MODELS, Choice, RunError
 from pulsemap.solvers.studies.run import chain_terms, kinds
 from pulsemap.solvers.studies.extent import (contact_slots, dns_integrator, dns_span, dns_window_of, listed,

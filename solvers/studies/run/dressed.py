@@ -142,7 +142,7 @@ def measure_law_error(state: "RunState", coef, S0: float, path) -> MeasuredError
     from pulsemap.solvers.chain.dns import simulate
     from pulsemap.solvers.chain.window import window_accuracy_for
     from pulsemap.solvers.studies.extent import dns_integrator
-    from pulsemap.solvers.studies.forcing import scene_chain
+    from pulsemap.solvers.studies.scene_chain import scene_chain
 
     scene, n = state.scene, float(state.scene.exponent)
     i0 = scene.first_perturbed - 1

@@ -27,7 +27,7 @@ from pulsemap.solvers.studies.run.dressed import prepare_dressed, run_dressed
 from pulsemap.solvers.models.longwave_eval import evaluate_law
 from pulsemap.solvers.models.map_iteration import contact_params, eps0_ratio, iterate_map
 from pulsemap.solvers.chain.equations import ForceNotFinite, chain_length_for
-from pulsemap.solvers.studies.forcing import force_failure, make_force, out_of_range, parameter_values
+from pulsemap.solvers.studies.scene_chain import force_failure, make_force, out_of_range, parameter_values
 from pulsemap.solvers.studies.methods import BALANCE_METHODS, DRIFT_WARN, FORCING_WARN, WIDTH_WARN
 from pulsemap.solvers.studies.extent import on_contacts
 from pulsemap.solvers.studies.run.state import RunState

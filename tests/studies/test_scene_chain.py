@@ -1,4 +1,4 @@
-"""A chain's force (solvers/models/chain_build.py, a scene's through solvers/studies/forcing.py): O(window)
+"""A chain's force (solvers/models/chain_build.py, a scene's through solvers/studies/scene_chain.py): O(window)
 per-bead data for a uniform R, the same force as on the whole chain, kept in-process, one random draw on both
 sides, and one builder for every caller."""
 
@@ -11,7 +11,7 @@ import pulsemap
 
 from pulsemap.symbolic.perturbation import make_perturbation
 from pulsemap.solvers.models.chain_build import ChainSpec, build_force
-from pulsemap.solvers.studies.forcing import make_force
+from pulsemap.solvers.studies.scene_chain import make_force
 from pulsemap.solvers.studies.points import bead_params
 from pulsemap.solvers.models.codeload import force_module
 
@@ -86,4 +86,4 @@ def test_every_dns_caller_builds_its_chain_through_the_one_builder():
     for path in (root / "studies").rglob("*.py"):
         text = path.read_text(encoding="utf-8")
         assert "onsite_force" not in text, path
-        assert not re.search(r"\bChain\(", text), f"{path} constructs a Chain: use forcing.scene_chain"
+        assert not re.search(r"\bChain\(", text), f"{path} constructs a Chain: use studies/scene_chain.scene_chain"
