@@ -232,15 +232,12 @@ def primary_pulse_lost(peaks: np.ndarray, k: int, first: int, death_fraction: fl
 # ----------------------------------------------------------------------------- run bookkeeping
 
 
-IMPLICIT = ("LSODA", "Radau", "BDF")
-
-
 def budget_advice(method: str) -> str:
     """What to try when the step budget runs out: an implicit method, unless one is already in use (the
     scipy engine's or the compiled Rodas4, which Coulomb friction runs: chain/methods.py)."""
     if method in methods.names(implicit=True):
         return f"{method} is already an implicit method: raise max_steps or ask for fewer contacts"
-    return "too stiff for the method? try method='LSODA'"
+    return f"too stiff for the method? try method='{methods.auto_pick('scipy stiff')}'"
 
 
 @dataclass(frozen=True)
