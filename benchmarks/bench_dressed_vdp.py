@@ -63,7 +63,6 @@ def main() -> None:
             A = P / S0
             row = {name: nearest(roots(f), A) * S0 for name, f in
                    (("first", first), ("dressed", coef.rate), ("+next", with_next))}
-            star = row["dressed"] / S0
             estimate = printed[-1] if printed and res["peaks"]["dressed-law"][-1] is not None else math.nan
             line = f"  {eps:<8g} {P:.6f} ({drift:.0e})"
             for name in ("first", "dressed", "+next"):

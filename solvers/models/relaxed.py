@@ -272,8 +272,8 @@ class RelaxedModel:
         departures e_j from its mean (relative for a monomial's coefficient, absolute for a parameter), Q
         the second derivatives of the model's own one-step residual on segment runs with one or two beads
         changed (relaxed_kernel.KernelTable.hessian) at the window's mean, where the kernel's shares are read.
-        Without it the mixing decays too fast by a share growing as the departures' square (0.2-0.3 % a step
-        at a 5:1 contrast). 0 where a coefficient is 0 or of the other sign than the mean (the first-order
+        Without it the mixing decays too fast by a share growing as the departures' square (docs/nonuniform.rst
+        has the size). 0 where a coefficient is 0 or of the other sign than the mean (the first-order
         mixing alone there)."""
         own, window = self._bulk_window(contact)
         mean = float(np.mean(window))
