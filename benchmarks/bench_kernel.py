@@ -102,7 +102,7 @@ def kernel_under_test(kernel):
     """``simulate`` on the compiled engine runs ``kernel``; yields the Timed wrapper that ran it."""
     saved = compiled.kernel_for
     timed = Timed(kernel)
-    compiled.kernel_for = lambda run, aot=True: (timed, 0.0)
+    compiled.kernel_for = lambda run, aot=True: (timed, 0.0, 0.0)
     try:
         yield timed
     finally:

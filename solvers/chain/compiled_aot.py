@@ -259,9 +259,10 @@ def compile_module(cc, runtime: Path) -> None:
 
 @lru_cache(maxsize=1)
 def _runtime_stamp() -> str:
-    """The hash of what the C runtime is compiled from and with: numba's and numpy's versions, the Python build,
-    its sources and C flags."""
-    parts = (_numba_version(), np.__version__.encode(), sys.version.encode(), repr((RUNTIME_SOURCES, QUICK_CFLAGS)))
+    """The hash of what the C runtime is compiled from and with: numba's and numpy's versions (its sources are
+    numba's files, named in RUNTIME_SOURCES), the Python build, the platform and the C flags."""
+    parts = (_numba_version(), np.__version__.encode(), sys.version.encode(), sysconfig.get_platform(),
+             repr((RUNTIME_SOURCES, QUICK_CFLAGS)))
     return hashlib.sha256(b"\0".join(p if isinstance(p, bytes) else p.encode() for p in parts)).hexdigest()[:16]
 
 

@@ -46,9 +46,10 @@ if TYPE_CHECKING:  # pragma: no cover
 MAX_BEADS = 1_000_000
 """Longest chain simulate() accepts (the scene files' limit, data/scene/schema.MAX_BEADS)."""
 MIN_RTOL = 100 * float(np.finfo(float).eps)
-#: Smallest atol: every engine's error norm squares error/atol, which overflows below sqrt(smallest normal) ~ 1.5e-154.
-MIN_ATOL = 1e-150
 """Smallest rtol float64 can deliver (scipy raises a smaller one to this silently)."""
+MIN_ATOL = 1e-150
+"""Smallest atol: every engine's error norm squares error/atol, which overflows below ~1.5e-154 (the square root
+of the smallest normal float64)."""
 MAX_RTOL = 1.0
 """rtol at or above this accepts a 100 % error: no digit of a peak is kept."""
 
@@ -172,8 +173,8 @@ def _window_energies(chain: Chain, res: DNSResult) -> DNSResult:
     it dropped keep what they carried then (their drift is the run's accuracy check); with R they go on gaining or
     losing energy out of sight (docs/dns.rst), so ``total_energy`` is None; with a contact term or masses the beads
     behind a damped pulse or a mass step keep moving and trade energy with the window through its coasting bead
-    (12 % over 85 contacts of 10 % random masses, the peaks exact to 1e-10), so ``energy_drift`` is None too. The
-    pulse's energy (beads k-8..k+8) stays."""
+    while the peaks stay exact (docs/contact.rst), so ``energy_drift`` is None too. The pulse's energy (beads
+    k-8..k+8) stays."""
     if res.mode == "full" or (chain.force is None and chain.contact is None and chain.masses is None):
         return res
     if chain.contact is None and chain.masses is None:

@@ -51,6 +51,7 @@ def by_name(name: str) -> DNSMethod:
 
 def auto_pick(role: str) -> str:
     """The method 'auto' takes in ``role`` (one of AUTO_ROLES): the one table row that names it."""
+    assert role in AUTO_ROLES, role
     (name,) = (m.name for m in METHODS if role in m.auto)
     return name
 

@@ -465,7 +465,9 @@ class MeasuredError:
 
     def residual_bound(self, lo: float, hi: float | None = None) -> float:
         """The largest |residual| of the nodes in [lo, hi] of ln A and of the two around it (the nearest one
-        outside their range)."""
+        outside their range); inf without nodes (nothing was read)."""
+        if not len(self.nodes_lnA):
+            return math.inf
         order = np.argsort(self.nodes_lnA)
         x, r = np.asarray(self.nodes_lnA)[order], np.abs(np.asarray(self.residual))[order]
         k0 = max(int(np.searchsorted(x, lo)) - 1, 0)

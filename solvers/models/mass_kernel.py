@@ -15,8 +15,8 @@ the accuracy it states.
 The second line is the slow part of the masses, which the random chains barely sample: G_k, the gradient of ln m
 averaged over the 2 SMOOTH_HALF_WIDTH + 1 mass steps centred on contact k; R_k = sum_(i < k) G_i^2, the adiabatic
 loss of a smooth taper (second order in the gradient); G'_k, the centred difference of G (the taper's curvature). On a
-smooth taper the strain peak shifts by about 0.6 G_k (first order in the gradient: the random kernel's sum_j j K_j
-alone gives 0.5) and falls by about 0.1 R_k. a_1..a_3 are fitted, after K and c, to the residuals of
+smooth taper the strain peak shifts in proportion to G_k (first order in the gradient, a little more than the random
+kernel's sum_j j K_j gives) and falls in proportion to R_k (docs/contact.rst). a_1..a_3 are fitted, after K and c, to the residuals of
 SMOOTH_CALIBRATION chains (linear and exponential tapers of the model's own slopes); on random chains G, R and G'
 are small, and the kernel's random-chain accuracy moves little.
 """
@@ -40,8 +40,8 @@ CAL_BEADS, CAL_FIRST, CAL_LAST = 320, 16, 290
 #: The slow part's calibration chains: (form, rate) with m_i = 1 + rate (i - CAL_FIRST) ("linear") or
 #: exp(rate (i - CAL_FIRST)) ("exponential") from bead CAL_FIRST; two forms, so the gradient and its curvature separate.
 SMOOTH_CALIBRATION = (("linear", 0.004), ("linear", -0.0025), ("exponential", 0.004), ("exponential", -0.004))
-#: G_k averages 2 x this + 1 mass steps: 11 is wide enough that random masses leave G small (the random chains'
-#: RMS error in ln P grows by about a fifth, 3 steps doubled it) and narrow enough for a taper's entry.
+#: G_k averages 2 x this + 1 mass steps: 11 is wide enough that random masses leave G small (narrower windows let
+#: the random chains' error grow, docs/contact.rst) and narrow enough for a taper's entry.
 SMOOTH_HALF_WIDTH = 5
 
 

@@ -418,8 +418,8 @@ def varies(R, used: tuple[str, ...], values: Mapping[str, object]) -> bool:
 def smooth_response(R) -> bool:
     """Whether the pulse's response to a bead's coefficient is smooth enough for the bulk's second-order term: not
     for an R with a jump (sign, Heaviside: Coulomb friction), whose beads stick behind the pulse where the force
-    is below the jump, so the response has kinks; on segment runs through U[0.5, 1.5] friction the term
-    came out 3x the mixing's residual (docs/nonuniform.rst)."""
+    is below the jump, so the response has kinks; on segment runs through random friction the term came out
+    larger than the mixing's residual it was to remove (docs/nonuniform.rst)."""
     import sympy
 
     return not R.has(sympy.sign, sympy.Heaviside)

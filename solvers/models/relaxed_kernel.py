@@ -55,9 +55,9 @@ SLOPE_STEP = 1e-3  # half-step in log P of the bulk map's slope d log r / d log 
 DELTA = 0.02  # relative change of R on the bumped bead (a one-sided difference: the kernel's shares to O(DELTA))
 ONSET_BEADS = ONSET + J_MAX  # beads first_perturbed + 0.. the onset kernel spans (the last onset step's window)
 ONSET_DELTA = 0.1  # bump of the onset kernel's runs (second differences: larger than DELTA)
-#: bump of the bulk's second-order runs: a second difference divides the table's fit error (~1e-4 in log r) by
-#: its square, so at 0.1 that noise outweighs the correction on 2:1 contrasts; 0.2-0.5 do alike on segment runs
-#: through two-valued chains (docs/nonuniform.rst)
+#: bump of the bulk's second-order runs: a second difference divides the table's fit error by its square, so a
+#: small bump's noise outweighs the correction on mild contrasts; larger bumps do alike on segment runs through
+#: two-valued chains (docs/nonuniform.rst has the comparison)
 PAIR_DELTA = 0.3
 PAIR_LIFE = 3  # contacts every second-order run must live past a step for it to count (see _hessian_at)
 PAIR_REACH = 2.0 * math.log(2.0) / LATTICE  # two lattice spacings: the runs bracketing log P for every j

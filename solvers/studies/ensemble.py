@@ -66,7 +66,7 @@ def ensemble_points(scene, realisations: int, seed: int, *, profile: str | None 
 
     names = random_params(scene)
     _check_size(scene, realisations, seed, names)
-    base = plain_chain(scene, with_map=True, profile=profile, variant=variant, study="ensemble")
+    base = plain_chain(scene, with_map=True, profile=profile, variant=variant)  # the sweep tasks' plain chains
     points = []
     for j in range(realisations):
         params = dict(base["params"])
@@ -225,7 +225,9 @@ def ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = N
     contact-law term or masses: terms_ensemble)."""
     from pulsemap.solvers.studies.points import dns_map_task
     from pulsemap.solvers.studies.run.chain_terms import has_chain_terms
+    from pulsemap.solvers.studies.run.kinds import require
 
+    require(scene, "ensemble")
     if has_chain_terms(scene):
         return terms_ensemble(scene, realisations, seed, profile=profile, out=out, executor=executor,
                               max_workers=max_workers, progress=progress, retry_failed=retry_failed)

@@ -62,9 +62,9 @@ def scene_chain(scene: Scene, beads: int) -> Chain:
         raise RunError(_at_rest(scene, beads) or str(exc)) from None
 
 
-def make_force(scene: Scene, beads: int) -> OnSiteForce:
-    """eps_i R_i(x_i, v_i) of the scene for the DNS (zero before first_perturbed; R = 0 too): build_force of
-    its :func:`chain_spec`, refused (RunError) unless R(0, 0) = 0 on every bead."""
+def make_force(scene: Scene, beads: int) -> OnSiteForce | None:
+    """eps_i R_i(x_i, v_i) of the scene for the DNS (zero before first_perturbed; eps = 0 too; None for a scene
+    without R): build_force of its :func:`chain_spec`, refused (RunError) unless R(0, 0) = 0 on every bead."""
     try:
         return build_force(chain_spec(scene, beads, bare_if_zero=False))
     except ForceError as exc:
@@ -125,7 +125,10 @@ def out_of_range(scene: Scene) -> str | None:
 
     beads = scene.beads or chain_length_for(scene.contacts[1])
     try:
-        size = Scaling(scene.exponent, scene.velocity).unit_force_size(make_force(scene, beads), beads)
+        force = make_force(scene, beads)
+        if force is None:  # no on-site R: nothing to be out of range
+            return None
+        size = Scaling(scene.exponent, scene.velocity).unit_force_size(force, beads)
     except (ValueError, ArithmeticError):
         return None
     if size <= FORCE_LIMIT:

@@ -63,3 +63,15 @@ def test_a_new_kind_is_one_row(monkeypatch):
     monkeypatch.setattr(kinds, "KINDS", kinds.KINDS[:-1] + (replace(toy, studies=frozenset()),))
     with pytest.raises(RunError, match="a toy term"):
         kinds.require(sc, "bench")
+
+
+def test_the_plain_sweep_chains_refuse_masses_the_ensemble_takes(tmp_path):
+    """An ensemble of random masses runs each realisation as `pulsemap run` does; the plain sweep chains
+    (ensemble_points, bifurcation) would drop the masses, so they refuse the scene instead of running another chain."""
+    from pulsemap.solvers.studies.ensemble import ensemble_points
+
+    masses = _scene(masses={"m": 1.1}, chain={"beads": 60},
+                    perturbation={"R": "-k*u", "eps": 0.01, "params": {"k": {"uniform": [0.5, 1.5], "seed": 1}}})
+    kinds.require(masses, "ensemble")
+    with pytest.raises(RunError, match="sweep tasks builds its chains without it"):
+        ensemble_points(masses, 2, 0)

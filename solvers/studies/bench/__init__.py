@@ -66,7 +66,9 @@ from pulsemap.solvers.studies.errors import counted
 def bench_scene(scene, ladder: Ladder = Ladder(), log: Callable[[str], None] = lambda s: None) -> dict:
     """Work-precision report of one scene (JSON-able; see the module docstring)."""
     from pulsemap.solvers.studies.extent import dns_span
+    from pulsemap.solvers.studies.run.kinds import require
 
+    require(scene, "bench")
     wall0 = time.perf_counter()
     c0, c1 = scene.contacts
     contacts = list(range(c0, c1 + 1))

@@ -79,6 +79,7 @@ def _launch_amplitude(coef, lnA: float, at: float, contacts: float) -> float:
         back = float(sol.y[0, -1])
     except (OverflowError, ZeroDivisionError):
         return lnA
+    # a march back that more than e^5-folds A left the law's range: keep the seed
     return back if sol.status == 0 and math.isfinite(back) and back < lnA + 5 else lnA
 
 
@@ -90,8 +91,13 @@ def _launched_peaks(coef, n: float, A: float, at: float) -> list:
     from pulsemap.solvers.chain.launch import Launch
     from pulsemap.solvers.models.chain_build import ChainSpec, build_chain
 
+    from pulsemap.solvers.models.dressed import DressedEvalError
+
+    if len(coef.monomials) != len(coef.c):  # without them the wave would be launched into a bare chain
+        raise DressedEvalError(f"the law's {len(coef.c)} coefficients name {len(coef.monomials)} monomials: "
+                               "give DressedCoefficients(monomials=...) to measure its accuracy on launched waves")
     centre = min_centre(n) + 1
-    first = centre + 8
+    first = centre + 8  # the wave's own tail clear of the perturbed beads when it is launched
     last = first + SETTLE + 2 * READ
     beads = last + min_centre(n) + 2
     names = tuple(f"c{j}" for j in range(len(coef.monomials)))

@@ -25,8 +25,8 @@ ENERGY_MODELS = frozenset({"energy-law", "energy-map", "relaxed"})
 @dataclass(frozen=True)
 class PerturbationKind:
     """A kind of perturbation: ``name`` (as messages say it), the scene file's ``table``, ``stated`` (does the
-    scene hold it, with a nonzero size), the reduced ``models`` derived for it and the ``studies`` that build
-    chains with it (besides run, table and scene sweeps, which take every kind)."""
+    scene hold it: R with a nonzero eps, a [contact] or a [masses] table), the reduced ``models`` derived for it
+    and the ``studies`` that build chains with it (besides run, table and scene sweeps, which take every kind)."""
 
     name: str
     table: str
