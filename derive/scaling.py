@@ -53,7 +53,7 @@ def homogeneous_form(R: "sympy.Expr", n: float) -> tuple[str, float] | None:
 
     u, v = symbol("u"), symbol("v")
     lam = sympy.Symbol("lambda_scale", positive=True)
-    coef, h = sympy.expand(R).as_independent(u, v, as_Add=False)
+    coef, h = sympy.factor_terms(R).as_independent(u, v, as_Add=False)  # c h as a product, also c = 1 + i/10
     if not (h.free_symbols & {u, v}) or h.free_symbols - {u, v}:
         return None
     ratio = sympy.simplify(h.subs({u: lam * u, v: lam ** (1 + (sympy.nsimplify(n) - 1) / 2) * v},

@@ -100,9 +100,11 @@ def test_uniform_windows_get_no_second_order_term():
 
 @pytest.mark.parametrize("R, text, e", [("-mu*sign(v)", "sign(v)", -1.5), ("-mu*v*abs(v)", "v*abs(v)", 1.0),
                                         ("-mu*abs(u)*v", "v*abs(u)", 0.75), ("sin(u)", None, None),
-                                        ("-mu*(u + v)", None, None)])
+                                        ("-mu*(u + v)", None, None), ("-(1 + i/10)*sign(v)", "sign(v)", -1.5),
+                                        ("mu*(u^5 + v^4)", "u**5/2 + v**4/2", 3.5)])
 def test_homogeneous_form(R, text, e):
-    """R = c h(u, v), h(l u, l^(5/4) v) = l^d h: Coulomb d = 0, v|v| d = 5/2, |u| v d = 9/4 (e = d - 3/2)."""
+    """R = c h(u, v), h(l u, l^(5/4) v) = l^d h: Coulomb d = 0, v|v| d = 5/2, |u| v d = 9/4, u^5 + v^4 d = 5
+    (e = d - 3/2); c may be a sum (1 + i/10)."""
     got = homogeneous_form(make_perturbation(R, 0.1, {"mu": 1.0} if "mu" in R else {}).R, N)
     assert got == (None if text is None else (text, e))
 
