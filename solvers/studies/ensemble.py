@@ -229,6 +229,9 @@ def ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = N
 
     require(scene, "ensemble")
     if has_chain_terms(scene):
+        if variant is not None:
+            raise EnsembleError(f"variant {variant!r} is the map's: an ensemble of a scene with a contact-law term or "
+                                "masses runs the DNS, energy-law and relaxed, no map; leave the variant out")
         return terms_ensemble(scene, realisations, seed, profile=profile, out=out, executor=executor,
                               max_workers=max_workers, progress=progress, retry_failed=retry_failed)
 

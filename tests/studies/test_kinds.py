@@ -75,3 +75,12 @@ def test_the_plain_sweep_chains_refuse_masses_the_ensemble_takes(tmp_path):
     kinds.require(masses, "ensemble")
     with pytest.raises(RunError, match="sweep tasks builds its chains without it"):
         ensemble_points(masses, 2, 0)
+
+
+def test_an_ensemble_of_masses_refuses_a_map_variant_it_would_not_use():
+    from pulsemap.solvers.studies.ensemble import EnsembleError, ensemble
+
+    masses = _scene(masses={"m": {"uniform": [0.9, 1.1], "seed": 1}}, chain={"beads": 60},
+                    perturbation={"R": "0", "eps": 0.0})
+    with pytest.raises(EnsembleError, match="variant '1d' is the map's"):
+        ensemble(masses, 2, 0, variant="1d")
