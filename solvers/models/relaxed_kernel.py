@@ -76,12 +76,14 @@ class KernelTable:
     _fits: dict | None = None
     _hessian: dict | None = None
 
+    def bump(self, delta: float) -> float:
+        """A bump of relative size ``delta``: of R's scale, or of the parameter (at least 0.1 x delta)."""
+        return delta if not self.param else delta * max(abs(dict(self.table.spec.params)[self.param]), 0.1)
+
     def step(self) -> tuple[float, float]:
         """(the bump, the change of the varied quantity it makes: log scale of R, or the parameter)."""
-        if not self.param:
-            return DELTA, math.log1p(DELTA)
-        d = DELTA * max(abs(dict(self.table.spec.params)[self.param]), 0.1)
-        return d, d
+        d = self.bump(DELTA)
+        return (d, math.log1p(d)) if not self.param else (d, d)
 
     def _bumped(self, j: int) -> list[float]:
         if j not in self.runs:
@@ -153,7 +155,7 @@ class KernelTable:
 
     def onset_step(self) -> float:
         """The bump of the onset kernel's runs: a relative change of R, or a change of the parameter."""
-        return ONSET_DELTA if not self.param else ONSET_DELTA * max(abs(dict(self.table.spec.params)[self.param]), 0.1)
+        return self.bump(ONSET_DELTA)
 
     def _onset_at(self, lat: int) -> tuple[np.ndarray, np.ndarray] | None:
         """(H, H2) of lattice run ``lat`` (onset_kernel), or None when a bumped run dies within the onset."""
@@ -199,7 +201,7 @@ class KernelTable:
     # ------------------------------------------------------------ bulk, second order
     def pair_step(self) -> float:
         """The bump of the second-order runs: a relative change of R, or a change of the parameter."""
-        return PAIR_DELTA if not self.param else PAIR_DELTA * max(abs(dict(self.table.spec.params)[self.param]), 0.1)
+        return self.bump(PAIR_DELTA)
 
     def pair_bumps(self) -> list[tuple[tuple[int, float, str], ...]]:
         """The bumps of one lattice point's second-order runs: for d = 0..J_MAX-J_MIN, beads BUMP_BEAD and
