@@ -12,24 +12,10 @@ ratio it is judged by: cold CPU / 10 s.
 
 from __future__ import annotations
 
-import argparse
-import tempfile
-from pathlib import Path
-
-from first_use import EXE, first_use
+import first_use
 
 TARGET_S = 10.0
 
-
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=3, help="processes per figure (best CPU taken; default 3)")
-    args = ap.parse_args()
-    with tempfile.TemporaryDirectory(prefix="bench-first-table-") as tmp:
-        rows = Path(tmp) / "rows.jsonl"
-        first_use([EXE, "table", "--fresh", "--rows", str(rows), "--quiet"], Path(tmp), TARGET_S, args.repeat,
-                  "`pulsemap table`")
-
-
 if __name__ == "__main__":
-    main()
+    first_use.main(__doc__, lambda folder: [first_use.EXE, "table", "--fresh", "--rows", str(folder / "rows.jsonl"),
+                                            "--quiet"], TARGET_S, "`pulsemap table`")

@@ -6,14 +6,17 @@ bench_run_overhead.py (run from this folder, which Python puts first on the path
 
 from __future__ import annotations
 
+import argparse
 import os
 import resource
 import shutil
 import subprocess
 import sys
 import sysconfig
+import tempfile
 import time
 from pathlib import Path
+from typing import Callable
 
 EXE = str(Path(sys.executable).with_name("pulsemap"))
 
@@ -82,3 +85,13 @@ def first_use(argv: list[str], folder: Path, target_s: float, repeat: int, what:
     ratio = cpu / target_s
     print(f"ratio: first {what} CPU / {target_s:g} s target = {ratio:.2f} ({'met' if ratio <= 1 else 'NOT met'})")
     return ratio
+
+
+def main(doc: str, argv_in: Callable[[Path], list[str]], target_s: float, what: str) -> None:
+    """A first-use benchmark's command line (``--repeat N``): :func:`first_use` of ``argv_in(folder)`` in a
+    temporary folder."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3, help="processes per figure (best CPU taken; default 3)")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory(prefix="bench-first-use-") as tmp:
+        first_use(argv_in(Path(tmp)), Path(tmp), target_s, args.repeat, what)
