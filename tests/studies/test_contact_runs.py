@@ -304,3 +304,16 @@ def test_the_ensemble_command_takes_random_masses(tmp_path, capsys):
     report = json.loads(captured.out, parse_constant=refuse)
     assert set(report["statistics"]["models"]) == {"energy-law", "relaxed"}
     assert report["statistics"]["dns"][0]["n"] == 2 and "relaxed" in captured.err
+
+
+def test_a_given_seed_peak_seeds_the_energy_law_of_a_contact_scene():
+    """--seed-peak seeds the contact law's energy law and map as it seeds every model: the same peak, and the
+    law's peaks grow with it (without DNS, from the seed alone)."""
+    from pulsemap.solvers.studies.run import run_scene
+
+    sc = scene({"P": "w", "eps": 0.02}, methods=("energy-law", "energy-map"), last=40)
+    low, high = (run_scene(sc, seed_peak=p) for p in (0.5, 0.6))
+    assert low["seed"]["peak"] == 0.5 and "given peak" in low["seed"]["from"]
+    for m in ("energy-law", "energy-map"):
+        a, b = np.array(low["peaks"][m], float), np.array(high["peaks"][m], float)
+        assert np.all(np.isfinite(a)) and np.all(b > a)

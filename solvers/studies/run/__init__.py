@@ -296,7 +296,7 @@ def run_scene(
     if reuse_dns is not None and "dns" not in state.methods:
         reuse_dns_run(state, reuse_dns)
     if chain_terms.has_chain_terms(scene):  # a contact law's term or masses: the energy law of its own module
-        chain_terms.run_chain_term_models(state, state.seed_peak)
+        chain_terms.run_chain_term_models(state)
         state.methods = tuple(m for m in state.methods if m not in chain_terms.CHAIN_TERM_MODELS)
     if any(m != "dns" for m in state.methods):
         from pulsemap.solvers.studies.run.models import run_models  # the models' modules load when a model runs

@@ -18,6 +18,7 @@ import numpy as np
 
 from pulsemap.symbolic.errors import PulsemapError
 from pulsemap.solvers.studies.extent import dns_span, on_contacts
+from pulsemap.solvers.studies.run import kinds
 
 #: The models a scene with a contact law's term or masses runs here: name -> the law's form.
 CHAIN_TERM_MODELS = {"energy-law": "law", "energy-map": "map"}
@@ -28,7 +29,8 @@ TITLES = {"energy-law": "first-order energy law of the contact law's term and th
 
 
 def has_chain_terms(scene) -> bool:
-    return scene.contact is not None or scene.masses is not None
+    """Whether the scene states a kind of perturbation besides the on-site R (kinds.KINDS: a contact term, masses)."""
+    return any(kind.table != "perturbation" for kind in kinds.given(scene))
 
 
 def mass_relaxed(state, name: str) -> dict:
@@ -86,39 +88,40 @@ def _onsite_terms(scene) -> tuple:
     return amplitude_terms(derive_balance(parsed, "energy", n=scene.exponent).law)
 
 
-def run_chain_term_models(state, seed_A_peak: float | None) -> None:
-    """energy-law and energy-map of a scene with a contact-law term or masses, into the run's result; a model
-    that cannot run says why in its own entry."""
+def run_chain_term_models(state) -> None:
+    """energy-law and energy-map of a scene with a contact-law term or masses, into the run's result, from the
+    run's seed (run/models.seed_models: a given peak, the DNS's, or v0's); a model that cannot run says why in
+    its own entry."""
+    from pulsemap.symbolic.profile import exact_profile
     from pulsemap.solvers.models.contact_law import contact_law_peaks
+    from pulsemap.solvers.studies.run.models import seed_models
 
     scene, out = state.scene, state.out
     asked = [m for m in state.methods if m in CHAIN_TERM_MODELS]
     if not asked:
         return
     beads, _ = dns_span(scene)
-    seed_contact = scene.first_perturbed - 1
-    if seed_A_peak is None:
-        from pulsemap.solvers.chain.kappa import peak_from_velocity
-
-        seed_A_peak, seed_from = float(peak_from_velocity(scene.velocity, scene.exponent)), "impulse v0 through kappa_n"
-    else:
-        seed_from = f"DNS peak at contact {seed_contact}"
-    from pulsemap.symbolic.profile import exact_profile
-
-    out["seed"] = {"contact": seed_contact, "peak": seed_A_peak, "A": seed_A_peak / exact_profile(scene.exponent).S0,
-                   "from": seed_from}
+    seed_models(state, exact_profile(scene.exponent).S0)
+    seed_peak, seed_contact = float(out["seed"]["peak"]), int(out["seed"]["contact"])
+    t0 = time.perf_counter()
+    try:  # the law's inputs, once for every form asked
+        (monomials, params, masses), extra = _law_inputs(scene, beads), _onsite_terms(scene)
+    except PulsemapError as exc:
+        for m in asked:
+            out[m] = {"model": TITLES[m], "refused": str(exc)}
+            state.warnings.append(f"{m} refused: {exc}")
+        return
+    inputs_s = time.perf_counter() - t0
     for m in asked:
         t0 = time.perf_counter()
         try:
-            monomials, params, masses = _law_inputs(scene, beads)
-            run = contact_law_peaks(monomials, scene.exponent, 1.0, seed_A_peak, seed_contact, scene.contacts[1],
-                                    params=params, masses=masses, extra_terms=_onsite_terms(scene),
-                                    form=CHAIN_TERM_MODELS[m])
+            run = contact_law_peaks(monomials, scene.exponent, 1.0, seed_peak, seed_contact, scene.contacts[1],
+                                    params=params, masses=masses, extra_terms=extra, form=CHAIN_TERM_MODELS[m])
         except PulsemapError as exc:
             out[m] = {"model": TITLES[m], "refused": str(exc)}
             state.warnings.append(f"{m} refused: {exc}")
             continue
-        state.timings[m] = time.perf_counter() - t0
+        state.timings[m] = inputs_s + time.perf_counter() - t0
         contacts = [int(c) for c in run.contacts]
         out["peaks"][m] = on_contacts(state.contacts, contacts, run.peaks)
         out[m] = {"model": TITLES[m], "profile": run.profile, "status": run.status, "tolerance": run.tolerance,
