@@ -47,7 +47,7 @@ SOURCES = ("compiled_ops.py", "compiled_track.py", "compiled_kernel.py", "compil
 #: a contact law's term or masses take numba's JIT kernels.
 SIGNATURE = ("i8(f8[::1], f8[::1], f8[::1], i8[::1], f8[::1], i8[::1], f8[::1], f8[::1], f8[::1], f8[::1], f8[::1],"
              " i8[:, ::1], {}, f8[::1])")
-COEF_TYPES = {"dense": "f8[:, :, ::1]", "table": "f8[:, ::1]"}
+COEF_TYPES = dict(zip(methods.FORMS, ("f8[:, :, ::1]", "f8[:, ::1]")))
 FORM_OF_NDIM = {3: "dense", 2: "table"}  # coef (2, 4, L): the dense cubics; (M, L): the table
 INTEGER_ARGS = (3, 5, 11)  # st, ci, exps: int64; every other argument float64
 #: CPU seconds an ahead-of-time build of one kernel takes on one core, rounded (benchmarks/bench_first_run.py).

@@ -36,6 +36,8 @@ METHODS: tuple[DNSMethod, ...] = (
     DNSMethod("Rodas4", "compiled_stiff", False, True, 4, "Rosenbrock", auto=("stiff",)),
 )
 AUTO = "auto"  # plan() chooses (chain/plan.py)
+#: The force forms each compiled kernel is built for (chain/compiled_aot.COEF_TYPES): the dense cubics, the table.
+FORMS = ("dense", "table")
 #: What 'auto' chooses between: on the compiled engine a force that is not stiff / is; on the scipy engine the
 #: same, and a stiff force with a ramp (a non-smooth R: chain/equations.choose_method says why).
 AUTO_ROLES = ("explicit", "stiff", "scipy explicit", "scipy stiff", "scipy ramp")

@@ -6,10 +6,11 @@ import argparse
 
 
 def kernel_names() -> list[str]:
-    """Every ahead-of-time kernel as METHOD:FORM (chain/compiled_aot.py: a kernel per method, a module per form)."""
-    from pulsemap.solvers.chain import compiled_aot, methods
+    """Every ahead-of-time kernel as METHOD:FORM (chain/compiled_aot.py: a kernel per method, a module per form);
+    read from the method table alone, so building the parser loads no numpy."""
+    from pulsemap.solvers.chain import methods
 
-    return [f"{method}:{form}" for method in methods.kernels() for form in compiled_aot.COEF_TYPES]
+    return [f"{method}:{form}" for method in methods.kernels() for form in methods.FORMS]
 
 
 def _kernel_name(text: str) -> str:

@@ -130,3 +130,11 @@ def test_build_kernels_builds_once_and_a_run_then_only_loads(tmp_path, monkeypat
     monkeypatch.setattr(compiled_aot, "build", lambda *a: pytest.fail("a run built a kernel built ahead"))
     timings = run_scene(load_scene("fig8-eps0.1"), methods=["dns"])["timings_s"]
     assert "dns_build" not in timings and compiled_aot._loaded[name] is not None
+
+
+@pytest.mark.process
+def test_building_the_parser_loads_no_numpy():
+    """Every command's parser (build-kernels' choices too) is built from the tables alone (a fresh interpreter)."""
+    code = "import sys; from pulsemap.solvers.cli.main import build_parser; build_parser(); print('numpy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
