@@ -156,7 +156,7 @@ def check_snapshot_contacts(contacts: Sequence[int] | None, first: int, last: in
         return frozenset()
     out = set()
     for c in contacts:
-        if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or not first <= c <= last:
+        if not (_integer(c) and first <= c <= last):
             raise DNSInputError(f"snapshot contact {c!r} must be an integer in the reported range {first}..{last}")
         out.add(int(c))
     return frozenset(out)
