@@ -148,11 +148,6 @@ def prepare(chain: "Chain", contacts: tuple[int, int], table: "MonomialTable | J
                 kernel_terms(contact, masses), _velocity_peaks(masses, last, velocity, st))
 
 
-def _contact_rows(ct: Array) -> int:
-    """How many contact-law terms the kernels' ``ct`` holds (kernel_terms' layout)."""
-    return ct.shape[0] - 1 if ct.ndim == 2 else 0
-
-
 def _velocity_peaks(masses, last: int, velocity: float, st: Array) -> Array:
     """Where the kernel puts the bead velocity peaks: beads 1..last + 1 with masses (bead 1's is its impact
     velocity: it only slows down), nothing without (the bare chain's kernel then tracks none)."""
@@ -232,7 +227,7 @@ def result(run: _Run, code: int, wall: float, engine_reason: str = "") -> DNSRes
         contacts=contacts_out, peaks=peaks_out, peak_times=times_out, alive=alive, stop_reason=reason,
         method=run.method, rtol=run.rtol, atol=run.atol, beads=int(run.beads), nfev=int(st[K.NFEV]),
         njev=int(st[K.NJEV]),
-        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.conservative and not _contact_rows(run.terms) else None,
+        wall_time_s=wall, energy_drift=float(fs[K.DRIFT]) if run.table.conservative else None,
         exponent=float(run.exponent), velocity=float(run.velocity), t_end=float(fs[K.T]),
         mode="full" if run.rule is None else "window/compiled", window_beads=int(st[K.WIDEST]),
         window_shifts=int(st[K.SHIFTS]), window_rule=run.rule, blew_up=code == K.BLOWUP, steps=int(st[K.STEPS]),

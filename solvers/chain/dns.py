@@ -168,18 +168,21 @@ def check_run(chain: Chain, contacts: tuple[int, int], stop: StopRules) -> tuple
 # ----------------------------------------------------------------------------- the run
 
 
-def _window_energies(chain: Chain, res: DNSResult) -> DNSResult:
-    """A moving window knows the whole chain's energy only for the Hertz chain of unit masses without R: the beads
+def _energies(chain: Chain, res: DNSResult) -> DNSResult:
+    """What a run's energies say, decided once for every engine (each reports its drift where its on-site force
+    conserves energy). A contact term does work (dH/dt = -eps_c sum H P w), so ``energy_drift`` is None with one.
+    A moving window knows the whole chain's energy only for the Hertz chain of unit masses without R: the beads
     it dropped keep what they carried then (their drift is the run's accuracy check); with R they go on gaining or
-    losing energy out of sight (docs/dns.rst), so ``total_energy`` is None; with a contact term or masses the beads
-    behind a damped pulse or a mass step keep moving and trade energy with the window through its coasting bead
-    while the peaks stay exact (docs/contact.rst), so ``energy_drift`` is None too. The pulse's energy (beads
-    k-8..k+8) stays."""
-    if res.mode == "full" or (chain.force is None and chain.contact is None and chain.masses is None):
+    losing energy out of sight (docs/dns.rst), so ``total_energy`` is None; with masses the beads behind a mass
+    step keep moving and trade energy with the window through its coasting bead while the peaks stay exact
+    (docs/contact.rst), so ``energy_drift`` is None too. The pulse's energy (beads k-8..k+8) stays."""
+    full = res.mode == "full"
+    drift = chain.contact is None and (full or chain.masses is None)
+    total = full or (chain.force is None and chain.contact is None and chain.masses is None)
+    if drift and total:
         return res
-    if chain.contact is None and chain.masses is None:
-        return replace(res, total_energy=None)
-    return replace(res, total_energy=None, energy_drift=None)
+    return replace(res, energy_drift=res.energy_drift if drift else None,
+                   total_energy=res.total_energy if total else None)
 
 
 def simulate(
@@ -274,12 +277,12 @@ def simulate(
                 failure_note=lambda lo, y: largest_force(_window.restrict_force(force, beads, lo, lo + y.size // 2), y, lo))
         except ForceNotFinite as exc:
             raise _locate(force, beads, exc) from None
-        return _window_energies(chain, res)
+        return _energies(chain, res)
     terms = (contact, masses)
     if how.rule is not None:
         with np.errstate(all="ignore"):  # a non-finite force raises ForceNotFinite (models/onsite.py), unprinted
             res = _window.simulate_windowed(chain, (first, last), how, integrator, rules, progress=progress, front=front)
-        return _window_energies(chain, replace(res, engine="scipy", engine_reason=how.reason))
+        return _energies(chain, replace(res, engine="scipy", engine_reason=how.reason))
     y0 = initial_state(beads, velocity) if launch is None else launch.state(exponent, beads)
     e0 = energy(y0[0::2], y0[1::2], exponent, masses)
 
@@ -315,13 +318,12 @@ def simulate(
     track.reason = track.reason or f"t_max reached (t={solver.t:.6g}, next contact {track.next_contact})"
 
     wall = _time.perf_counter() - wall0
-    return DNSResult.tracked(
+    return _energies(chain, DNSResult.tracked(
         track, front, method=chosen, rtol=float(rtol), atol=float(atol), beads=beads, nfev=int(solver.nfev),
-        njev=int(getattr(solver, "njev", 0)), wall_time_s=wall,
-        energy_drift=drift if force is None and contact is None else None,
+        njev=int(getattr(solver, "njev", 0)), wall_time_s=wall, energy_drift=drift if force is None else None,
         exponent=exponent, velocity=velocity, t_end=float(solver.t), window_beads=beads, energy_initial=e0,
         engine="scipy", engine_reason=how.reason,
-    )
+    ))
 
 
 def compiled_kernel_of(chain: Chain, *, integrator: Integrator = Integrator(),

@@ -384,7 +384,6 @@ def simulate_windowed(chain: "Chain", contacts: tuple[int, int], how: "Plan", in
     wall_s = _time.perf_counter() - wall0
     return DNSResult.tracked(
         track, front, method=method, rtol=float(rtol), atol=float(atol), beads=beads, nfev=int(nfev), njev=int(njev),
-        # with a contact term or masses dns._window_energies drops the drift
         wall_time_s=wall_s, energy_drift=run.drift if force is None else None, exponent=exponent, velocity=velocity,
         t_end=float(t), energy_initial=e0, mode=f"window/{engine}", window_beads=int(widest),
         window_shifts=int(shifts), window_rule=rule,
