@@ -19,8 +19,7 @@ import numpy as np
 import sympy
 
 from pulsemap.symbolic.contact import ContactError, ContactMonomial, contact_monomials
-from pulsemap.symbolic.expression import CONTACT_SYMBOLS, ExpressionError, check_parameter_name, parse_expression, symbol
-from pulsemap.symbolic.expression.tokens import tokenize
+from pulsemap.symbolic.expression import CONTACT_SYMBOLS, ExpressionError, free_names, parse_expression, symbol
 from pulsemap.symbolic.param_forms import param_data
 from pulsemap.symbolic.param_values import (IndexExpression, ParamMap, PerturbationError, RandomDraw, check_name,
                                           evaluate_per_bead, finite_float, is_scalar, parse_param_value,
@@ -146,7 +145,7 @@ def make_contact_law(P: str | sympy.Expr, eps: object, params: Mapping[str, obje
         P = str(P)
     if not isinstance(P, str):
         raise ContactLawError(f"[contact] P must be a formula in d, w, k, got {type(P).__name__}")
-    names = list(values) + (_free_names(P, values) if free else [])
+    names = list(values) + (free_names(P, [*values, *CONTACT_SYMBOLS]) if free else [])
     try:
         expr = parse_expression(P, names, symbols=CONTACT_SYMBOLS)
     except ExpressionError as exc:
@@ -161,20 +160,6 @@ def make_contact_law(P: str | sympy.Expr, eps: object, params: Mapping[str, obje
     except ContactError as exc:
         raise ContactLawError(f"[contact] P = {text}: {exc}") from None
     return ContactLaw(expr, text, eps_value, values, _first(first_perturbed, "[contact]"), monomials)
-
-
-def _free_names(text: str, values: Mapping[str, object]) -> list[str]:
-    """Names in P that may name a parameter and have no value."""
-    found = []
-    for token in tokenize(text):
-        name = token.text
-        if token.kind == "name" and name not in values and name not in found and name not in CONTACT_SYMBOLS:
-            try:
-                check_parameter_name(name)
-            except ExpressionError:
-                continue
-            found.append(name)
-    return found
 
 
 def make_masses(m: object, params: Mapping[str, object] | None = None, first_perturbed: object = 16) -> Masses:

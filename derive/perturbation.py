@@ -25,8 +25,7 @@ import sympy
 
 from pulsemap.symbolic.errors import closest
 from pulsemap.symbolic.expression import (SYMBOLS, ExpressionError, bound_size, check_parameter_name, formula,
-                                          is_polynomial_in_state, parse_expression, symbol)
-from pulsemap.symbolic.expression.tokens import tokenize
+                                          free_names, is_polynomial_in_state, parse_expression, symbol)
 from pulsemap.symbolic.param_values import (DRAW_KEYS, IndexExpression, ParamMap, ParamValue, PerturbationError,
                                           RandomDraw, check_beads, check_name, evaluate_per_bead, exact, finite_float,
                                           frozen_values_per_bead, is_scalar, numeric_value, param_data,
@@ -187,7 +186,7 @@ def make_perturbation(
     eps_value = _parse_eps(eps)
     if isinstance(R, str):
         try:
-            expr = parse_expression(R, list(values) + (_free_names(R, values) if free else []))
+            expr = parse_expression(R, list(values) + (free_names(R, values) if free else []))
         except ExpressionError as exc:
             raise PerturbationError(str(exc)) from exc
         text = R.strip()
@@ -241,22 +240,6 @@ def _check_eps_sign(eps: float) -> float:
             "put the sign into R (e.g. R = \"mu*v\" rather than eps < 0)"
         )
     return eps
-
-
-def _free_names(text: str, values: Mapping[str, object]) -> list[str]:
-    """Names in ``text`` that may name a parameter and have no value (the parser reports the others)."""
-    found = []
-    tokens = tokenize(text)
-    for token, after in zip(tokens, tokens[1:] + [None]):
-        if after is not None and after.text == "(":
-            continue  # a call: the parser names the unknown function and the closest known one
-        if token.kind == "name" and token.text not in values and token.text not in found:
-            try:
-                check_parameter_name(token.text)
-            except ExpressionError:
-                continue
-            found.append(token.text)
-    return found
 
 
 def _from_sympy(R: sympy.Basic, parameters: Any, free: bool = False) -> sympy.Expr:

@@ -48,6 +48,24 @@ def formula(expr: sympy.Expr) -> str:
     return _FormulaPrinter().doprint(expr)
 
 
+def free_names(text: str, known: Iterable[str]) -> list[str]:
+    """Names in ``text`` that may name a parameter and are not ``known`` (given a value, or a symbol of the
+    expression such as P's d, w, k), in order; names called as functions and the parser's other errors are left
+    for the parser to report."""
+    known, found = set(known), []
+    tokens = tokenize(text)
+    for token, after in zip(tokens, tokens[1:] + [None]):
+        if after is not None and after.text == "(":
+            continue  # a call: the parser names the unknown function and the closest known one
+        if token.kind == "name" and token.text not in known and token.text not in found:
+            try:
+                check_parameter_name(token.text)
+            except ExpressionError:
+                continue
+            found.append(token.text)
+    return found
+
+
 def check_parameter_name(name: object) -> str:
     """Return ``name`` if it may name a parameter, else raise ExpressionError."""
     if not isinstance(name, str):
