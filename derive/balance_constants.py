@@ -15,7 +15,7 @@ from .profile import check_exponent, exact_profile
 from .sources import BALANCE_METHOD
 from .sources import BALANCE_MODELS as MODELS
 
-__all__ = ["WAVE_NAMES", "BalanceError", "balance_constants", "check_model", "integral_name", "window"]
+__all__ = ["WAVE_NAMES", "BalanceError", "balance_constants", "bead_motion", "check_model", "integral_name", "window"]
 
 #: The wave's constants every model needs (E_1 = K1 + V1).
 WAVE_NAMES = {"energy": ("K1", "V1"), "momentum": ("p1",)}
@@ -58,7 +58,7 @@ def _parse_name(name: str) -> tuple[str, int, int]:
 
 
 # ------------------------------------------------------------------------- constants
-def _bead_motion(S: Callable, dS: Callable, L: int) -> tuple[Callable, Callable]:
+def bead_motion(S: Callable, dS: Callable, L: int) -> tuple[Callable, Callable]:
     """X(tau) = sum_{k>=0} S(tau - k) and X'(tau), with S truncated to |tau| <= L."""
 
     def terms(t, f):
@@ -71,7 +71,7 @@ def _bead_motion(S: Callable, dS: Callable, L: int) -> tuple[Callable, Callable]
 
 def _compute(profile, name: str, dps: int, L: int) -> tuple[float, float]:
     S, dS, _ = scalar_funcs(profile)
-    X, dX = _bead_motion(S, dS, L)
+    X, dX = bead_motion(S, dS, L)
     n = mpmath.mpf(profile.n)
     kind, a, b = _parse_name(name)
     if kind == "K1":

@@ -18,7 +18,6 @@ a bead's velocity peak is V_1 A^(1+s) m^(-1/2), V_1 = max_tau X'(tau) (:func:`ta
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -26,7 +25,7 @@ import mpmath
 import numpy as np
 import sympy
 
-from .balance_constants import balance_constants, window
+from .balance_constants import balance_constants, bead_motion, window
 from .balance_law import EPS
 from .expansion import exact_exponent
 from .integrals import scalar_funcs
@@ -153,16 +152,13 @@ def bead_velocity_factor(n: float = 1.5) -> float:
     L = window(n)
     _, dS, d2S = scalar_funcs(prof)
 
-    def bead_sum(f, t):
-        return sum((f(t - k) for k in range(max(0, math.ceil(float(t)) - L), math.floor(float(t)) + L + 1)),
-                   mpmath.mpf(0))
-
+    dX, d2X = bead_motion(dS, d2S, L)  # X' and X'' of a bead
     grid = np.arange(-L, L, 1.0 / 64)
-    speeds = [float(bead_sum(dS, mpmath.mpf(t))) for t in grid]
+    speeds = [float(dX(mpmath.mpf(t))) for t in grid]
     t0 = grid[int(np.argmax(speeds))]
     with mpmath.workdps(16):
-        top = mpmath.findroot(lambda t: bead_sum(d2S, t), mpmath.mpf(t0))
-        return float(bead_sum(dS, top))
+        top = mpmath.findroot(d2X, mpmath.mpf(t0))
+        return float(dX(top))
 
 
 @dataclass(frozen=True)
