@@ -15,7 +15,7 @@ from .longwave import LAW_RATE, A0, I, I0, check_values, missing_values, numeric
 from .perturbation import Perturbation
 from .site_law import SiteLaw, coefficient_of_i, site_law
 
-__all__ = ["B", "EPS", "K_SYMBOLS", "BalanceLaw", "balance_law", "balance_site_law", "law_from_groups"]
+__all__ = ["B", "EPS", "K_SYMBOLS", "BalanceLaw", "balance_law", "balance_site_law", "expansion_groups", "law_from_groups"]
 
 B = sympy.Symbol("B", positive=True)
 B0 = sympy.Symbol("B_0", positive=True)
@@ -113,10 +113,16 @@ def balance_law(ex: BalanceExpansion, constants: dict, params: dict, eps: float,
             "(per-bead parameters or i): iterate the balance map instead"
         )
     K = constants["K1"] + constants["V1"] if ex.model == "energy" else constants["p1"]
+    return law_from_groups(ex.model, ex.Q, expansion_groups(ex), constants, params, K, eps, seconds)
+
+
+def expansion_groups(ex: BalanceExpansion, factor: sympy.Expr = sympy.Integer(1)) -> dict[sympy.Rational, sympy.Expr]:
+    """The expansion's terms grouped by power of A: {p: factor sum C_t I_t} (I_t the integrals' symbols)."""
     groups: dict[sympy.Rational, sympy.Expr] = {}
     for t in ex.terms:
-        groups[t.power] = groups.get(t.power, sympy.Integer(0)) + t.coefficient * sympy.Symbol(t.integral, real=True)
-    return law_from_groups(ex.model, ex.Q, groups, constants, params, K, eps, seconds)
+        groups[t.power] = groups.get(t.power, sympy.Integer(0)) + factor * t.coefficient * sympy.Symbol(t.integral,
+                                                                                                        real=True)
+    return groups
 
 
 def law_from_groups(model: str, Q: sympy.Rational, groups: dict, constants: dict, params: dict, K: float, eps: float,

@@ -37,7 +37,7 @@ import sympy
 from .balance import BalanceDerivation
 from .errors import PulsemapError
 from .balance_constants import balance_constants, window
-from .balance_law import BalanceLaw, law_from_groups
+from .balance_law import BalanceLaw, expansion_groups, law_from_groups
 from .contact_wave import elastic_constants
 from .expansion import exact_exponent
 from .expression import symbol
@@ -350,9 +350,7 @@ def combined_energy_law(onsite: BalanceDerivation, contact: ContactDerivation, s
     if abs(onsite.n - contact.n) > 0 or onsite.profile != contact.profile:
         raise ContactError("the on-site and contact derivations must use the same n and profile")
     pert = onsite.perturbation
-    groups: dict = {}
-    for t in onsite.expansion.terms:
-        groups[t.power] = groups.get(t.power, sympy.Integer(0)) + EPS_S * t.coefficient * sympy.Symbol(t.integral, real=True)
+    groups = expansion_groups(onsite.expansion, EPS_S)
     for p, c in _work_groups(contact.monomials, contact.n, contact.mass).items():
         groups[p] = groups.get(p, sympy.Integer(0)) + EPS_C * c
     params = {**pert.scalar_params(), EPS_S: sympy.Float(pert.eps, 17), EPS_C: sympy.Float(contact.eps, 17)}
