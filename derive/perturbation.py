@@ -68,6 +68,11 @@ class Perturbation:
         return self.R == 0
 
     @property
+    def acts(self) -> bool:
+        """Whether the chain feels the on-site force: R is not zero and eps is not 0."""
+        return not (self.is_zero or self.eps == 0)
+
+    @property
     def is_polynomial(self) -> bool:
         """R is a polynomial in u, v (Eq. 10's monomials: what the map and the long-wave law integrate)."""
         return is_polynomial_in_state(self.R)

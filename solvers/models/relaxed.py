@@ -528,7 +528,7 @@ def contact_model(scene, values: Mapping[str, object], rtol: float) -> RelaxedMo
             any(np.ndim(values[k]) for k in pert.used_parameters):
         raise RelaxedError("relaxed: a contact term or R that varies along the chain has no relaxed model yet; "
                            "energy-law and the DNS run it")
-    R_text = "0" if (pert.is_zero or pert.eps == 0.0) else pert.text
+    R_text = pert.text if pert.acts else "0"
     params = tuple(sorted((k, float(values[k])) for k in pert.used_parameters)) if R_text != "0" else ()
     contact = tuple((float(a), float(b), float(c)) for (a, b), c in zip(exps, coef[:, -1]))
     spec = SegmentSpec(R_text, params, float(pert.eps), float(scene.exponent), rtol, contact=contact)

@@ -46,7 +46,7 @@ def chain_spec(scene: Scene, beads: int, bare_if_zero: bool = True) -> ChainSpec
     law = scene.contact
     contact = None if law is None or law.eps == 0.0 else law.table(beads - 1)
     masses = None if scene.masses is None else scene.masses.bead_masses(beads)
-    on = not (bare_if_zero and (pert.is_zero or pert.eps == 0))
+    on = pert.acts or not bare_if_zero
     return ChainSpec(int(beads), float(scene.exponent), float(scene.velocity),
                      R=pert.text if on else "0", params=tuple(pert.used_parameters) if on else (),
                      values=parameter_values(scene, beads) if on else {}, eps=float(pert.eps) if on else 0.0,

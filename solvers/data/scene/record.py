@@ -86,6 +86,11 @@ class CachedPerturbation:
     def is_uniform(self) -> bool:
         return not self.uses_i and not self.site_dependent
 
+    @property
+    def acts(self) -> bool:
+        """As Perturbation.acts, from the record's own fields (no sympy)."""
+        return not (self.is_zero or self.eps == 0)
+
     def bead_values(self, name: str, beads: int) -> np.ndarray:
         """Values of parameter ``name`` for beads 1..beads, float64 (as Perturbation.bead_values)."""
         import numpy as np

@@ -67,7 +67,7 @@ def start_run(scene: Scene, methods: Sequence[str] | None, profile: str | None, 
     eps = scene.perturbation.eps
     if eps > EPS_WARN and any(m in MODELS for m in methods):
         out["warnings"].append(f"eps = {eps:g} is not small: the reduced models assume eps << 1")
-    if "map" in methods and choice.variant == "paper" and (eps == 0 or scene.perturbation.is_zero):
+    if "map" in methods and choice.variant == "paper" and not scene.perturbation.acts:
         out["warnings"].append("map: the paper's Eq. 23 drifts even without perturbation (A shrinks by "
                                "(1 + f7/(2 f1))^(-1/P) per contact, docs/errata.rst item 5); --variant corrected "
                                "or 1d keeps A constant")

@@ -40,7 +40,7 @@ def mass_relaxed(state, name: str) -> dict:
 
     scene, out = state.scene, state.out
     pert = scene.perturbation
-    if scene.contact is not None or not (pert.is_zero or pert.eps == 0.0):
+    if scene.contact is not None or pert.acts:
         raise MassKernelError("relaxed: a chain with masses and a contact term or an on-site R has no relaxed model "
                             "yet; energy-law and the DNS run it")
     beads, _ = dns_span(scene)
@@ -77,7 +77,7 @@ def _law_inputs(scene, beads: int):
 def _onsite_terms(scene) -> tuple:
     """The on-site R's energy law as terms (q, rate) dA/dk = rate A^q, () without R (uniform R only)."""
     pert = scene.perturbation
-    if pert.is_zero or pert.eps == 0.0:
+    if not pert.acts:
         return ()
     from pulsemap.symbolic.balance import derive_balance
     from pulsemap.symbolic.contact import amplitude_terms

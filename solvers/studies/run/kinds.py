@@ -37,7 +37,7 @@ class PerturbationKind:
 
 KINDS: tuple[PerturbationKind, ...] = (
     PerturbationKind("an on-site R", "perturbation",
-                     lambda s: not (s.perturbation.is_zero or s.perturbation.eps == 0),
+                     lambda s: s.perturbation.acts,
                      frozenset(MODELS), frozenset({"bench", "ensemble", "bifurcation", "sweep tasks"})),
     PerturbationKind("a contact-law term P", "contact", lambda s: s.contact is not None, ENERGY_MODELS,
                      frozenset({"bench", "ensemble"})),
