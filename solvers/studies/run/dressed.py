@@ -108,11 +108,7 @@ def _launched_peaks(coef, n: float, A: float, at: float) -> list:
     scale = min(1.0, A, A ** ((n + 1.0) / 2.0))
     res = simulate(build_chain(spec, keep=False, launch=Launch(float(A), centre)), (first, last),
                    integrator=Integrator(rtol=SEGMENT_RTOL, atol=SEGMENT_RTOL * 1e-2 * scale))
-    found = dict(zip((int(c) for c in res.contacts), zip(res.peaks, res.alive)))
-    out = []
-    for c in range(first, last + 1):
-        p, alive = found.get(c, (math.nan, False))
-        out.append(float(p) if alive and math.isfinite(p) else None)
+    out = on_contacts(range(first, last + 1), res.contacts, res.peaks, res.alive)
     dead = next((k for k, p in enumerate(out) if p is None), len(out))
     return out[:dead] + [None] * (len(out) - dead)
 
@@ -158,12 +154,11 @@ def measure_law_error(state: "RunState", coef, S0: float, path) -> MeasuredError
     iL = min(i0 + SEED_SPAN, live[-1][0])
     beads = iL + min_centre(n) + 2
     res = simulate(scene_chain(scene, beads), (i0, iL), integrator=dns_integrator(scene.dns))
-    peaks = dict(zip((int(c) for c in res.contacts), res.peaks))
     seg = []
-    for c in range(i0, iL + 1):  # up to the last contact the chain's pulse reaches
-        if not (c in peaks and np.isfinite(peaks[c]) and peaks[c] > 0):
+    for c, p in zip(range(i0, iL + 1), on_contacts(range(i0, iL + 1), res.contacts, res.peaks)):
+        if p is None or p <= 0:  # up to the last contact the chain's pulse reaches
             break
-        seg.append((c, math.log(peaks[c] / S0)))
+        seg.append((c, math.log(p / S0)))
     tol = window_accuracy_for(res.rtol, None)
     if len(seg) < 2:  # the chain's pulse is gone by the seed's next contact: nothing to measure the law on
         return MeasuredError((), (), tol, (), (), math.inf)
