@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 from typing import Mapping
 
 import numpy as np
@@ -425,6 +426,7 @@ def smooth_response(R) -> bool:
     return not R.has(sympy.sign, sympy.Heaviside)
 
 
+@lru_cache(maxsize=64)
 def scaling_form(R, n: float, site: bool) -> tuple[tuple[str, str], float] | None:
     """((the texts of the tables of coefficient +1 and -1), e) of an R the scaling of Eq. 1 carries: a single
     monomial c u^a v^b; and, where R varies along the chain, a homogeneous R = c h(u, v) (sign(v), v*abs(v):
@@ -525,7 +527,7 @@ def contact_model(scene, values: Mapping[str, object], rtol: float) -> RelaxedMo
     exps, coef = law.table(scene.first_perturbed + 1)
     if any(s.name == "k" for m in law.monomials for s in m.coef.free_symbols) or \
             any(not isinstance(v, float) for v in law.params.values()) or \
-            any(np.ndim(values[k]) for k in pert.used_parameters):
+            (pert.acts and varies(pert.R, pert.used_parameters, values)):
         raise RelaxedError("relaxed: a contact term or R that varies along the chain has no relaxed model yet; "
                            "energy-law and the DNS run it")
     R_text = pert.text if pert.acts else "0"

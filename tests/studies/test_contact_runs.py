@@ -108,6 +108,9 @@ def test_relaxed_refuses_masses_with_a_contact_term_and_a_graded_contact_term_na
     assert "energy-law" in result.data["relaxed"]["refused"]
     graded = pulsemap.run(scene({"P": "(1 + 0.01*k)*w", "eps": 0.01}, methods=("dns", "relaxed")))
     assert "varies along the chain" in graded.data["relaxed"]["refused"]
+    graded_r = pulsemap.run(scene({"P": "w", "eps": 0.01}, R={"R": "-(1 + 0.01*i)*u", "eps": 0.01},
+                                  methods=("relaxed",), last=40))
+    assert "varies along the chain" in graded_r.data["relaxed"]["refused"]  # R with the bead index i too
 
 
 def _random_masses(seed: int) -> dict:
