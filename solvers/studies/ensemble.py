@@ -16,15 +16,12 @@ Per realisation, the relaxed model (solvers/models/relaxed.py, its tables and ke
 every realisation) is run in the parent from the same seed peak, and its RMS error over the
 realisation's live range (the rule of ``pulsemap run``, live_range.py) stands next to the map's.
 
-A scene with a contact law's term or masses (random masses, a random contact parameter, or either
-beside a random R) runs each realisation as ``pulsemap run`` does (:func:`terms_task`): the DNS and
-TERMS_MODELS (the energy law; relaxed, the kernel in the local masses, where it applies), each model's
-peaks and errors against the DNS, with the same per-contact statistics.
+A scene with a contact law's term or masses runs through :mod:`~pulsemap.solvers.studies.terms_ensemble`.
 """
 
 from __future__ import annotations
 
-from typing import Any, Mapping, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -33,9 +30,6 @@ from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.sweep import run_sweep
 
 MAX_REALISATIONS = 100_000
-#: The models an ensemble of a scene with a contact-law term or masses runs besides the DNS (a model the scene's
-#: terms refuse says why in the report, studies/run/chain_terms.py).
-TERMS_MODELS = ("energy-law", "relaxed")
 
 
 class EnsembleError(PulsemapError):
@@ -47,7 +41,8 @@ def derived_seed(seed: int, realisation: int, index: int = 0) -> int:
     return int(np.random.SeedSequence([int(seed), int(realisation), int(index)]).generate_state(1)[0])
 
 
-def _check_size(scene, realisations: int, seed: int, drawn: Sequence) -> None:
+def check_size(scene, realisations: int, seed: int, drawn: Sequence) -> None:
+    """EnsembleError unless 1 <= realisations <= MAX_REALISATIONS, seed >= 0 and the scene draws something."""
     if isinstance(realisations, bool) or not isinstance(realisations, int) or not 1 <= realisations <= MAX_REALISATIONS:
         raise EnsembleError(f"--realisations {realisations!r}: give an integer from 1 to {MAX_REALISATIONS}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
@@ -65,7 +60,7 @@ def ensemble_points(scene, realisations: int, seed: int, *, profile: str | None 
     from pulsemap.solvers.studies.points import plain_chain, random_params
 
     names = random_params(scene)
-    _check_size(scene, realisations, seed, names)
+    check_size(scene, realisations, seed, names)
     base = plain_chain(scene, with_map=True, profile=profile, variant=variant)  # the sweep tasks' plain chains
     points = []
     for j in range(realisations):
@@ -76,118 +71,8 @@ def ensemble_points(scene, realisations: int, seed: int, *, profile: str | None 
     return points
 
 
-def drawn_keys(scene) -> list[tuple[str, ...]]:
-    """Where the scene's per-bead random draws sit in its dict form (scene.as_dict()): the masses' m and the
-    parameters of [contact], [masses] and [perturbation], sorted by dotted name (their order q in derived_seed)."""
-    data = scene.as_dict()
-    found = [("masses", "m")] if _is_draw((data.get("masses") or {}).get("m")) else []
-    for table in ("contact", "masses", "perturbation"):
-        found += [(table, "params", name) for name, value in ((data.get(table) or {}).get("params") or {}).items()
-                  if _is_draw(value)]
-    return sorted(found, key=".".join)
-
-
-def _is_draw(value: object) -> bool:
-    return isinstance(value, dict) and "seed" in value
-
-
-def terms_points(scene, realisations: int, seed: int, *, profile: str | None = None) -> list[dict]:
-    """The sweep points of an ensemble of a scene with a contact-law term or masses: the scene's dict with each
-    draw's seed replaced by derived_seed(seed, j, q) (q: its place in drawn_keys); realisation 0 is parsed here,
-    so a bad scene fails before anything runs."""
-    from pulsemap.solvers.data.scene import parse_scene
-
-    keys = drawn_keys(scene)
-    _check_size(scene, realisations, seed, keys)
-    points = []
-    for j in range(realisations):
-        data = scene.as_dict()
-        for q, key in enumerate(keys):
-            table = data
-            for part in key[:-1]:
-                table = table[part]
-            table[key[-1]] = {**table[key[-1]], "seed": derived_seed(seed, j, q)}
-        points.append({"scene": data, "methods": ["dns", *TERMS_MODELS], "profile": profile or scene.profile,
-                       "ensemble": {"seed": int(seed), "realisation": j}})
-    parse_scene(points[0]["scene"], scene.source or "ensemble")
-    return points
-
-
-def terms_task(point: Mapping[str, Any]) -> dict:
-    """Sweep task: one realisation run as ``pulsemap run`` runs it; the peaks of the DNS and of each model, the
-    models' errors against the DNS (studies/errors.py), why a model was refused, the DNS's bead-velocity peaks."""
-    from pulsemap.solvers.data.scene import parse_scene
-    from pulsemap.solvers.studies.run import run_scene
-
-    scene = parse_scene(point["scene"], point["scene"].get("source") or "ensemble")
-    res = run_scene(scene, methods=point["methods"], profile=point["profile"])
-    dns = res.get("dns") or {}
-    models = [m for m in point["methods"] if m != "dns"]
-    return {"contacts": res["contacts"], "peaks": {m: res["peaks"].get(m) for m in point["methods"]},
-            "seed_peak": dns.get("seed_peak"), "errors": res["errors"],
-            "refused": {m: res[m]["refused"] for m in models if "refused" in (res.get(m) or {})},
-            "velocity_peaks": dns.get("velocity_peaks")}
-
-
-def terms_statistics(results: Sequence[dict | None], models: Sequence[str]) -> dict:
-    """Per-contact statistics over the realisations of a contact-law or mass ensemble: the DNS peak, each model's
-    peak and relative error against the DNS (over the realisations whose DNS is alive there), the DNS's bead-velocity
-    peaks; per realisation each model's error as run reports it, and their statistics."""
-    ok = [r for r in results if r is not None]
-    if not ok:
-        return {"contacts": [], "dns": [], "models": {}, "realisations": []}
-    contacts = ok[0]["contacts"]
-
-    def column(r: dict, m: str) -> list:
-        return r["peaks"].get(m) or [None] * len(contacts)
-
-    out: dict[str, Any] = {"contacts": contacts,
-                           "dns": [_stats([r["peaks"]["dns"][k] for r in ok]) for k in range(len(contacts))]}
-    out["models"] = {}
-    for m in models:
-        peaks, errors = [], []
-        for k in range(len(contacts)):
-            pairs = [(column(r, m)[k], r["peaks"]["dns"][k]) for r in ok if r["peaks"]["dns"][k] is not None]
-            peaks.append(_stats([p for p, _ in pairs]))
-            errors.append(_stats([None if p is None else abs(p - d) / abs(d) for p, d in pairs]))
-        done = [r["errors"][m] for r in ok if m in r["errors"]]
-        refused = sorted({r["refused"][m] for r in ok if m in r["refused"]})
-        out["models"][m] = {"peaks": peaks, "rel_error": errors, "refused": refused[0] if refused else None,
-                            **{key: _stats([e[key] for e in done]) for key in ("rms_pct", "max_pct")}}
-    out["realisations"] = [{"live_contacts": sum(p is not None for p in r["peaks"]["dns"]), "errors": r["errors"]}
-                           for r in ok]
-    out["live_contacts"] = _stats([row["live_contacts"] for row in out["realisations"]])
-    velocity = [r["velocity_peaks"] for r in ok if r.get("velocity_peaks")]
-    if velocity:
-        beads = velocity[0]["beads"]
-        out["velocity_peaks"] = {"beads": beads, "dns": [_stats([v["peaks"][k] for v in velocity])
-                                                         for k in range(len(beads))]}
-    return out
-
-
-def terms_ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = None, out: str | None = None,
-                   executor=None, max_workers: int | None = None, progress: bool = False,
-                   retry_failed: bool = False) -> dict:
-    """The ensemble of a scene with a contact-law term or masses (terms_points, terms_task); the report."""
-    points = terms_points(scene, realisations, seed, profile=profile)
-    keys = [".".join(k) for k in drawn_keys(scene)]
-    res = run_sweep(terms_task, points, out, executor=executor, max_workers=max_workers, progress=progress,
-                    retry_failed=retry_failed, label="ensemble")
-    return {
-        "scene": scene.as_dict(),
-        "seed": seed,
-        "realisations": realisations,
-        "derived_seeds": [{key: derived_seed(seed, rec["params"]["ensemble"]["realisation"], q)
-                           for q, key in enumerate(keys)} for rec in res.records],
-        "choices": {"profile": points[0]["profile"], "methods": points[0]["methods"], "rtol": scene.dns["rtol"]},
-        "failed": [{"realisation": rec["params"]["ensemble"]["realisation"], "error": rec.get("error")}
-                   for rec in res.records if rec["status"] != "ok"],
-        "statistics": terms_statistics(res.results(), TERMS_MODELS),
-        "sweep": res.summary(),
-    }
-
-
-def _stats(values: Sequence[float]) -> dict:
+def stats(values: Sequence[float]) -> dict:
+    """n, mean, std (ddof 1), min and max of the values that are not None (None where there are none)."""
     arr = np.asarray([v for v in values if v is not None], dtype=float)
     if arr.size == 0:
         return {"n": 0, "mean": None, "std": None, "min": None, "max": None}
@@ -204,18 +89,18 @@ def statistics(results: Sequence[dict], first_perturbed: int) -> dict:
     per = {"dns": [], "map": [], "rel_error": []}
     for c in contacts:
         k = ok[0]["contacts"].index(c)
-        per["dns"].append(_stats([r["peaks"][k] for r in ok]))
-        per["map"].append(_stats([r["map_peaks"][k] for r in ok if r["peaks"][k] is not None]))
-        per["rel_error"].append(_stats([r["rel_error"][k] for r in ok]))
+        per["dns"].append(stats([r["peaks"][k] for r in ok]))
+        per["map"].append(stats([r["map_peaks"][k] for r in ok if r["peaks"][k] is not None]))
+        per["rel_error"].append(stats([r["rel_error"][k] for r in ok]))
     rows = []
     for r in ok:  # each realisation's map error as run reports it (studies/errors.py)
         err = model_error(r["contacts"], r["peaks"], r["map_peaks"], first_perturbed - 1, r.get("seed_peak"))
         rows.append({"live_contacts": sum(1 for c, p in zip(r["contacts"], r["peaks"]) if c >= first_perturbed and p is not None),
                      **err})
     return {"contacts": contacts, **per, "realisations": rows,
-            "live_contacts": _stats([r["live_contacts"] for r in rows]),
-            "max_pct": _stats([r["max_pct"] for r in rows]),
-            "rms_pct": _stats([r["rms_pct"] for r in rows])}
+            "live_contacts": stats([r["live_contacts"] for r in rows]),
+            "max_pct": stats([r["max_pct"] for r in rows]),
+            "rms_pct": stats([r["rms_pct"] for r in rows])}
 
 
 def ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = None, variant: str | None = None,
@@ -226,6 +111,7 @@ def ensemble(scene, realisations: int, seed: int = 0, *, profile: str | None = N
     from pulsemap.solvers.studies.points import dns_map_task
     from pulsemap.solvers.studies.run.chain_terms import has_chain_terms
     from pulsemap.solvers.studies.run.kinds import require
+    from pulsemap.solvers.studies.terms_ensemble import terms_ensemble
 
     require(scene, "ensemble")
     if has_chain_terms(scene):
@@ -285,7 +171,7 @@ def relaxed_errors(scene, points: Sequence[dict], results: Sequence[dict | None]
                                      seed_peak)
     done = [r for r in rows if "relaxed" in r]
     return {"realisations": rows,
-            **{f"{m}_rms_pct": _stats([r[m]["rms_pct"] for r in done]) for m in ("relaxed", "map")}}
+            **{f"{m}_rms_pct": stats([r[m]["rms_pct"] for r in done]) for m in ("relaxed", "map")}}
 
 
 def to_text(report: dict) -> str:
@@ -294,7 +180,9 @@ def to_text(report: dict) -> str:
     sc = report["scene"]
     st = report["statistics"]
     if "models" in st:
-        return _terms_text(report)
+        from pulsemap.solvers.studies.terms_ensemble import terms_text
+
+        return terms_text(report)
     lines = [f"ensemble of {report['realisations']} realisations of {sc['name']} (R = {sc['perturbation']['R']}, "
              f"eps = {sc['perturbation']['eps']}), seed {report['seed']}; map {report['choices']['variant']}/"
              f"{report['choices']['profile']} seeded from each DNS"]
@@ -316,45 +204,7 @@ def to_text(report: dict) -> str:
             if d["n"] == 0:
                 continue
             lines.append(f"  {c:7d} {d['n']:5d} {fixed_column(d['mean'], 9, 5)} {fixed_column(d['std'], 8, 5)} "
-                         f"{fixed_column(m['mean'], 9, 5)} {fixed_column(m['std'], 8, 5)} {_pct(e['mean'])} {_pct(e['std'])}")
-    return "\n".join(lines)
-
-
-def _terms_text(report: dict) -> str:
-    """The report of a contact-law or mass ensemble: each model's error per realisation, then per contact the DNS
-    peak's mean and spread and each model's mean peak and mean error."""
-    from pulsemap.solvers.studies.bifurcation.report import fixed_column
-
-    st = report["statistics"]
-    drawn = ", ".join(report["derived_seeds"][0]) if report["derived_seeds"] else "-"
-    lines = [f"ensemble of {report['realisations']} realisations of {report['scene']['name']} (random: {drawn}), "
-             f"seed {report['seed']}; DNS and {', '.join(st['models'])} as `pulsemap run` runs them"]
-    if report["failed"]:
-        lines.append(f"  {len(report['failed'])} realisations failed: " + "; ".join(
-            f"#{f['realisation']}: {f['error']}" for f in report["failed"][:3]))
-    if not st["contacts"]:
-        return "\n".join(lines)
-    lc = st["live_contacts"]
-    lines.append(f"  live contacts per realisation: mean {lc['mean']:.3g}, min {lc['min']:.0f}, max {lc['max']:.0f}")
-    shown = []
-    for m, row in st["models"].items():
-        if row["refused"]:
-            lines.append(f"  {m}: refused ({row['refused']})")
-            continue
-        shown.append(m)
-        s = row["rms_pct"]
-        if s["n"]:
-            lines.append(f"  {m} RMS error of a realisation (percent over its live range): mean {s['mean']:.2f} %"
-                         + (f", std {s['std']:.2f} %" if s["std"] is not None else ""))
-    lines.append(f"  {'contact':>7s} {'alive':>5s} {'DNS mean':>9s} {'DNS std':>8s} "
-                 + " ".join(f"{m:>10s} {'err':>8s}" for m in shown))
-    for k, (c, d) in enumerate(zip(st["contacts"], st["dns"])):
-        if d["n"] == 0:
-            continue
-        cells = [f"{fixed_column(st['models'][m]['peaks'][k]['mean'], 10, 5)} {_pct(st['models'][m]['rel_error'][k]['mean'])}"
-                 for m in shown]
-        lines.append(f"  {c:7d} {d['n']:5d} {fixed_column(d['mean'], 9, 5)} {fixed_column(d['std'], 8, 5)} "
-                     + " ".join(cells))
+                         f"{fixed_column(m['mean'], 9, 5)} {fixed_column(m['std'], 8, 5)} {pct(e['mean'])} {pct(e['std'])}")
     return "\n".join(lines)
 
 
@@ -368,14 +218,14 @@ def _relaxed_lines(rel: dict | None) -> list[str]:
         live = "-" if not r.get("live_range") else "{}..{}".format(*r["live_range"])
         rel_rms = r["relaxed"]["rms_pct"] if "relaxed" in r else None
         map_rms = r["map"]["rms_pct"] if "map" in r else None
-        out.append(f"  {r['realisation']:7d} {live:>9s} {_pct(rel_rms, 1)} {_pct(map_rms, 1)}"
+        out.append(f"  {r['realisation']:7d} {live:>9s} {pct(rel_rms, 1)} {pct(map_rms, 1)}"
                    + (f"  ({r['error']})" if "error" in r else ""))
     means = [rel[f"{m}_rms_pct"]["mean"] for m in ("relaxed", "map")]
-    out.append(f"  {'mean':>7s} {'':>9s} {_pct(means[0], 1)} {_pct(means[1], 1)}")
+    out.append(f"  {'mean':>7s} {'':>9s} {pct(means[0], 1)} {pct(means[1], 1)}")
     return out
 
 
-def _pct(x, scale: float = 100) -> str:
+def pct(x, scale: float = 100) -> str:
     """A fraction (scale 100) or a percent (scale 1) in an 8-wide column, '-' for None."""
     return f"{'-':>8s}" if x is None else f"{scale * x:7.1f}%"
 

@@ -200,7 +200,8 @@ def test_an_ensembles_dns_is_the_chain_of_its_drawn_masses():
     over the chain's beads (bead i is element i - 1, from bead 16 on), integrated on the scipy full chain, give the
     realisation's DNS peaks."""
     from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
-    from pulsemap.solvers.studies.ensemble import derived_seed, terms_points, terms_task
+    from pulsemap.solvers.studies.ensemble import derived_seed
+    from pulsemap.solvers.studies.terms_ensemble import terms_points, terms_task
     from pulsemap.solvers.studies.extent import dns_span
 
     sc = _ensemble_scene(last=40)
@@ -218,7 +219,8 @@ def test_an_ensembles_dns_is_the_chain_of_its_drawn_masses():
 def test_an_ensemble_with_a_contact_term_and_random_masses_says_which_models_run():
     """A dashpot with a random coefficient on random masses: two draws with their own derived seeds; the energy law
     runs, relaxed is refused with its reason in the report."""
-    from pulsemap.solvers.studies.ensemble import derived_seed, drawn_keys, ensemble
+    from pulsemap.solvers.studies.ensemble import derived_seed, ensemble
+    from pulsemap.solvers.studies.terms_ensemble import drawn_keys
 
     contact = {"P": "g*w", "eps": 0.01, "params": {"g": {"uniform": [0.5, 1.5], "seed": 1}}}
     sc = _ensemble_scene(contact, last=40)
