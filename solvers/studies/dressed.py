@@ -2,7 +2,7 @@
 
 k1 per monomial is derived (the energy balance's profile integral, mpmath); k2/k1, the onset lag and
 the cross terms k2_jl of every pair are derived by expanding Eq. 1 to second order about the exact
-solitary wave (solvers/models/dressed.py, cached; the paper's monomials ship precomputed),
+solitary wave (solvers/models/dressed_expansion.py, cached; the paper's monomials ship precomputed),
 with DNS calibrations (``calibrate``, below) as the fallback where the expansion fails
 (``source="calibrated"`` asks for them). The next term of the decrement (the validity bound) is
 calibrated only. The law in closed form needs a uniform polynomial R; for a site-dependent R ``run`` follows the
@@ -72,8 +72,9 @@ from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
 from pulsemap.solvers.studies.workers import cores, fork_pool
 from pulsemap.solvers.studies.errors import counted
-from pulsemap.solvers.models.dressed import (DressedCoefficients, ExpansionError, check_monomial, derive_cross,
-                                             derive_monomial, first_order_rate, is_derived)
+from pulsemap.solvers.models.dressed import DressedCoefficients
+from pulsemap.solvers.models.dressed_expansion import (ExpansionError, check_monomial, derive_cross, derive_monomial,
+                                                       first_order_rate, is_derived)
 
 MAX_BEAD_STEP = 0.05  # largest change of a coefficient from one bead to the next, over its largest |value|
 BEAD_SPAN = 100  # beads after the first perturbed one over which a run's law checks that its coefficients are slow

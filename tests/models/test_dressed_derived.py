@@ -12,8 +12,8 @@ import pytest
 from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
-from pulsemap.solvers.models import dressed as dd
-from pulsemap.solvers.models.dressed import ExpansionError, expansion_orbits
+from pulsemap.solvers.models import dressed_expansion as dd
+from pulsemap.solvers.models.dressed_expansion import ExpansionError, expansion_orbits
 from pulsemap.solvers.studies import dressed as dc
 
 

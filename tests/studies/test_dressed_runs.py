@@ -43,7 +43,7 @@ def _held_out(a, b, x0, contacts=40):
 def test_dressed_law_predicts_a_held_out_launch(a, b, x0):
     """A value of c not on the calibration ladder (one beyond it): the dressed law, started at the seed
     contact with its onset lag, follows the DNS far better than the energy law."""
-    from pulsemap.solvers.models.dressed import derive_monomial
+    from pulsemap.solvers.models.dressed_expansion import derive_monomial
 
     fit = dc.calibrate(a, b, 1.5)
     derived = derive_monomial(a, b, 1.5)
