@@ -1,5 +1,5 @@
 """The dressed (second-order) law evaluated along the chain (derive/dressed.py; sympy-free); its coefficients are
-derived in models/dressed_expansion.py or calibrated in studies/dressed.py.
+derived in models/dressed_expansion.py or calibrated in studies/dressed_calibration.py.
 
     d ln A/di = -sum_j k1_j x_j / (1 - rho_j x_j) - sum_{j<l} k2_jl x_j x_l,   x_j = c_j A^e_j
 

@@ -11,7 +11,7 @@ import sympy
 from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
-from pulsemap.solvers.studies import dressed as dc
+from pulsemap.solvers.studies import dressed_calibration as dc
 from pulsemap.solvers.data.scene import with_overrides
 
 
