@@ -70,7 +70,6 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -271,18 +270,9 @@ def cache_key(a: int, b: int, n: float) -> str:
     return f"derived-v{METHOD_VERSION}|n={float(n)!r}|a={int(a)}|b={int(b)}|cuts={CUTS}|settle={SETTLE}|span={SPAN}|rtol={RTOL}"
 
 
-@lru_cache(maxsize=1)
-def shipped() -> dict:
-    """Derived coefficients shipped with pulsemap (SHIPPED), by cache key."""
-    try:
-        return json.loads(SHIPPED.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-
-
 def stored(key: str) -> dict | None:
     """The entry ``key`` from the cache, else from the shipped coefficients (None: neither has it)."""
-    return cache.load(NAMESPACE, key) or shipped().get(key)
+    return cache.load_or_shipped(NAMESPACE, key, SHIPPED)
 
 
 def is_derived(a: int, b: int, n: float = 1.5) -> bool:
@@ -374,5 +364,5 @@ def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)),
     for p, q in pairs:
         table[cross_key(p, q, n)] = derive_cross(p, q, n, use_cache=False).as_dict()
     SHIPPED.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-    shipped.cache_clear()
+    cache.shipped_table.cache_clear()
     return SHIPPED

@@ -38,7 +38,6 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -141,19 +140,11 @@ def cache_key(a: int, b: int, n: float) -> str:
             f"|smooth={SMOOTH_LADDER}|foundation={FOUNDATION_LADDER}")
 
 
-@lru_cache(maxsize=1)
-def shipped() -> dict:
-    """Calibrations shipped with pulsemap (SHIPPED, written by ``write_shipped``: the monomials of the paper's
-    scenes at n = 3/2), by cache key; an entry whose key no longer matches the method is never used."""
-    try:
-        return json.loads(SHIPPED.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-
-
 def stored(key: str) -> dict | None:
-    """The calibration ``key`` from the cache, else from the shipped ones (None: neither has it)."""
-    return cache.load(NAMESPACE, key) or shipped().get(key)
+    """The calibration ``key`` from the cache, else from the shipped ones (SHIPPED, written by ``write_shipped``:
+    the monomials of the paper's scenes at n = 3/2; an entry whose key no longer matches the method is never
+    used), None: neither has it."""
+    return cache.load_or_shipped(NAMESPACE, key, SHIPPED)
 
 
 def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)), pairs=(((1, 0), (0, 1)), ((1, 0), (2, 1)), ((0, 1), (2, 1))),
@@ -165,7 +156,7 @@ def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)), pairs=(((1, 0), (0
         fit = calibrate_cross(p, q, n, use_cache=use_cache)
         table[cross_key(p, q, n)] = fit.as_dict()
     SHIPPED.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-    shipped.cache_clear()
+    cache.shipped_table.cache_clear()
     return SHIPPED
 
 
