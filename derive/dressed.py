@@ -19,9 +19,9 @@ delta/(k1 x) = 1 + rho x + ... equals rho x (|x| = (rho/g)^2 for a g |x|^(3/2) t
 
 This module builds the law from coefficients it is given, each with how it was obtained
 ("derived (method, accuracy)" or "calibrated" and its accuracy): rho, Delta and k2_jl are derived by
-expanding Eq. 1 to second order about the exact wave (solvers/models/dressed.py: a numeric
-time integration, so it lives in solvers/), with DNS fits (solvers/studies/dressed.py, ``calibrate``) as
-the fallback; derive/ runs neither.
+expanding Eq. 1 to second order about the exact wave (solvers/models/dressed_expansion.py: a numeric
+time integration, so it lives in solvers/), with DNS fits (solvers/studies/dressed_calibration.py,
+``calibrate``) as the fallback; derive/ runs neither.
 """
 
 from __future__ import annotations

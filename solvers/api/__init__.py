@@ -8,7 +8,8 @@ Importing this package is cheap: sympy, scipy and numpy are imported when a func
 needs them.
 """
 
-from pulsemap.solvers.api.derivation import Balance, Derivation, derive, derive_contact
+from pulsemap.solvers.api.contact import derive_contact
+from pulsemap.solvers.api.derivation import Balance, Derivation, derive
 from pulsemap.solvers.api.dressed import dressed
 from pulsemap.solvers.api.result import Result
 from pulsemap.solvers.api.running import run

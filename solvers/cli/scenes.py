@@ -177,8 +177,8 @@ def cmd_generate(args: argparse.Namespace) -> int:
                 continue
             print(f"{path}  <- {name}")
     if args.dressed_tables:
-        from pulsemap.solvers.models import dressed as derived
-        from pulsemap.solvers.studies import dressed as calibrated
+        from pulsemap.solvers.models import dressed_expansion as derived
+        from pulsemap.solvers.studies import dressed_calibration as calibrated
 
         for module, what in ((derived, "derived"), (calibrated, "calibrated")):  # no cache: every one recomputed
             print(f"{module.write_shipped()}  <- the dressed law's {what} coefficients")

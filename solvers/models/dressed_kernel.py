@@ -1,6 +1,6 @@
-"""The right-hand side of the dressed law's expansion about the exact wave, compiled (models/dressed.py, part 1).
+"""The right-hand side of the dressed law's expansion about the exact wave, compiled (models/dressed_expansion.py, part 1).
 
-``expansion_rhs`` is the first- and second-order equations of Eq. 1 expanded in c (models/dressed.py's
+``expansion_rhs`` is the first- and second-order equations of Eq. 1 expanded in c (models/dressed_expansion.py's
 module docstring) with the wave x0 evaluated in place by its quintic Hermite interpolant (``WaveBase``):
 the same arithmetic as the numpy form, in one compiled call per evaluation instead of ~60 numpy calls.
 """
@@ -16,7 +16,7 @@ from pulsemap.solvers.chain.jit import njit
 
 @njit(cache=True)
 def wave(t, nodes, h, tau0, centre, npu, coef, beads):  # pragma: no cover (compiled)
-    """(d0, x0, v0) of the wave of scale 1 at time t (models/dressed.py, ``WaveBase.__call__``)."""
+    """(d0, x0, v0) of the wave of scale 1 at time t (models/dressed_expansion.py, ``WaveBase.__call__``)."""
     pos = (t + centre - tau0) / h
     J = math.floor(pos)
     r = pos - J

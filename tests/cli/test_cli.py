@@ -91,8 +91,8 @@ def test_generate_writes_the_scene_modules_and_is_the_door_to_the_dressed_tables
     """`pulsemap generate --into DIR` writes the shipped modules of a scene byte for byte; --dressed-tables
     recomputes both shipped tables of the dressed law (here replaced by recorders: they take minutes)."""
     from pulsemap.symbolic.codegen import PACKAGE_DIR
-    from pulsemap.solvers.models import dressed as derived
-    from pulsemap.solvers.studies import dressed as calibrated
+    from pulsemap.solvers.models import dressed_expansion as derived
+    from pulsemap.solvers.studies import dressed_calibration as calibrated
 
     calls = []
     for module in (derived, calibrated):

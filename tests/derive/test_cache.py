@@ -28,6 +28,24 @@ def test_cache_location_rule(monkeypatch, tmp_path):
     assert cache.cache_dir().is_dir()  # created on demand
 
 
+def test_a_cached_entry_comes_before_the_shipped_table_which_comes_before_none(monkeypatch, tmp_path):
+    """load_or_shipped: the user cache first, then the table shipped with pulsemap; a missing or damaged table
+    serves nothing (the dressed law's derived and calibrated coefficients are read this way)."""
+    import json
+
+    monkeypatch.setenv("PULSEMAP_CACHE_DIR", str(tmp_path / "cache"))
+    table = tmp_path / "shipped.json"
+    table.write_text(json.dumps({"both": {"from": "table"}, "table only": {"from": "table"}}), encoding="utf-8")
+    cache.store("shipped-test", "both", {"from": "cache"})
+    assert cache.load_or_shipped("shipped-test", "both", table) == {"from": "cache"}
+    assert cache.load_or_shipped("shipped-test", "table only", table) == {"from": "table"}
+    assert cache.load_or_shipped("shipped-test", "neither", table) is None
+    damaged = tmp_path / "damaged.json"
+    damaged.write_text("{not json", encoding="utf-8")
+    assert cache.load_or_shipped("shipped-test", "table only", damaged) is None
+    assert cache.load_or_shipped("shipped-test", "table only", tmp_path / "missing.json") is None
+
+
 def test_unwritable_cache_is_one_clear_error(monkeypatch, tmp_path):
     blocker = tmp_path / "a-file"
     blocker.write_text("not a folder")

@@ -12,9 +12,9 @@ import pytest
 from pulsemap.symbolic.profile import exact_profile
 from pulsemap.solvers.chain.equations import OnSiteForce
 from pulsemap.solvers.chain.launch import launch, min_centre
-from pulsemap.solvers.models import dressed as dd
-from pulsemap.solvers.models.dressed import ExpansionError, expansion_orbits
-from pulsemap.solvers.studies import dressed as dc
+from pulsemap.solvers.models import dressed_expansion as dd
+from pulsemap.solvers.models.dressed_expansion import ExpansionError, expansion_orbits
+from pulsemap.solvers.studies import dressed_calibration as dc
 
 
 def test_geometric_limit_is_exact_on_a_geometric_sequence_and_flags_the_rest():

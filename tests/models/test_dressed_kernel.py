@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from pulsemap.symbolic.profile import NPU, exact_profile
-from pulsemap.solvers.models.dressed import WaveBase
+from pulsemap.solvers.models.dressed_expansion import WaveBase
 from pulsemap.solvers.models.dressed_kernel import expansion_rhs
 
 N, BEADS, CENTRE = 1.5, 24, 6
@@ -28,7 +28,7 @@ def test_the_wave_is_the_profile_at_each_contact():
 
 
 def _numpy_rhs(t, Y, base, nn, floor, mask, monos, pairs):
-    """The expansion's equations (models/dressed.py's docstring) with numpy arrays, term by term."""
+    """The expansion's equations (models/dressed_expansion.py's docstring) with numpy arrays, term by term."""
     M, P = len(monos), len(pairs)
     Y = Y.reshape(2 * (M + P), BEADS)
     d0, x0, v0 = base(t)

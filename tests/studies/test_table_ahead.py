@@ -127,7 +127,7 @@ def test_no_calibration_ahead_for_a_shipped_monomial():
 
 FRESH_MONOMIAL = """
 import json, sys, threading
-from pulsemap.solvers.models.dressed import is_derived
+from pulsemap.solvers.models.dressed_expansion import is_derived
 from pulsemap.solvers.studies import dressed
 assert threading.active_count() == 1 and not is_derived(2, 0, 1.5)  # u^2 ships neither derived nor calibrated
 ahead, jobs = dressed._calibration_ahead, []
