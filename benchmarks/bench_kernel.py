@@ -47,7 +47,7 @@ LONG = (15, 10_000)  # contacts of the per-contact line (vdp-mu3-v2.3's chain, a
 #: The child that builds the baseline's modules: prints each module's path (argv: the source folder, methods).
 BUILD = ("import sys\nimport pulsemap\nfrom pulsemap.solvers.chain import compiled_aot as aot\n"
          "assert pulsemap.__file__.startswith(sys.argv[1]), pulsemap.__file__\n"
-         "for m in sys.argv[2:]:\n    run, _ = aot.load(m, 'dense')\n    assert run is not None, m\n"
+         "for m in sys.argv[2:]:\n    run = aot.load(m, 'dense')[0]\n    assert run is not None, m\n"
          "    print(aot._paths(aot.module_name(m, 'dense'))[0])\n")
 
 

@@ -45,6 +45,15 @@ def kernels_built(env: dict) -> int:
     return len(list((Path(env["NUMBA_CACHE_DIR"]) / "aot").glob(f"pulsemap_*{suffix}")))
 
 
+def installed_kernels() -> int:
+    """How many ahead-of-time kernel modules the installed package holds (setup.py builds them at a non-editable
+    install): a cold process takes those and builds none."""
+    from pulsemap.solvers.chain import compiled_aot
+
+    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
+    return len(list(compiled_aot.installed_folder().glob(f"pulsemap_*{suffix}")))
+
+
 def process(argv: list[str], env: dict) -> tuple[float, float]:
     """(wall seconds, CPU seconds) of the process ``argv``: user + system time of it and every process it waited
     for (the kernel's build in a child, the C compiler)."""
@@ -77,6 +86,8 @@ def first_use(argv: list[str], folder: Path, target_s: float, repeat: int, what:
             ahead.append(process(argv, env))
     wall, cpu = min(cold, key=lambda r: r[1])
     print(f"{what}, {repeat} process(es) each, best CPU (the process and its children: kernel build, C compiler)")
+    print(f"  kernels built at install, in the package: {installed_kernels()} (pip install .; none for an editable "
+          "install, whose cold row builds its kernel)")
     print(f"  cold (every cache empty)       CPU {cpu:7.2f} s  wall {wall:7.2f} s  kernels built: {built}")
     print(f"  warm                           CPU {warm[1]:7.2f} s  wall {warm[0]:7.2f} s")
     if ahead:

@@ -87,7 +87,8 @@ class Terminal(io.StringIO):
 
 
 ROOT = Path(__file__).resolve().parents[1]
-WHEEL_SOURCES = ("derive", "generated", "solvers", "__init__.py", "py.typed", "pyproject.toml", "README.md", "LICENSE")
+WHEEL_SOURCES = ("derive", "generated", "solvers", "__init__.py", "py.typed", "pyproject.toml", "setup.py", "README.md",
+                 "LICENSE")
 
 
 def pip(*args: str) -> subprocess.CompletedProcess:

@@ -13,7 +13,8 @@ Python ABI and the CPU, so an edit, an upgrade or another machine sharing the ca
 The modules live in the ``aot`` subfolder of numba's kernel cache (kernel_cache_dir: ``NUMBA_CACHE_DIR``
 or the ``numba`` subfolder of the pulsemap cache; a temporary
 folder when that cannot be written), built in a private temporary folder and renamed into
-place, so concurrent first runs are safe. numba's C runtime, which every module holds, is compiled once
+place, so concurrent first runs are safe; a non-editable install (setup.py) builds INSTALL_KERNELS into
+the package's ``aot`` folder, read first. numba's C runtime, which every module holds, is compiled once
 per machine into the ``runtime_<hash>`` folder beside them and linked into each later module. A build
 that fails (no C compiler) prints one note, leaves a
 ``.failed`` file with the reason (not retried: delete it after installing a compiler) and the run
@@ -63,6 +64,10 @@ RUNTIME_SOURCES = ("modulemixin.c",)
 RUNTIME = "pulsemap_runtime"  # the runtime's name in its symbols (pycc_init_pulsemap_runtime), one for every module
 RUNTIME_LIST = "sha256"  # in the runtime's folder: the sha256 and name of each of its object files
 SUBFOLDER = "numba"  # of the pulsemap cache, when numba is given no folder
+#: What a non-editable install builds into the package (setup.py), so that no first run waits for a build: the
+#: kernel of the explicit method 'auto' takes, for both force forms. The others are built by the first run needing
+#: one, or by ``pulsemap build-kernels``.
+INSTALL_KERNELS = tuple((methods.auto_pick("explicit"), form) for form in methods.FORMS)
 _loaded: dict[str, object] = {}  # module name -> its run (None: not available in this process)
 
 
@@ -344,6 +349,27 @@ def _paths(name: str) -> tuple[Path, Path]:
     return path, path.with_name(f"{name}.failed")
 
 
+def installed_folder() -> Path:
+    """Where a non-editable install puts the modules it built (setup.py: INSTALL_KERNELS), in the package."""
+    return Path(__file__).with_name("aot")
+
+
+def _installed(name: str, filename: str):
+    """Module ``name``'s run from the modules built at install, or None (none built for this machine and these
+    versions, or a damaged file: a note, and the kernel cache serves)."""
+    path = installed_folder() / filename
+    if not path.exists():
+        return None
+    if not _intact(path):
+        print(f"pulsemap: note: the ahead-of-time kernel {path}, built at install, is damaged (its sha256 differs "
+              "or is missing): the kernel cache serves; reinstall pulsemap to replace it", file=sys.stderr, flush=True)
+        return None
+    try:
+        return _import(name, path)
+    except ImportError:
+        return None
+
+
 def load(method: str, form: str):
     """kernel's answer for kernel ``method`` and force ``form``: the module loaded, built first if this
     machine has none (a failed build: one note, the ``.failed`` file, and (None, 0.0, 0.0))."""
@@ -352,11 +378,12 @@ def load(method: str, form: str):
         return _loaded[name], 0.0, 0.0
     start = time.perf_counter()
     path, failed = _paths(name)
-    run, built = None, 0.0
-    if path.exists() and not _intact(path):
+    run, built = _installed(name, path.name), 0.0
+    cached = run is None and path.exists()
+    if cached and not _intact(path):
         print(f"pulsemap: note: the ahead-of-time kernel {path} is damaged (not the file that was built: its "
               "sha256 differs or is missing): building it again", file=sys.stderr, flush=True)
-    elif path.exists():
+    elif cached:
         try:
             run = _import(name, path)
         except ImportError:  # a file the loader refuses: the JIT kernel serves, a new build replaces it
@@ -385,6 +412,8 @@ def to_build(kernels) -> list[tuple[str, str]]:
     for method, form in dict.fromkeys(kernels):
         if method in methods.kernels() and form in COEF_TYPES and module_name(method, form) not in _loaded:
             path, failed = _paths(module_name(method, form))
+            if (installed_folder() / path.name).exists():
+                continue
             if not path.exists() and not failed.exists() and writable(path.parent):
                 todo.append((method, form))
     return todo
@@ -406,9 +435,9 @@ def build_in_background(kernels):
         return None
 
 
-if __name__ == "__main__":  # build_in_background's child: METHOD:FORM ...
+if __name__ == "__main__":  # build_in_background's child: METHOD:FORM ... (none: INSTALL_KERNELS, setup.py's)
     try:
-        for item in sys.argv[1:]:
+        for item in sys.argv[1:] or [f"{m}:{f}" for m, f in INSTALL_KERNELS]:
             load(*item.split(":"))
     except KeyboardInterrupt:  # Ctrl-C reaches the command too, which says so: the child ends quietly
         sys.exit(130)

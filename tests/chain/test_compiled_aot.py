@@ -6,11 +6,13 @@ run imports neither numba nor scipy."""
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import json
 import os
 import shutil
 import subprocess
 import sys
+import sysconfig
 import warnings
 from pathlib import Path
 
@@ -28,6 +30,7 @@ from pulsemap.solvers.chain.window import rule_for_accuracy
 from pulsemap.solvers.studies.extent import dns_span
 from pulsemap.solvers.studies.scene_chain import make_force
 
+ROOT = Path(__file__).resolve().parents[2]
 STATE = ("peaks", "times", "pulse_e", "total_e", "st", "fs", "y")
 
 
@@ -285,3 +288,85 @@ def test_a_later_module_links_the_runtime_compiled_once(tmp_path, monkeypatch):
     assert compiled_aot._paths(name)[0].parent == aot and compiled_aot._intact(compiled_aot._paths(name)[0])
     assert compiled_aot._loaded[name] is not None  # this build's module ran
     assert np.array_equal(again.peaks, reference.peaks) and np.array_equal(again.peak_times, reference.peak_times)
+
+
+def test_a_module_built_at_install_is_read_first_and_a_damaged_one_left_with_a_note(tmp_path, monkeypatch, capsys):
+    """The package's own modules (setup.py builds them at a non-editable install) serve before the kernel cache and
+    are never built again; a damaged one is passed over with a note, and the cache's module serves instead."""
+    reference = _damped()
+    name = compiled_aot.module_name(plan.METHOD, "dense")
+    cached = compiled_aot._paths(name)[0]
+    installed = tmp_path / "installed"
+    installed.mkdir()
+    for path in (cached, compiled_aot._digest_path(cached)):
+        shutil.copyfile(path, installed / path.name)
+    monkeypatch.setattr(compiled_aot, "installed_folder", lambda: installed)
+    monkeypatch.setattr(compiled_aot, "build", lambda *a: pytest.fail("built though installed"))
+    monkeypatch.setitem(sys.modules, name, sys.modules.get(name))  # loading another copy replaces it: back after
+    cache = compiled_aot.folder()
+    monkeypatch.setattr(compiled_aot, "folder", lambda: tmp_path / "empty-cache")
+    monkeypatch.setattr(compiled_aot, "_loaded", {})
+    assert compiled_aot.to_build([(plan.METHOD, "dense")]) == []  # nothing for a run to build in the background
+    got = _damped()
+    assert Path(sys.modules[name].__file__).parent == installed and not (tmp_path / "empty-cache").exists()
+    assert np.array_equal(got.peaks, reference.peaks) and np.array_equal(got.peak_times, reference.peak_times)
+    fresh = installed / "damaged"  # a new file renamed over: this process still maps the old one
+    fresh.write_bytes(cached.read_bytes()[:4096])
+    os.replace(fresh, installed / cached.name)
+    monkeypatch.setattr(compiled_aot, "folder", lambda: cache)
+    monkeypatch.setattr(compiled_aot, "_loaded", {})
+    capsys.readouterr()
+    again = _damped()
+    err = capsys.readouterr().err
+    assert err.count("built at install, is damaged") == 1 and "reinstall pulsemap" in err
+    assert Path(sys.modules[name].__file__).parent == cache
+    assert np.array_equal(again.peaks, reference.peaks)
+
+
+def _setup_module():
+    spec = importlib.util.spec_from_file_location("pulsemap_setup", ROOT / "setup.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)  # not as __main__: setup() is not called
+    return module
+
+
+def _build_folder(tmp_path: Path) -> Path:
+    """A build folder as setuptools lays the package out (package-dir: pulsemap is the repository root, its
+    symbolic subpackage derive/); solvers/ copied, since the kernels are written into it."""
+    package = tmp_path / "lib" / "pulsemap"
+    package.mkdir(parents=True)
+    shutil.copyfile(ROOT / "__init__.py", package / "__init__.py")
+    shutil.copytree(ROOT / "solvers", package / "solvers", ignore=shutil.ignore_patterns("__pycache__", "aot"))
+    (package / "symbolic").symlink_to(ROOT / "derive")
+    (package / "generated").symlink_to(ROOT / "generated")
+    return package.parent
+
+
+@pytest.mark.process
+def test_a_non_editable_install_builds_the_kernels_most_runs_take_into_the_package(tmp_path, monkeypatch):
+    """setup.py's build step, on a build folder: INSTALL_KERNELS under the names this process looks for (same
+    sources, numba, numpy, Python and CPU), each with its sha256, and they run like the cache's modules."""
+    lib = _build_folder(tmp_path)
+    _setup_module().build_kernels(lib)
+    aot = lib / "pulsemap" / "solvers" / "chain" / "aot"
+    suffix = sysconfig.get_config_var("EXT_SUFFIX")
+    want = {compiled_aot.module_name(m, f) + suffix for m, f in compiled_aot.INSTALL_KERNELS}
+    assert {p.name for p in aot.iterdir()} == want | {n + ".sha256" for n in want}
+    assert all(compiled_aot._intact(aot / n) for n in want)
+    reference = _damped()
+    name = compiled_aot.module_name(plan.METHOD, "dense")
+    monkeypatch.setattr(compiled_aot, "installed_folder", lambda: aot)
+    monkeypatch.setattr(compiled_aot, "_loaded", {})
+    monkeypatch.setitem(sys.modules, name, sys.modules.get(name))
+    got = _damped()
+    assert Path(sys.modules[name].__file__).parent == aot
+    assert np.array_equal(got.peaks, reference.peaks) and np.array_equal(got.peak_times, reference.peak_times)
+
+
+@pytest.mark.process
+def test_an_install_without_a_c_compiler_goes_on_and_leaves_no_kernels(tmp_path, monkeypatch, capsys):
+    lib = _build_folder(tmp_path)
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
+    _setup_module().build_kernels(lib)
+    assert not (lib / "pulsemap" / "solvers" / "chain" / "aot").exists()
+    assert "the chain kernels were not built at install" in capsys.readouterr().err
