@@ -19,9 +19,10 @@ def build_kernels(lib: Path) -> None:
     """Build compiled_aot.INSTALL_KERNELS from the package in ``lib`` (a build folder) into its
     pulsemap/solvers/chain/aot folder, with empty caches of their own; a failure leaves no folder."""
     with tempfile.TemporaryDirectory(prefix="pulsemap-kernels-") as tmp:
-        env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "PULSEMAP_", "PYTHON"))}
-        env.update(PYTHONPATH=str(lib), NUMBA_CACHE_DIR=str(Path(tmp) / "numba"),
-                   PULSEMAP_CACHE_DIR=str(Path(tmp) / "pulsemap"))
+        env = {k: v for k, v in os.environ.items() if not k.startswith(("NUMBA_", "PULSEMAP_"))}
+        # the package from the build folder, numba from the build environment (pip's, on PYTHONPATH)
+        env.update(PYTHONPATH=os.pathsep.join([str(lib), *filter(None, [os.environ.get("PYTHONPATH")])]),
+                   NUMBA_CACHE_DIR=str(Path(tmp) / "numba"), PULSEMAP_CACHE_DIR=str(Path(tmp) / "pulsemap"))
         done = subprocess.run([sys.executable, "-m", "pulsemap.solvers.chain.compiled_aot"], env=env, cwd=tmp,
                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         built = [p for p in (Path(tmp) / "numba" / "aot").glob("pulsemap_*") if not p.name.endswith(".failed")]
@@ -42,7 +43,7 @@ class BuildWithKernels(build_py):
     def run(self) -> None:
         super().run()
         if not getattr(self, "editable_mode", False) and not self.dry_run:
-            build_kernels(Path(self.build_lib))
+            build_kernels(Path(self.build_lib).resolve())
 
 
 if __name__ == "__main__":  # as setuptools' build backend runs it (tests import build_kernels)

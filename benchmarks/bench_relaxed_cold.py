@@ -1,16 +1,22 @@
-"""Benchmark: building the relaxed map's tables from an empty cache, one fresh process per scene.
+"""Benchmark: building the relaxed map's tables from an empty cache, one fresh process per scene, against a baseline
+commit's build side by side, with the ratio baseline / this checkout.
 
-Run: python benchmarks/bench_relaxed_cold.py
-Prints, measured in this run: per scene (fig6-eps0.3, fig7-eps0.3, fig8-eps0.3, a graded
-foundation R = -(a + b (i - 16)) u, a = 1, b = -0.00865, eps = 0.1, and two non-smooth R: Coulomb
-friction -mu sign(v), mu = 1.5, eps = 0.02, and -mu v |v|, mu = 1, eps = 0.3) the run's ``timings_s.relaxed``
-of ``pulsemap run SCENE --methods dns,relaxed`` with an empty PULSEMAP_CACHE_DIR (numba's kernels
-compiled beforehand in a folder of their own, by a warm-up pass), and its segment runs.
-Target: <= 2 s per scene on the 2-core machine.
+Run: python benchmarks/bench_relaxed_cold.py [--baseline COMMIT] [--rounds R] [--scenes fig8-eps0.3,graded]
+
+Per scene (fig6-eps0.3, fig7-eps0.3, fig8-eps0.3, a graded foundation R = -(a + b (i - 16)) u, a = 1, b = -0.00865,
+eps = 0.1, and two non-smooth R: Coulomb friction -mu sign(v), mu = 1.5, eps = 0.02, and -mu v |v|, mu = 1, eps = 0.3)
+a fresh process runs ``pulsemap run SCENE --methods dns,relaxed`` with an empty PULSEMAP_CACHE_DIR (numba's kernels
+compiled beforehand in a folder of their own, by a warm-up pass of each side) and reports the CPU time of its
+relaxed model (model_for_scene, the iteration and the stated accuracy: what ``timings_s.relaxed`` times, in CPU
+seconds of all the process's threads). The baseline runs from ``git archive`` of the baseline commit (imported from
+a temporary folder), this checkout from its own sources, in interleaved rounds (baseline, new, baseline, new, ...;
+the best of R rounds each, so a load spike costs both sides alike). Each line also says whether the relaxed peaks
+of the two sides are the same bit for bit. Target: fig8-eps0.3 and graded >= 2x the baseline.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -18,7 +24,36 @@ import sys
 import tempfile
 from pathlib import Path
 
+#: The build before a segment run stopped executing R's generated force module anew (docs/benchmarks.rst, "The
+#: relaxed transfer map").
+BASELINE = "f3ad30f"
+REPO = Path(__file__).resolve().parents[1]
 SCENES = ["fig6-eps0.3", "fig7-eps0.3", "fig8-eps0.3", "graded", "coulomb", "v-abs-v"]
+#: The child: runs one scene with the relaxed model's runner timed in CPU seconds, prints what it measured
+#: (argv: the source folder or "", the scene, the json path).
+CHILD = """\
+import dataclasses, hashlib, json, sys, time
+import pulsemap
+assert pulsemap.__file__.startswith(sys.argv[1]), pulsemap.__file__
+from pulsemap.solvers.cli.main import main
+from pulsemap.solvers.studies.run import models
+spent = {}
+runner = models.RUNNERS["relaxed"]
+def timed(state, name, inputs, run=runner.run):
+    t0 = time.process_time()
+    try:
+        return run(state, name, inputs)
+    finally:
+        spent["cpu"] = time.process_time() - t0
+models.RUNNERS["relaxed"] = dataclasses.replace(runner, run=timed)
+try:
+    main(["run", sys.argv[2], "--methods", "dns,relaxed", "--quiet", "--json", sys.argv[3]])
+except SystemExit as exc:
+    assert not exc.code, exc.code
+out = json.loads(open(sys.argv[3], encoding="utf-8").read())
+peaks = hashlib.sha256(json.dumps(out["peaks"]["relaxed"]).encode()).hexdigest()
+print(json.dumps({"cpu": spent["cpu"], "runs": out["relaxed"]["segment_runs"], "peaks": peaks}))
+"""
 
 
 def scene_text(name: str, R: str, eps: float, params: list[str]) -> str:
@@ -34,30 +69,66 @@ FILES = {"graded": scene_text("graded", "-(a + b*(i - 16))*u", 0.1, ['a = "1.0"'
          "v-abs-v": scene_text("v-abs-v", "-mu*v*abs(v)", 0.3, ["mu = 1.0"])}
 
 
-def relaxed_build(exe: str, scene: str, tmp: Path, tag: str) -> tuple[float, int]:
-    """(timings_s.relaxed, segment runs) of one fresh process with an empty pulsemap cache."""
-    out = tmp / f"{tag}.json"
+def sources(commit: str, folder: Path) -> Path:
+    """``commit``'s sources as an importable pulsemap package under ``folder`` (its parent goes on PYTHONPATH)."""
+    src = folder / "pulsemap"
+    src.mkdir(parents=True)
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", "--format=tar", commit], capture_output=True)
+    if archive.returncode != 0:
+        sys.exit(f"bench_relaxed_cold: git cannot archive {commit!r} ({archive.stderr.decode().strip()}): run it from a "
+                 "git checkout that has the commit, or give another --baseline")
+    subprocess.run(["tar", "-x", "-C", str(src)], input=archive.stdout, check=True)
+    (src / "symbolic").symlink_to("derive")  # pyproject's package-dir: pulsemap.symbolic is derive/
+    return src
+
+
+def relaxed_build(src: Path | None, scene: str, tmp: Path, tag: str) -> dict:
+    """{cpu, runs, peaks} of one fresh process with an empty pulsemap cache (``src``: the baseline's sources)."""
     env = {**os.environ, "PULSEMAP_CACHE_DIR": str(tmp / f"cache-{tag}"), "NUMBA_CACHE_DIR": str(tmp / "numba")}
-    subprocess.run([exe, "run", scene, "--methods", "dns,relaxed", "--quiet", "--json", str(out)], env=env,
-                   check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    data = json.loads(out.read_text(encoding="utf-8"))
-    return float(data["timings_s"]["relaxed"]), int(data["relaxed"]["segment_runs"])
+    if src is not None:
+        env["PYTHONPATH"] = str(src.parent)
+    run = subprocess.run([sys.executable, "-c", CHILD, str(src or REPO), scene, str(tmp / f"{tag}.json")], env=env,
+                         cwd=str(tmp), capture_output=True, text=True)
+    if run.returncode != 0:
+        said = run.stderr.strip().splitlines()[-1:] or ["no output"]
+        sys.exit(f"bench_relaxed_cold: {scene} on {'the baseline' if src else 'this checkout'} failed ({said[0]})")
+    return json.loads(run.stdout.strip().splitlines()[-1])
 
 
-def main() -> None:
-    exe = str(Path(sys.executable).with_name("pulsemap"))
+def main(argv: list[str]) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--baseline", default=BASELINE)
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--scenes", default=",".join(SCENES))
+    opts = parser.parse_args(argv)
+    labels = opts.scenes.split(",")
+    unknown = [s for s in labels if s not in SCENES]
+    if unknown:
+        parser.error(f"--scenes: {', '.join(unknown)} not benchmarked here; choose from {', '.join(SCENES)}")
+    print(f"bench_relaxed_cold: this checkout against {opts.baseline}, relaxed model's CPU s from an empty cache, best "
+          f"of {opts.rounds} interleaved rounds; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores",
+          flush=True)
     with tempfile.TemporaryDirectory(prefix="bench-relaxed-cold-") as name:
         tmp = Path(name)
-        for name, text in FILES.items():
-            (tmp / f"{name}.toml").write_text(text, encoding="utf-8")
-        scenes = [str(tmp / f"{s}.toml") if s in FILES else s for s in SCENES]
-        for scene in scenes:  # warm-up: numba compiles the kernels into tmp/numba
-            relaxed_build(exe, scene, tmp, "warm")
-        print(f"{'scene':14s} {'relaxed cold s':>14s} {'runs':>5s}   (load average {os.getloadavg()[0]:.1f})")
-        for label, scene in zip(SCENES, scenes):
-            sec, runs = relaxed_build(exe, scene, tmp, label)
-            print(f"{label:14s} {sec:14.2f} {runs:5d}")
+        for label, text in FILES.items():
+            (tmp / f"{label}.toml").write_text(text, encoding="utf-8")
+        scenes = {s: str(tmp / f"{s}.toml") if s in FILES else s for s in labels}
+        sides = {"baseline": sources(opts.baseline, tmp / "baseline"), "new": None}
+        for side, src in sides.items():  # warm-up: numba builds the kernels into tmp/numba
+            for label, scene in scenes.items():
+                relaxed_build(src, scene, tmp, f"warm-{side}-{label}")
+        print(f"  {'scene':14s} {'runs':>5s} {'baseline s':>10s} {'new s':>7s} {'ratio':>6s}  peaks", flush=True)
+        for label, scene in scenes.items():
+            seen: dict[str, list[dict]] = {side: [] for side in sides}
+            for r in range(opts.rounds):
+                for side, src in sides.items():
+                    seen[side].append(relaxed_build(src, scene, tmp, f"{side}-{label}-{r}"))
+            best = {side: min(m["cpu"] for m in seen[side]) for side in sides}
+            same = len({m["peaks"] for side in sides for m in seen[side]}) == 1
+            runs = sorted({m["runs"] for side in sides for m in seen[side]})
+            print(f"  {label:14s} {'/'.join(map(str, runs)):>5s} {best['baseline']:10.3f} {best['new']:7.3f} "
+                  f"{best['baseline'] / best['new']:5.2f}x  {'same bit for bit' if same else 'DIFFER'}", flush=True)
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])

@@ -57,12 +57,15 @@ def _module_key(name: str) -> str:
 
 
 def _exec(path: Path) -> ModuleType:
+    """The generated file ``path`` (checked by the caller) as a module, executed once per process: its name holds
+    the hash of its source, so a later call (a relaxed table's hundred segment runs) takes the one in sys.modules,
+    where numba's cache of a jitforce module's functions also finds it."""
+    loaded = sys.modules.get(_module_key(path.stem))
+    if loaded is not None and getattr(loaded, "__file__", None) == str(path):
+        return loaded
     spec = importlib.util.spec_from_file_location(_module_key(path.stem), path)
     module = importlib.util.module_from_spec(spec)
-    if not path.stem.startswith("jitforce_"):
-        spec.loader.exec_module(module)  # our own generated, hash-checked file
-        return module
-    sys.modules[spec.name] = module  # numba's cache of a jitforce module's functions finds it by name
+    sys.modules[spec.name] = module
     try:
         spec.loader.exec_module(module)
     except BaseException:
