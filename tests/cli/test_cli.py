@@ -1,6 +1,7 @@
 """The pulsemap command line: outputs and one-line errors with exit status 2."""
 
 import json
+import os
 import subprocess
 import sys
 
@@ -138,3 +139,25 @@ def test_building_the_parser_loads_no_numpy():
     code = "import sys; from pulsemap.solvers.cli.main import build_parser; build_parser(); print('numpy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
+
+
+@pytest.mark.parametrize("given", [{}, {"OPENBLAS_NUM_THREADS": "4"}, {"OMP_NUM_THREADS": "3"}, {"MKL_NUM_THREADS": "2"}])
+def test_a_command_runs_one_blas_thread_unless_the_user_chose(given):
+    from pulsemap.solvers.cli.main import one_blas_thread
+
+    environ = {"PATH": "/bin", **given}
+    one_blas_thread(environ)
+    assert environ == ({"PATH": "/bin", "OPENBLAS_NUM_THREADS": "1"} if not given else {"PATH": "/bin", **given})
+
+
+@pytest.mark.process
+def test_a_command_sets_one_blas_thread_before_numpy_loads_openblas():
+    """The console script's process (and the workers it starts) gets OPENBLAS_NUM_THREADS=1 before numpy loads."""
+    code = ("import os, sys; from pulsemap.solvers.cli import main as m; seen = []\n"
+            "m.build_parser = lambda f=m.build_parser: (seen.append(('numpy' in sys.modules,"
+            " os.environ.get('OPENBLAS_NUM_THREADS'))), f())[1]\n"
+            "m.main(['scenes']); print(seen)")
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS",
+                                                             "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    assert out.strip().splitlines()[-1] == "[(False, '1')]", out
