@@ -24,7 +24,7 @@ from pulsemap.solvers.chain import window as _window
 from pulsemap.solvers.chain.contact_force import ContactTable, check_masses
 from pulsemap.solvers.chain.dns_progress import DNSProgress
 from pulsemap.solvers.chain.errors import DNSInputError
-from pulsemap.solvers.chain.methods import selectable
+from pulsemap.solvers.chain.methods import MAX_BEADS, MAX_RTOL, MIN_ATOL, MIN_RTOL, selectable  # noqa: F401  (re-exported)
 from pulsemap.solvers.chain.equations import (  # noqa: F401  (re-exported: the DNS's public names)
     ENERGY_BLOWUP, ENGINES, EXPLICIT_METHODS, IMPLICIT_METHODS, METHODS, STIFFNESS_RATIO, STEPS_PER_CONTACT, Array, DNSResult,
     ForceNotFinite, IntegratorFailed, OnSiteForce, chain_length_for, choose_method, default_max_steps, default_t_max, energy,
@@ -42,16 +42,6 @@ if TYPE_CHECKING:  # pragma: no cover
 
 
 # ----------------------------------------------------------------------------- the run's specs
-
-MAX_BEADS = 1_000_000
-"""Longest chain simulate() accepts (the scene files' limit, data/scene/schema.MAX_BEADS)."""
-MIN_RTOL = 100 * float(np.finfo(float).eps)
-"""Smallest rtol float64 can deliver (scipy raises a smaller one to this silently)."""
-MIN_ATOL = 1e-150
-"""Smallest atol: every engine's error norm squares error/atol, which overflows below ~1.5e-154 (the square root
-of the smallest normal float64)."""
-MAX_RTOL = 1.0
-"""rtol at or above this accepts a 100 % error: no digit of a peak is kept."""
 
 
 @dataclass(frozen=True)

@@ -23,12 +23,13 @@ from typing import Callable, Sequence
 import numpy as np
 
 from pulsemap.solvers.chain.errors import DNSInputError
+from pulsemap.solvers.chain.methods import MAX_BEADS
 from pulsemap.solvers.chain.peaks import Peak, QuinticStep
 
 Array = np.ndarray
 PULSE_HALF_WIDTH = 8  # beads on each side of the peaked contact that carry the pulse
 SNAPSHOT_SPAN = (12, 4)  # default snapshot: contacts behind and ahead of the peaked one
-MAX_SNAPSHOT_SPAN = 1_000_000  # the longest chain (dns.MAX_BEADS): a wider span holds no more contacts
+MAX_SNAPSHOT_SPAN = MAX_BEADS  # a wider span holds no more contacts than the longest chain
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,19 @@ tests all read :data:`METHODS`; a new method is its kernel module (compiled) or 
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
+
+#: What every method accepts, checked where input enters (the scene file, ``Integrator``, ``simulate``).
+MAX_BEADS = 1_000_000
+"""Longest chain a scene or ``simulate`` takes."""
+MIN_RTOL = 100 * sys.float_info.epsilon
+"""Smallest rtol float64 can deliver (scipy raises a smaller one to this silently)."""
+MAX_RTOL = 1.0
+"""rtol at or above this accepts a 100 % error: no digit of a peak is kept."""
+MIN_ATOL = 1e-150
+"""Smallest atol: every engine's error norm squares error/atol, which overflows below ~1.5e-154 (the square root
+of the smallest normal float64)."""
 
 
 @dataclass(frozen=True)

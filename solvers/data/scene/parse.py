@@ -13,7 +13,6 @@ import math
 import numbers
 import os
 import re
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping
 
@@ -41,6 +40,7 @@ from pulsemap.solvers.data.scene.schema import (
     VARIANTS,
     SceneError,
 )
+from pulsemap.solvers.chain.methods import MIN_ATOL, MIN_RTOL
 from pulsemap.solvers.data.scene.spec import Scene
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -355,10 +355,6 @@ def _check_choice(value: Any, key: str, choices: tuple[str, ...]) -> str:
     return value
 
 
-MIN_RTOL = 100 * sys.float_info.epsilon
-"""Smallest rtol float64 can deliver (= solvers.chain.dns.MIN_RTOL; scipy raises a smaller one silently)."""
-MIN_ATOL = 1e-150
-"""Smallest atol the error norms can use (= solvers.chain.dns.MIN_ATOL: they square error/atol)."""
 
 
 def _check_dns_table(table: Mapping[str, Any]) -> FrozenMap:

@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 from pulsemap.symbolic.errors import PulsemapError
-from pulsemap.solvers.chain.methods import selectable
+from pulsemap.solvers.chain.methods import MAX_BEADS, selectable  # noqa: F401  (MAX_BEADS: the scene files' limit)
 
 
 METHODS = ("map", "longwave", "energy-map", "energy-law", "momentum-map", "momentum-law", "relaxed", "dressed-law",
@@ -29,7 +29,6 @@ DEFAULT_SCENE = "fig8-eps0.3"
 ALIASES = {"default": DEFAULT_SCENE}
 DEFAULT_FIRST_PERTURBED = 16
 DEFAULT_EXPONENT = 1.5
-MAX_BEADS = 1_000_000
 
 # Keys allowed in each table; None marks a sub-table.
 SCHEMA: dict[str, tuple[str, ...]] = {
