@@ -93,6 +93,11 @@ class MonomialTable:
         return "monomial table (dense form: cubics P_0(u) + v P_1(u))" if dense else "monomial table"
 
 
+def monomial_text(a: int, b: int) -> str:
+    """R's monomial u^a v^b as a scene writes it, ``u^a*v^b`` (a factor with exponent 0 left out)."""
+    return "*".join([f"u^{a}"] * (a > 0) + [f"v^{b}"] * (b > 0))
+
+
 @dataclass(frozen=True)
 class JitForce:
     """eps_i R_i as a generated numba force (derive/codegen_jitforce.py, a non-polynomial R), Eq. 1:

@@ -48,6 +48,7 @@ from typing import Mapping
 import numpy as np
 
 from pulsemap.symbolic.errors import PulsemapError
+from pulsemap.solvers.chain.force_table import monomial_text
 from pulsemap.solvers.models.onsite import onsite_force
 from pulsemap.solvers.models.relaxed_kernel import J_MAX, J_MIN, ONSET_BEADS, KernelTable
 from pulsemap.solvers.models.relaxed_table import SegmentSpec, SegmentTable, leave_one_out
@@ -405,12 +406,6 @@ def iterate_relaxed(model: RelaxedModel, seed_peak: float, seed_contact: int, la
 # ----------------------------------------------------------------------------- construction
 
 
-def _monomial_text(a: int, b: int, sign: int) -> str:
-    parts = [f"u^{a}" if a else "", f"v^{b}" if b else ""]
-    body = "*".join(x for x in parts if x)
-    return body if sign > 0 else f"-{body}"
-
-
 def varies(R, used: tuple[str, ...], values: Mapping[str, object]) -> bool:
     """Whether eps R changes along the chain: a per-bead parameter, or the bead index i in R."""
     return any(np.ndim(values[k]) for k in used) or "i" in {s.name for s in R.free_symbols}
@@ -436,7 +431,7 @@ def scaling_form(R, n: float, site: bool) -> tuple[tuple[str, str], float] | Non
 
     mono = monomial_exponents(R)
     if mono is not None:
-        return (_monomial_text(*mono, 1), _monomial_text(*mono, -1)), scaling_exponent(*mono, n)
+        return (monomial_text(*mono), f"-{monomial_text(*mono)}"), scaling_exponent(*mono, n)
     form = homogeneous_form(R, n) if site else None
     return None if form is None else ((form[0], f"-({form[0]})"), form[1])
 

@@ -9,6 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from pulsemap.solvers.chain.force_table import monomial_text
 from pulsemap.solvers.chain.launch import min_centre
 from pulsemap.solvers.models.dressed import MeasuredError, evaluate_dressed_law
 from pulsemap.solvers.studies.extent import on_contacts
@@ -101,8 +102,7 @@ def _launched_peaks(coef, n: float, A: float, at: float) -> list:
     last = first + SETTLE + 2 * READ
     beads = last + min_centre(n) + 2
     names = tuple(f"c{j}" for j in range(len(coef.monomials)))
-    R = " + ".join(f"{name}*" + "*".join([f"u^{a}"] * (a > 0) + [f"v^{b}"] * (b > 0))
-                   for name, (a, b) in zip(names, coef.monomials))
+    R = " + ".join(f"{name}*{monomial_text(a, b)}" for name, (a, b) in zip(names, coef.monomials))
     cs = coef.c if coef.c_of_i is None else [f(at) for f in coef.c_of_i]
     spec = ChainSpec(beads, n, 1.0, R if names else "0", names, dict(zip(names, cs)), 1.0, first)
     scale = min(1.0, A, A ** ((n + 1.0) / 2.0))
