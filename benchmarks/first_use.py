@@ -46,12 +46,12 @@ def kernels_built(env: dict) -> int:
 
 
 def installed_kernels() -> int:
-    """How many ahead-of-time kernel modules the installed package holds (setup.py builds them at a non-editable
-    install): a cold process takes those and builds none."""
-    from pulsemap.solvers.chain import compiled_aot
+    """How many of the kernels a non-editable install builds (setup.py: compiled_aot.INSTALL_KERNELS) the installed
+    package holds for this machine and these versions: a cold process takes those and builds none."""
+    from pulsemap.solvers.chain import compiled_aot as aot
 
-    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
-    return len(list(compiled_aot.installed_folder().glob(f"pulsemap_*{suffix}")))
+    names = (aot._paths(aot.module_name(m, f))[0].name for m, f in aot.INSTALL_KERNELS)
+    return sum(aot._intact(aot.installed_folder() / name) for name in names)
 
 
 def process(argv: list[str], env: dict) -> tuple[float, float]:

@@ -22,7 +22,6 @@ import re
 import stat
 import sys
 import tempfile
-from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable
 
@@ -147,19 +146,20 @@ def load(namespace: str, key: str, check: Callable[[Any], str | None] | None = N
     return value
 
 
-@lru_cache(maxsize=None)  # a shipped table changes only when its writer rewrites it (it clears this)
 def shipped_table(path: Path) -> dict:
-    """A table of precomputed entries shipped with pulsemap (a JSON object by cache key, e.g.
-    solvers/data/dressed_derived.json); {} when it is missing or not JSON."""
+    """A table of precomputed entries shipped with pulsemap (a JSON object by cache key); {} when it is missing, not
+    JSON or not an object."""
     try:
-        return json.loads(Path(path).read_text(encoding="utf-8"))
+        table = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return {}
+    return table if isinstance(table, dict) else {}
 
 
 def load_or_shipped(namespace: str, key: str, shipped: Path) -> Any | None:
     """The entry ``key`` from the cache, else from the table shipped at ``shipped`` (None: neither has it)."""
-    return load(namespace, key) or shipped_table(shipped).get(key)
+    value = load(namespace, key)
+    return value if value is not None else shipped_table(shipped).get(key)
 
 
 def finite_number(value: Any) -> bool:

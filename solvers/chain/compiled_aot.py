@@ -166,6 +166,14 @@ def _import(name: str, path: Path):
     return module.run
 
 
+def _try_import(name: str, path: Path):
+    """``_import``, or None for a file the loader refuses (the JIT kernel serves; a new build replaces it)."""
+    try:
+        return _import(name, path)
+    except ImportError:
+        return None
+
+
 def build(method: str, form: str, name: str, path: Path) -> float:
     """Compile ``run`` of kernel ``method`` for force ``form`` into the extension module ``path``
     (numba.pycc, for this CPU), in a private temporary folder renamed into place, with one line on
@@ -354,22 +362,6 @@ def installed_folder() -> Path:
     return Path(__file__).with_name("aot")
 
 
-def _installed(name: str, filename: str):
-    """Module ``name``'s run from the modules built at install, or None (none built for this machine and these
-    versions, or a damaged file: a note, and the kernel cache serves)."""
-    path = installed_folder() / filename
-    if not path.exists():
-        return None
-    if not _intact(path):
-        print(f"pulsemap: note: the ahead-of-time kernel {path}, built at install, is damaged (its sha256 differs "
-              "or is missing): the kernel cache serves; reinstall pulsemap to replace it", file=sys.stderr, flush=True)
-        return None
-    try:
-        return _import(name, path)
-    except ImportError:
-        return None
-
-
 def load(method: str, form: str):
     """kernel's answer for kernel ``method`` and force ``form``: the module loaded, built first if this
     machine has none (a failed build: one note, the ``.failed`` file, and (None, 0.0, 0.0))."""
@@ -378,16 +370,19 @@ def load(method: str, form: str):
         return _loaded[name], 0.0, 0.0
     start = time.perf_counter()
     path, failed = _paths(name)
-    run, built = _installed(name, path.name), 0.0
-    cached = run is None and path.exists()
-    if cached and not _intact(path):
+    installed = installed_folder() / path.name
+    run, built = None, 0.0
+    if _intact(installed):  # built at install (setup.py) for these sources, versions and CPU
+        run = _try_import(name, installed)
+    elif installed.exists() and not _intact(path):  # once the cache holds a good copy, that one serves silently
+        print(f"pulsemap: note: the ahead-of-time kernel {installed}, built at install, is damaged (its sha256 "
+              "differs or is missing): the kernel cache serves; reinstall pulsemap to replace it", file=sys.stderr,
+              flush=True)
+    if run is None and path.exists() and not _intact(path):
         print(f"pulsemap: note: the ahead-of-time kernel {path} is damaged (not the file that was built: its "
               "sha256 differs or is missing): building it again", file=sys.stderr, flush=True)
-    elif cached:
-        try:
-            run = _import(name, path)
-        except ImportError:  # a file the loader refuses: the JIT kernel serves, a new build replaces it
-            run = None
+    elif run is None and path.exists():
+        run = _try_import(name, path)
     if run is None and not failed.exists() and writable(path.parent):
         try:
             built = build(method, form, name, path)
@@ -412,7 +407,7 @@ def to_build(kernels) -> list[tuple[str, str]]:
     for method, form in dict.fromkeys(kernels):
         if method in methods.kernels() and form in COEF_TYPES and module_name(method, form) not in _loaded:
             path, failed = _paths(module_name(method, form))
-            if (installed_folder() / path.name).exists():
+            if _intact(installed_folder() / path.name):
                 continue
             if not path.exists() and not failed.exists() and writable(path.parent):
                 todo.append((method, form))

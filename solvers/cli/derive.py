@@ -90,7 +90,7 @@ def cmd_derive(args: argparse.Namespace) -> int:
     pert = check_all_used(make_perturbation(args.expr, args.eps, params, free=True))  # as pulsemap.derive
     if args.coefficients is not None and args.model != "dressed":
         raise UsageError("--coefficients applies to the dressed law only: add --model dressed or drop it")
-    if args.model == "dressed":  # coefficients derived by the expansion about the wave (solvers/studies/dressed.py)
+    if args.model == "dressed":  # the law: studies/dressed.py; its coefficients: models/dressed_expansion.py
         from pulsemap.solvers.studies import dressed
 
         dd = dressed.derive_dressed(pert, n=args.n, A0_value=args.A0, i0=args.i0, variant=args.variant,

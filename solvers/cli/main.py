@@ -132,15 +132,18 @@ BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS", "
 
 
 def one_blas_thread(environ=os.environ) -> None:
-    """One OpenBLAS thread for the command and the workers it starts, unless the user chose a number (BLAS_THREADS):
-    set before numpy loads it. Its linear algebra is small (fits, banded solves), and an idle OpenBLAS thread spins
-    at load, a fifth of a short run's CPU per library (numpy's and scipy's each bundle one; docs/benchmarks.rst)."""
+    """One OpenBLAS thread for the command's process and the workers it starts, unless the user chose a number
+    (BLAS_THREADS): set before numpy loads it. Its linear algebra is small (fits, banded solves), and an OpenBLAS
+    thread pool spins as it starts (numpy's and scipy's each bundle one; docs/benchmarks.rst)."""
     if not any(name in environ for name in BLAS_THREADS):
         environ["OPENBLAS_NUM_THREADS"] = "1"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    one_blas_thread()
+    """The ``pulsemap`` command: ``argv`` (default: the process's arguments, and then the process is the command's
+    own, so its BLAS threads are set: one_blas_thread)."""
+    if argv is None:
+        one_blas_thread()
     try:
         parser = build_parser()
         args = parser.parse_args(_protect_expressions(list(sys.argv[1:] if argv is None else argv),

@@ -58,18 +58,21 @@ def _module_key(name: str) -> str:
 
 def _exec(path: Path) -> ModuleType:
     """The generated file ``path`` (checked by the caller) as a module, executed once per process: its name holds
-    the hash of its source, so a later call (a relaxed table's hundred segment runs) takes the one in sys.modules,
+    the hash of its source, so a later call (each segment run of a relaxed table) takes the one in sys.modules,
     where numba's cache of a jitforce module's functions also finds it."""
-    loaded = sys.modules.get(_module_key(path.stem))
-    if loaded is not None and getattr(loaded, "__file__", None) == str(path):
-        return loaded
+    before = sys.modules.get(_module_key(path.stem))
+    if before is not None and getattr(before, "__file__", None) == str(path):
+        return before
     spec = importlib.util.spec_from_file_location(_module_key(path.stem), path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module
     try:
         spec.loader.exec_module(module)
     except BaseException:
-        del sys.modules[spec.name]
+        if before is None:
+            del sys.modules[spec.name]
+        else:
+            sys.modules[spec.name] = before
         raise
     return module
 
@@ -180,14 +183,13 @@ def force_module(R_text: str, params) -> ModuleType:
 
 def jit_force_module(R_text: str, params) -> ModuleType:
     """The generated numba force module for R (the compiled DNS's non-polynomial force, in the cache),
-    generating it if missing; imported once per process (``_exec`` registers it in sys.modules, where
-    a later call finds it; numba compiles its functions the first time and loads them from its cache
-    afterwards). CodegenError (a RuntimeError) when R has no such form."""
+    generating it if missing; executed once per process (``_exec``; numba compiles its functions the first time
+    and loads them from its cache afterwards). CodegenError (a RuntimeError) when R has no such form."""
     from pulsemap.solvers.chain import jit  # numba's cache folder set before the module's functions exist
 
     source = JitForceSource.of(R_text, params)
     loaded = sys.modules.get(_module_key(module_name(source)))
-    if loaded is not None:
+    if loaded is not None:  # executed in this process already (_exec): numba's folder is set
         return loaded
     jit.configure()
     return _ensure(source)

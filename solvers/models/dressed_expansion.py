@@ -364,5 +364,4 @@ def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)),
     for p, q in pairs:
         table[cross_key(p, q, n)] = derive_cross(p, q, n, use_cache=False).as_dict()
     SHIPPED.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-    cache.shipped_table.cache_clear()
     return SHIPPED

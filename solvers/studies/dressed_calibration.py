@@ -156,7 +156,6 @@ def write_shipped(monomials=((1, 0), (3, 0), (0, 1), (2, 1)), pairs=(((1, 0), (0
         fit = calibrate_cross(p, q, n, use_cache=use_cache)
         table[cross_key(p, q, n)] = fit.as_dict()
     SHIPPED.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-    cache.shipped_table.cache_clear()
     return SHIPPED
 
 

@@ -292,7 +292,8 @@ def test_a_later_module_links_the_runtime_compiled_once(tmp_path, monkeypatch):
 
 def test_a_module_built_at_install_is_read_first_and_a_damaged_one_left_with_a_note(tmp_path, monkeypatch, capsys):
     """The package's own modules (setup.py builds them at a non-editable install) serve before the kernel cache and
-    are never built again; a damaged one is passed over with a note, and the cache's module serves instead."""
+    are never built again; a damaged one is passed over, silently where the cache holds a good copy, else with a
+    note (and the kernel cache's way: here a recorded failed build, so the JIT kernel)."""
     reference = _damped()
     name = compiled_aot.module_name(plan.METHOD, "dense")
     cached = compiled_aot._paths(name)[0]
@@ -304,12 +305,14 @@ def test_a_module_built_at_install_is_read_first_and_a_damaged_one_left_with_a_n
     monkeypatch.setattr(compiled_aot, "build", lambda *a: pytest.fail("built though installed"))
     monkeypatch.setitem(sys.modules, name, sys.modules.get(name))  # loading another copy replaces it: back after
     cache = compiled_aot.folder()
-    monkeypatch.setattr(compiled_aot, "folder", lambda: tmp_path / "empty-cache")
+    empty = tmp_path / "empty-cache"
+    monkeypatch.setattr(compiled_aot, "folder", lambda: empty)
     monkeypatch.setattr(compiled_aot, "_loaded", {})
     assert compiled_aot.to_build([(plan.METHOD, "dense")]) == []  # nothing for a run to build in the background
     got = _damped()
-    assert Path(sys.modules[name].__file__).parent == installed and not (tmp_path / "empty-cache").exists()
+    assert Path(sys.modules[name].__file__).parent == installed and not empty.exists()
     assert np.array_equal(got.peaks, reference.peaks) and np.array_equal(got.peak_times, reference.peak_times)
+
     fresh = installed / "damaged"  # a new file renamed over: this process still maps the old one
     fresh.write_bytes(cached.read_bytes()[:4096])
     os.replace(fresh, installed / cached.name)
@@ -317,10 +320,18 @@ def test_a_module_built_at_install_is_read_first_and_a_damaged_one_left_with_a_n
     monkeypatch.setattr(compiled_aot, "_loaded", {})
     capsys.readouterr()
     again = _damped()
-    err = capsys.readouterr().err
-    assert err.count("built at install, is damaged") == 1 and "reinstall pulsemap" in err
+    assert capsys.readouterr().err == ""  # the cache's good copy serves
     assert Path(sys.modules[name].__file__).parent == cache
     assert np.array_equal(again.peaks, reference.peaks)
+
+    empty.mkdir()
+    (empty / f"{name}.failed").write_text("no compiler\n")  # the cache has none and will not build one
+    monkeypatch.setattr(compiled_aot, "folder", lambda: empty)
+    monkeypatch.setattr(compiled_aot, "_loaded", {})
+    assert compiled_aot.to_build([(plan.METHOD, "dense")]) == []
+    assert compiled_aot.load(plan.METHOD, "dense") == (None, 0.0, 0.0)
+    err = capsys.readouterr().err
+    assert err.count("built at install, is damaged") == 1 and "reinstall pulsemap" in err
 
 
 def _setup_module():

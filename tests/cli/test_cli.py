@@ -152,12 +152,15 @@ def test_a_command_runs_one_blas_thread_unless_the_user_chose(given):
 
 @pytest.mark.process
 def test_a_command_sets_one_blas_thread_before_numpy_loads_openblas():
-    """The console script's process (and the workers it starts) gets OPENBLAS_NUM_THREADS=1 before numpy loads."""
+    """The console script's process (and the workers it starts) gets OPENBLAS_NUM_THREADS=1 before numpy loads;
+    main() called from Python with its arguments leaves the caller's environment alone."""
+    from pulsemap.solvers.cli.main import BLAS_THREADS
+
     code = ("import os, sys; from pulsemap.solvers.cli import main as m; seen = []\n"
             "m.build_parser = lambda f=m.build_parser: (seen.append(('numpy' in sys.modules,"
             " os.environ.get('OPENBLAS_NUM_THREADS'))), f())[1]\n"
-            "m.main(['scenes']); print(seen)")
-    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS",
-                                                             "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
-    assert out.strip().splitlines()[-1] == "[(False, '1')]", out
+            "sys.argv = ['pulsemap', 'scenes']; m.main({}); print(seen)")
+    env = {k: v for k, v in os.environ.items() if k not in BLAS_THREADS}
+    seen = [subprocess.run([sys.executable, "-c", code.format(args)], env=env, capture_output=True, text=True,
+                           check=True).stdout.strip().splitlines()[-1] for args in ("", "['scenes']")]
+    assert seen == ["[(False, '1')]", "[(False, None)]"], seen

@@ -44,6 +44,11 @@ def test_a_cached_entry_comes_before_the_shipped_table_which_comes_before_none(m
     damaged.write_text("{not json", encoding="utf-8")
     assert cache.load_or_shipped("shipped-test", "table only", damaged) is None
     assert cache.load_or_shipped("shipped-test", "table only", tmp_path / "missing.json") is None
+    damaged.write_text('["table only"]', encoding="utf-8")  # JSON, but not a table by key
+    assert cache.load_or_shipped("shipped-test", "table only", damaged) is None
+    cache.store("shipped-test", "falsy", {})  # an empty entry is an entry: the table does not override it
+    table.write_text(json.dumps({"falsy": {"from": "table"}}), encoding="utf-8")
+    assert cache.load_or_shipped("shipped-test", "falsy", table) == {}
 
 
 def test_unwritable_cache_is_one_clear_error(monkeypatch, tmp_path):

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -114,3 +116,25 @@ def test_a_refused_balance_model_is_refused_again_without_sympy(tmp_path):
                                     check=True).stdout.strip() for _ in range(2))
     assert first.startswith("BalanceError True ") and "undefined" in first
     assert second == first.replace("BalanceError True ", "BalanceError False ", 1)
+
+
+def test_a_generated_module_is_executed_once_per_process_and_a_failed_execution_leaves_the_loaded_one(tmp_path,
+                                                                                                     monkeypatch):
+    """codeload._exec: the same file gives the same module object (each segment run of a relaxed table asks again);
+    a file of the same name at another path is executed on its own; one whose execution fails leaves the module
+    this process had under that name."""
+    first = codeload.force_module("-mu*v", ("mu",))
+    assert codeload.force_module("-mu*v", ("mu",)) is first
+    key = codeload._module_key(Path(first.__file__).stem)
+    assert sys.modules[key] is first
+    elsewhere = tmp_path / Path(first.__file__).name
+    elsewhere.write_text(Path(first.__file__).read_text(encoding="utf-8"), encoding="utf-8")
+    other = codeload._exec(elsewhere)
+    assert other is not first and other.__file__ == str(elsewhere)
+    broken = tmp_path / "broken" / elsewhere.name
+    broken.parent.mkdir()
+    broken.write_text("raise RuntimeError('generated code that fails')\n", encoding="utf-8")
+    monkeypatch.setitem(sys.modules, key, first)
+    with pytest.raises(RuntimeError, match="generated code that fails"):
+        codeload._exec(broken)
+    assert sys.modules[key] is first
