@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+import baseline
 from pulsemap.solvers.chain import compiled
 from pulsemap.solvers.chain.dns import Chain, Integrator, simulate
 from pulsemap.solvers.data.scene import load_scene
@@ -41,7 +42,7 @@ from pulsemap.solvers.studies.scene_chain import make_force
 
 #: The kernels before their vectorised right-hand side and fused error norm (docs/benchmarks.rst, "The kernel").
 BASELINE = "3be6e1f"
-REPO = Path(__file__).resolve().parents[1]
+REPO = baseline.REPO
 METHODS = ("RK45", "DOP853")  # the explicit kernels simulate runs by name (Rodas4 only for a stiff force)
 LONG = (15, 10_000)  # contacts of the per-contact line (vdp-mu3-v2.3's chain, as many beads as it needs)
 #: The child that builds the baseline's modules: prints each module's path (argv: the source folder, methods).
@@ -59,14 +60,7 @@ def modules(commit: str | None, methods: list[str], folder: Path) -> dict:
            "PYTHONDONTWRITEBYTECODE": "1"}
     src = REPO
     if commit is not None:
-        src = folder / "src" / "pulsemap"
-        src.mkdir(parents=True)
-        archive = subprocess.run(["git", "-C", str(REPO), "archive", "--format=tar", commit], capture_output=True)
-        if archive.returncode != 0:
-            sys.exit(f"bench_kernel: git cannot archive {commit!r} ({archive.stderr.decode().strip()}): run it from a "
-                     "git checkout that has the commit, or give another --baseline")
-        subprocess.run(["tar", "-x", "-C", str(src)], input=archive.stdout, check=True)
-        (src / "symbolic").symlink_to("derive")  # pyproject's package-dir: pulsemap.symbolic is derive/
+        src = baseline.sources(commit, folder / "src", "bench_kernel")
         env["PYTHONPATH"] = str(src.parent)
     built = subprocess.run([sys.executable, "-c", BUILD, str(src), *methods], env=env, cwd=str(folder),
                            capture_output=True, text=True)

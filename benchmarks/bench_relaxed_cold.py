@@ -24,10 +24,12 @@ import sys
 import tempfile
 from pathlib import Path
 
+import baseline
+
 #: The build before a segment run stopped executing R's generated force module anew (docs/benchmarks.rst, "The
 #: relaxed transfer map").
 BASELINE = "f3ad30f"
-REPO = Path(__file__).resolve().parents[1]
+REPO = baseline.REPO
 SCENES = ["fig6-eps0.3", "fig7-eps0.3", "fig8-eps0.3", "graded", "coulomb", "v-abs-v"]
 #: The child: runs one scene with the relaxed model's runner timed in CPU seconds, prints what it measured
 #: (argv: the source folder or "", the scene, the json path).
@@ -35,7 +37,8 @@ CHILD = """\
 import dataclasses, hashlib, json, sys, time
 import pulsemap
 assert pulsemap.__file__.startswith(sys.argv[1]), pulsemap.__file__
-from pulsemap.solvers.cli.main import main
+from pulsemap.solvers.cli import main as cli
+getattr(cli, "one_blas_thread", lambda: None)()  # as each side's console script does, before numpy loads
 from pulsemap.solvers.studies.run import models
 spent = {}
 runner = models.RUNNERS["relaxed"]
@@ -47,7 +50,7 @@ def timed(state, name, inputs, run=runner.run):
         spent["cpu"] = time.process_time() - t0
 models.RUNNERS["relaxed"] = dataclasses.replace(runner, run=timed)
 try:
-    main(["run", sys.argv[2], "--methods", "dns,relaxed", "--quiet", "--json", sys.argv[3]])
+    cli.main(["run", sys.argv[2], "--methods", "dns,relaxed", "--quiet", "--json", sys.argv[3]])
 except SystemExit as exc:
     assert not exc.code, exc.code
 out = json.loads(open(sys.argv[3], encoding="utf-8").read())
@@ -67,19 +70,6 @@ def scene_text(name: str, R: str, eps: float, params: list[str]) -> str:
 FILES = {"graded": scene_text("graded", "-(a + b*(i - 16))*u", 0.1, ['a = "1.0"', 'b = "-0.00865"']),
          "coulomb": scene_text("coulomb", "-mu*sign(v)", 0.02, ["mu = 1.5"]),
          "v-abs-v": scene_text("v-abs-v", "-mu*v*abs(v)", 0.3, ["mu = 1.0"])}
-
-
-def sources(commit: str, folder: Path) -> Path:
-    """``commit``'s sources as an importable pulsemap package under ``folder`` (its parent goes on PYTHONPATH)."""
-    src = folder / "pulsemap"
-    src.mkdir(parents=True)
-    archive = subprocess.run(["git", "-C", str(REPO), "archive", "--format=tar", commit], capture_output=True)
-    if archive.returncode != 0:
-        sys.exit(f"bench_relaxed_cold: git cannot archive {commit!r} ({archive.stderr.decode().strip()}): run it from a "
-                 "git checkout that has the commit, or give another --baseline")
-    subprocess.run(["tar", "-x", "-C", str(src)], input=archive.stdout, check=True)
-    (src / "symbolic").symlink_to("derive")  # pyproject's package-dir: pulsemap.symbolic is derive/
-    return src
 
 
 def relaxed_build(src: Path | None, scene: str, tmp: Path, tag: str) -> dict:
@@ -113,7 +103,7 @@ def main(argv: list[str]) -> None:
         for label, text in FILES.items():
             (tmp / f"{label}.toml").write_text(text, encoding="utf-8")
         scenes = {s: str(tmp / f"{s}.toml") if s in FILES else s for s in labels}
-        sides = {"baseline": sources(opts.baseline, tmp / "baseline"), "new": None}
+        sides = {"baseline": baseline.sources(opts.baseline, tmp / "baseline", "bench_relaxed_cold"), "new": None}
         for side, src in sides.items():  # warm-up: numba builds the kernels into tmp/numba
             for label, scene in scenes.items():
                 relaxed_build(src, scene, tmp, f"warm-{side}-{label}")
