@@ -6,6 +6,7 @@ the path).
 
 from __future__ import annotations
 
+import argparse
 import subprocess
 import sys
 from pathlib import Path
@@ -25,3 +26,18 @@ def sources(commit: str, folder: Path, script: str) -> Path:
     subprocess.run(["tar", "-x", "-C", str(src)], input=archive.stdout, check=True)
     (src / "symbolic").symlink_to("derive")  # pyproject's package-dir: pulsemap.symbolic is derive/
     return src
+
+
+def options(argv: list[str], doc: str, commit: str, rounds: int, name: str, choices) -> tuple[argparse.Namespace, list]:
+    """The command line of a benchmark against a baseline commit: ``--baseline`` (default ``commit``), ``--rounds``
+    and ``--NAME``, a comma list of ``choices`` (default: all); the options and the choices picked."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--baseline", default=commit)
+    parser.add_argument("--rounds", type=int, default=rounds)
+    parser.add_argument(f"--{name}", default=",".join(choices))
+    opts = parser.parse_args(argv)
+    picked = getattr(opts, name).split(",")
+    unknown = [c for c in picked if c not in choices]
+    if unknown:
+        parser.error(f"--{name}: {', '.join(unknown)} not benchmarked here; choose from {', '.join(choices)}")
+    return opts, picked

@@ -21,7 +21,6 @@ Each line also says whether the two kernels' peaks are the same bit for bit and 
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import importlib.util
 import os
@@ -142,15 +141,7 @@ def report(title: str, out: dict, per_contact: bool) -> None:
 
 
 def main(argv: list[str]) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--baseline", default=BASELINE)
-    parser.add_argument("--rounds", type=int, default=15)
-    parser.add_argument("--methods", default=",".join(METHODS))
-    opts = parser.parse_args(argv)
-    methods = opts.methods.split(",")
-    unknown = [m for m in methods if m not in METHODS]
-    if unknown:
-        parser.error(f"--methods: {', '.join(unknown)} not benchmarked here; choose from {', '.join(METHODS)}")
+    opts, methods = baseline.options(argv, __doc__, BASELINE, 15, "methods", METHODS)
     print(f"bench_kernel: this checkout against {opts.baseline}, best of {opts.rounds} interleaved rounds; "
           f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores", flush=True)
     with tempfile.TemporaryDirectory(prefix="bench-kernel-") as tmp:

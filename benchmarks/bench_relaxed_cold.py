@@ -16,7 +16,6 @@ of the two sides are the same bit for bit. Target: fig8-eps0.3 and graded >= 2x 
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
@@ -86,15 +85,7 @@ def relaxed_build(src: Path | None, scene: str, tmp: Path, tag: str) -> dict:
 
 
 def main(argv: list[str]) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--baseline", default=BASELINE)
-    parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--scenes", default=",".join(SCENES))
-    opts = parser.parse_args(argv)
-    labels = opts.scenes.split(",")
-    unknown = [s for s in labels if s not in SCENES]
-    if unknown:
-        parser.error(f"--scenes: {', '.join(unknown)} not benchmarked here; choose from {', '.join(SCENES)}")
+    opts, labels = baseline.options(argv, __doc__, BASELINE, 3, "scenes", SCENES)
     print(f"bench_relaxed_cold: this checkout against {opts.baseline}, relaxed model's CPU s from an empty cache, best "
           f"of {opts.rounds} interleaved rounds; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores",
           flush=True)
