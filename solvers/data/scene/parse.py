@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Mapping
 from pulsemap.symbolic.errors import closest
 from pulsemap.symbolic.frozenmap import FrozenMap
 from pulsemap.symbolic.param_forms import param_data
+from pulsemap.solvers.chain.methods import MIN_ATOL, MIN_RTOL
 from pulsemap.solvers.data.scene.schema import (
     DEFAULT_EXPONENT,
     DEFAULT_FIRST_PERTURBED,
@@ -40,7 +41,6 @@ from pulsemap.solvers.data.scene.schema import (
     VARIANTS,
     SceneError,
 )
-from pulsemap.solvers.chain.methods import MIN_ATOL, MIN_RTOL
 from pulsemap.solvers.data.scene.spec import Scene
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -353,8 +353,6 @@ def _check_choice(value: Any, key: str, choices: tuple[str, ...]) -> str:
     if value not in choices:
         raise _Problem(f"unknown {key} {value!r}{suggest(value, choices)}: choose one of {', '.join(choices)}")
     return value
-
-
 
 
 def _check_dns_table(table: Mapping[str, Any]) -> FrozenMap:
