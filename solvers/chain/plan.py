@@ -123,7 +123,8 @@ def plan(*, engine: str, method: str, force, velocity: float, exponent: float, r
     if engine not in ENGINES:
         raise DNSInputError(f"unknown engine {engine!r}; choose one of {', '.join(ENGINES)}")
     spec = WindowSpec.of(window)
-    rule = None if spec is None else resolve_rule(spec.size, window_accuracy_for(rtol, spec.accuracy), damping, exponent)
+    rule = None if spec is None else resolve_rule(spec.size, window_accuracy_for(rtol, spec.accuracy), damping,
+                                                  exponent)
     why_scipy = "engine='scipy' requested"
     if engine == "compiled":
         why_scipy = unavailable(method, snapshots) or force_reason

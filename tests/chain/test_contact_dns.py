@@ -319,4 +319,5 @@ def test_the_damped_window_holds_its_accuracy_beyond_three_halves(n, a, c):
     narrow = WindowRule(behind=win.window_rule.behind - damped_behind(gamma, n, accuracy) + damped_behind(gamma, 1.5),
                         threshold=win.window_rule.threshold)
     short = simulate(chain, (FIRST, last), integrator=integrator, stop=stop, window=narrow)
-    assert not (short.alive[live].all() and np.allclose(short.peaks[live], full.peaks[live], rtol=100 * accuracy, atol=0))
+    close = short.alive[live].all() and np.allclose(short.peaks[live], full.peaks[live], rtol=100 * accuracy, atol=0)
+    assert not close  # the case needs the widening: without it the window is 100 x its accuracy off or loses the pulse
