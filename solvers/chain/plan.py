@@ -115,7 +115,7 @@ def plan(*, engine: str, method: str, force, velocity: float, exponent: float, r
     ``force_reason``: force_table.force_data's answer, "" when the compiled kernels can take the force
     (asked only where ``wants_force_data``); ``window``: as simulate() takes it (window.WindowSpec.of);
     ``damping``: the contact term's at the run's strain scale (contact_force.ContactTable.damping), which widens
-    an 'auto' window.
+    an 'auto' window (more at a larger ``exponent``; window.damped_behind).
     The compiled engine runs unless the caller asks for scipy, the method has no compiled kernel,
     snapshots are wanted or the force has no compiled form; the scipy engine's 'auto' is DOP853 or,
     for a stiff force, LSODA (equations.choose_method), on the Fortran codes where they apply.
@@ -123,7 +123,8 @@ def plan(*, engine: str, method: str, force, velocity: float, exponent: float, r
     if engine not in ENGINES:
         raise DNSInputError(f"unknown engine {engine!r}; choose one of {', '.join(ENGINES)}")
     spec = WindowSpec.of(window)
-    rule = None if spec is None else resolve_rule(spec.size, window_accuracy_for(rtol, spec.accuracy), damping)
+    rule = None if spec is None else resolve_rule(spec.size, window_accuracy_for(rtol, spec.accuracy), damping,
+                                                  exponent)
     why_scipy = "engine='scipy' requested"
     if engine == "compiled":
         why_scipy = unavailable(method, snapshots) or force_reason

@@ -58,11 +58,17 @@ BOUNDARIES = ("coast", "free")
 #: cliff at 13; below 1e-9 the integrator's floor (the calibration: docs/dns.rst, "Window calibration").
 BEHIND_FOR: tuple[tuple[float, int], ...] = ((1e-7, 16), (1e-8, 18), (1e-9, 22), (0.0, 24))
 #: Beads added behind for a dissipative contact term of strength gamma (ContactTable.damping at the run's strain
-#: scale): ceil(DAMPED_BEHIND x gamma^DAMPED_POWER). A damped pulse leaves its beads moving with loaded contacts, which push the front once the
-#: pulse has decayed; the fewest beads behind for 1e-8 down to 10 % of the entry peak, dashpot eps c 0.05..2 at
-#: n = 3/2 (docs/contact.rst, "The moving window and damped contacts").
+#: scale): ceil(DAMPED_BEHIND x max(gamma^DAMPED_POWER, gamma) x DAMPED_GROWTH^max(0, n - 3/2) x (1 + DAMPED_PER_DECADE
+#: x decades of accuracy below 1e-8)). A damped pulse leaves its beads moving with loaded contacts, which push the front
+#: once the pulse has decayed; the fewest beads behind for a third of the accuracy down to 10 % of the entry peak,
+#: dashpot and Kuwabara-Kono eps c 0.05..2 at n = 3/2..3, accuracies 1e-6..1e-10 (docs/contact.rst, "The moving window
+#: and damped contacts"); n <= 3/2 with gamma <= 1 at 1e-8 or looser is the first calibration, unchanged.
 DAMPED_BEHIND, DAMPED_POWER = 46.0, 0.6
-THRESHOLD_FRACTION = 1e-2  # ahead threshold = accuracy x this (it moves the peaks by ~5x itself at most)
+DAMPED_GROWTH, DAMPED_PER_DECADE = 4.0, 0.15
+#: Ahead threshold = accuracy x this / max(1, gamma)^2: it moves the peaks by ~5x itself at most without a dissipative
+#: term; above gamma = 1 a damped front's precursor reaches further ahead and the threshold costs up to ~20 gamma^2 x
+#: itself (docs/contact.rst, "The moving window and damped contacts").
+THRESHOLD_FRACTION = 1e-2
 DEFAULT_WINDOW_ACCURACY = 1e-8  # simulate's window accuracy unless rtol asks for less (window_accuracy_for)
 
 
@@ -101,23 +107,31 @@ def validate_rule(rule: WindowRule) -> WindowRule:
     return rule
 
 
-def rule_for_accuracy(accuracy: float, damping: float = 0.0) -> WindowRule:
+def rule_for_accuracy(accuracy: float, damping: float = 0.0, exponent: float = 1.5) -> WindowRule:
     """Window rule whose truncation error stays below ``accuracy`` (relative peak error).
 
     Calibrated rule (BEHIND_FOR; docs/dns.rst, "Window calibration"): 16 beads behind down to 1e-7,
     18 down to 1e-8, 22 down to 1e-9, 24 below (the integrator's floor); ahead, a bead is added when the last one moves by accuracy / 100 of the
-    scales v0^(2/(n+1)) and v0. A dissipative contact term of strength ``damping`` adds damped_behind(damping).
+    scales v0^(2/(n+1)) and v0. A dissipative contact term of strength ``damping`` adds damped_behind(damping,
+    exponent, accuracy) (``exponent`` n is read only there) and, above 1, divides the threshold by damping^2.
     """
     if not (np.isfinite(accuracy) and 0.0 < accuracy < 1.0):
         raise DNSInputError(f"window_accuracy must lie in (0, 1), got {accuracy!r}")
-    behind = next(b for floor, b in BEHIND_FOR if accuracy >= floor) + damped_behind(damping)
-    return WindowRule(behind=behind, threshold=max(THRESHOLD_FRACTION * float(accuracy), 1e-30))
+    behind = next(b for floor, b in BEHIND_FOR if accuracy >= floor) + damped_behind(damping, exponent, accuracy)
+    threshold = THRESHOLD_FRACTION * float(accuracy) / max(1.0, damping) ** 2
+    return WindowRule(behind=behind, threshold=max(threshold, 1e-30))
 
 
-def damped_behind(damping: float) -> int:
+def damped_behind(damping: float, exponent: float = 1.5, accuracy: float = DEFAULT_WINDOW_ACCURACY) -> int:
     """Beads the window keeps behind the front beyond the calibrated rule for a contact term of damping ``damping``
-    (contact_force.ContactTable.damping; 0: none)."""
-    return int(math.ceil(DAMPED_BEHIND * damping**DAMPED_POWER)) if damping > 0.0 else 0
+    (contact_force.ContactTable.damping; 0: none) at Hertz exponent ``exponent`` and window ``accuracy``: the loaded
+    tail behind a damped pulse reaches further at larger n and for a stronger term (DAMPED_BEHIND's line)."""
+    if damping <= 0.0:
+        return 0
+    strength = max(damping**DAMPED_POWER, damping)
+    decades = max(0.0, math.log10(DEFAULT_WINDOW_ACCURACY / accuracy))
+    widening = DAMPED_GROWTH ** max(0.0, exponent - 1.5) * (1.0 + DAMPED_PER_DECADE * decades)
+    return int(math.ceil(DAMPED_BEHIND * strength * widening))
 
 
 @dataclass(frozen=True)
@@ -160,15 +174,15 @@ def rule_for_width(width: int) -> WindowRule:
     return WindowRule(behind=int(width) - ahead - chunk - 1, ahead=ahead, chunk=chunk)
 
 
-def resolve_rule(window, accuracy: float, damping: float = 0.0) -> WindowRule:
-    """``window`` as given to simulate(): 'auto' (rule_for_accuracy(accuracy, damping)), an int width, or a
-    WindowRule (those two as given)."""
+def resolve_rule(window, accuracy: float, damping: float = 0.0, exponent: float = 1.5) -> WindowRule:
+    """``window`` as given to simulate(): 'auto' (rule_for_accuracy(accuracy, damping, exponent)), an int width, or
+    a WindowRule (those two as given)."""
     if isinstance(window, WindowRule):
         return validate_rule(window)
     if isinstance(window, str):
         if window != "auto":
             raise DNSInputError(f"window must be None, 'auto', an int width or a WindowRule, got {window!r}")
-        return rule_for_accuracy(accuracy, damping)
+        return rule_for_accuracy(accuracy, damping, exponent)
     return validate_rule(rule_for_width(window))
 
 

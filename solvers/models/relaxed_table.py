@@ -100,12 +100,14 @@ class SegmentSpec:
     def window_rule(self) -> str:
         """The segment runs' window geometry (window.rule_for_accuracy: the cache key follows its calibration; a
         dissipative contact term adds window.damped_behind, whose constants the key names)."""
-        from pulsemap.solvers.chain.window import DAMPED_BEHIND, DAMPED_POWER, rule_for_accuracy
+        from pulsemap.solvers.chain.window import (DAMPED_BEHIND, DAMPED_GROWTH, DAMPED_PER_DECADE, DAMPED_POWER,
+                                                   rule_for_accuracy)
 
         rule = rule_for_accuracy(self.window_accuracy)
         damped = any(int(b) % 2 == 1 for _, b, _ in self.contact)
         return (f"behind={rule.behind},threshold={rule.threshold!r}"
-                + (f",damped={DAMPED_BEHIND!r}*gamma^{DAMPED_POWER!r}" if damped else ""))
+                + (f",damped={DAMPED_BEHIND!r}*max(gamma^{DAMPED_POWER!r},gamma)*{DAMPED_GROWTH!r}^max(0,n-3/2)"
+                   f"*(1+{DAMPED_PER_DECADE!r}*decades),threshold/max(1,gamma)^2" if damped else ""))
 
 
 def lattice_amplitude(j: int) -> float:

@@ -112,3 +112,18 @@ def test_a_damped_contact_widens_only_the_auto_window(engine):
     assert weak.behind == base.behind + damped_behind(0.05) and strong.behind == base.behind + damped_behind(1.0)
     assert (weak.ahead, weak.chunk, weak.threshold) == (base.ahead, base.chunk, base.threshold)
     assert make(engine=engine, window=40, damping=1.0).rule == rule_for_width(40)
+
+
+def test_the_damped_window_widens_with_the_exponent_the_accuracy_and_a_strong_term():
+    """The loaded tail behind a damped pulse reaches further back at larger n, and a strong term's precursor further
+    ahead: the plan's 'auto' window keeps more beads behind for n above 3/2 and for a tighter accuracy, none fewer
+    below 3/2 than at 3/2, and lowers the ahead threshold only above damping 1."""
+    from pulsemap.solvers.chain.window import damped_behind
+
+    behind = [make(window="auto", exponent=n, damping=0.5).rule.behind for n in (1.2, 1.5, 2.0, 2.5, 3.0)]
+    assert behind[0] == behind[1] < behind[2] < behind[3] < behind[4]
+    assert [damped_behind(0.5, 3.0, a) for a in (1e-6, 1e-8)] == [damped_behind(0.5, 3.0)] * 2
+    assert damped_behind(0.5, 3.0, 1e-10) > damped_behind(0.5, 3.0)
+    assert damped_behind(2.0) >= 2 * damped_behind(1.0) - 1  # in proportion to a strong term (gamma^0.6 below 1)
+    base, weak, strong = (make(window="auto", damping=d).rule.threshold for d in (0.0, 1.0, 3.0))
+    assert base == weak and strong == pytest.approx(base / 9.0)
