@@ -340,7 +340,8 @@ def _planned(chain: Chain, integrator: Integrator, window, snapshots: bool):
     return data, plan(engine=engine, method=method, force=chain.force, velocity=velocity, exponent=chain.exponent,
                       rtol=integrator.rtol, window=window, snapshots=snapshots, force_reason=force_reason,
                       damping=0.0 if chain.contact is None else
-                      chain.contact.damping(chain.exponent, velocity_scale(velocity, chain.exponent)))
+                      chain.contact.damping(chain.exponent, velocity_scale(velocity, chain.exponent)),
+                      mass_step=_window.largest_mass_step(chain.masses))
 
 
 def _locate(force: OnSiteForce | None, beads: int, exc: ForceNotFinite) -> ForceNotFinite:

@@ -108,14 +108,15 @@ def compiled_kernel(force, velocity: float, exponent: float, method: str) -> tup
 
 def plan(*, engine: str, method: str, force, velocity: float, exponent: float, rtol: float,
          window: "WindowSpec | int | str | WindowRule | None", snapshots: bool = False,
-         force_reason: str = "", damping: float = 0.0) -> Plan:
+         force_reason: str = "", damping: float = 0.0, mass_step: float = 1.0) -> Plan:
     """The engine, kernel or method, window and reason of a run (module docstring).
 
     ``force``: anything with a ``stiffness_hint`` (an OnSiteForce, a MonomialTable) or None (R = 0);
     ``force_reason``: force_table.force_data's answer, "" when the compiled kernels can take the force
     (asked only where ``wants_force_data``); ``window``: as simulate() takes it (window.WindowSpec.of);
     ``damping``: the contact term's at the run's strain scale (contact_force.ContactTable.damping), which widens
-    an 'auto' window (more at a larger ``exponent``; window.damped_behind).
+    an 'auto' window (more at a larger ``exponent``; window.damped_behind); ``mass_step``: the largest ratio of
+    neighbouring masses (window.largest_mass_step), above window.MASS_STEP_LIMIT an 'auto' window is the full chain.
     The compiled engine runs unless the caller asks for scipy, the method has no compiled kernel,
     snapshots are wanted or the force has no compiled form; the scipy engine's 'auto' is DOP853 or,
     for a stiff force, LSODA (equations.choose_method), on the Fortran codes where they apply.
@@ -124,7 +125,7 @@ def plan(*, engine: str, method: str, force, velocity: float, exponent: float, r
         raise DNSInputError(f"unknown engine {engine!r}; choose one of {', '.join(ENGINES)}")
     spec = WindowSpec.of(window)
     rule = None if spec is None else resolve_rule(spec.size, window_accuracy_for(rtol, spec.accuracy), damping,
-                                                  exponent)
+                                                  exponent, mass_step)
     why_scipy = "engine='scipy' requested"
     if engine == "compiled":
         why_scipy = unavailable(method, snapshots) or force_reason
