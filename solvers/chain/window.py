@@ -70,10 +70,9 @@ DAMPED_GROWTH, DAMPED_PER_DECADE = 4.0, 0.15
 #: itself (docs/contact.rst, "The moving window and damped contacts").
 THRESHOLD_FRACTION = 1e-2
 DEFAULT_WINDOW_ACCURACY = 1e-8  # simulate's window accuracy unless rtol asks for less (window_accuracy_for)
-#: The largest ratio of neighbouring masses an 'auto' window takes; above it the full chain runs. Behind a sharper
+#: The largest ratio of neighbouring masses an 'auto' window takes; above it the full chain runs: behind a sharper
 #: contrast the wake keeps beads moving, and a dropped bead coasting at its drop velocity drives the window like a
-#: piston: up to 3e-2 off and a pulse "overtaken by its wake" at ratios 1.8 and 3, none at 1.65 and below
-#: (docs/dns.rst, "The moving window and uneven masses").
+#: piston (the evidence: docs/dns.rst, "The moving window and uneven masses").
 MASS_STEP_LIMIT = 1.5
 
 
