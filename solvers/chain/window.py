@@ -199,6 +199,15 @@ def largest_mass_step(masses) -> float:
     return float(np.exp(np.max(np.abs(np.diff(np.log(masses))))))
 
 
+def full_chain_because(chain: "Chain") -> str:
+    """Why an 'auto' window runs ``chain`` on the full chain (resolve_rule), for the run's report; "" where it
+    does not for its masses."""
+    step = largest_mass_step(chain.masses)
+    if step > MASS_STEP_LIMIT:
+        return f"neighbouring masses differ by up to {step:.3g}x, beyond the moving window's {MASS_STEP_LIMIT:g}x"
+    return ""
+
+
 # ----------------------------------------------------------------------------- Eq. 1 on a window
 
 

@@ -322,3 +322,21 @@ def test_a_given_seed_peak_seeds_the_energy_law_of_a_contact_scene():
     for m in ("energy-law", "energy-map"):
         a, b = np.array(low["peaks"][m], float), np.array(high["peaks"][m], float)
         assert np.all(np.isfinite(a)) and np.all(b > a)
+
+
+def test_a_run_over_a_sharp_mass_step_says_it_took_the_full_chain():
+    """An 'auto' window runs the full chain over masses that jump by more than window.MASS_STEP_LIMIT (a coasting
+    dropped bead would drive the window like a piston): the run's JSON and report say so, with the ratio; a mild
+    step keeps the moving window and says nothing."""
+    from pulsemap.solvers.studies.run.report import to_text
+
+    def run(m: str):
+        data = {"name": "mass-step", "chain": {"beads": 140}, "excitation": {"velocity": 1.0}, "masses": {"m": m},
+                "output": {"contacts": [16, 120], "methods": ["dns"]}}
+        return pulsemap.run(pulsemap.scene(data))
+
+    sharp, mild = run("1 + 2*Heaviside(i - 60)"), run("1 + 0.2*Heaviside(i - 60)")
+    assert sharp.data["dns"]["mode"] == "full" and mild.data["dns"]["mode"].startswith("window")
+    because = sharp.data["dns"]["full_chain_because"]
+    assert "2x" in because and "1.5x" in because and "full_chain_because" not in mild.data["dns"]
+    assert f"(the full chain: {because})" in to_text(sharp.data)

@@ -27,6 +27,7 @@ from pulsemap.symbolic.provenance import provenance
 from pulsemap.solvers import __version__
 from pulsemap.solvers.chain.front import Snapshots
 from pulsemap.solvers.chain.dns import compiled_kernel_of, simulate
+from pulsemap.solvers.chain.window import full_chain_because
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.scene_chain import force_failure, scene_chain
@@ -153,16 +154,18 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     chain = scene_chain(scene, beads)
     state.timings["derive_force"] = time.perf_counter() - t0
     t0 = time.perf_counter()
+    window = dns_window_of(scene, dns_window)
     try:
         res = simulate(chain, span, integrator=dns_integrator(scene.dns),
                        snapshots=Snapshots([c for c in state.snapshots if span[0] <= c <= span[1]]),
-                       progress=progress, window=dns_window_of(scene, dns_window))
+                       progress=progress, window=window)
     except ArithmeticError as exc:  # R not finite (or not real) where the chain went
         raise RunError(force_failure(scene, beads, exc, "DNS")) from None
     if res.build_s:  # this run built the ahead-of-time kernel (no other process did it ahead)
         state.timings["dns_build"] = res.build_s
     state.timings["dns_compile"] = res.compile_s - res.build_s  # compiling or loading the kernel, apart from integrating
     state.timings["dns"] = time.perf_counter() - t0 - res.compile_s
+    because = full_chain_because(chain) if window == "auto" else ""  # 'auto' ran the full chain for the masses
     seed_contact = scene.first_perturbed - 1
     first, last = min(contacts[0], seed_contact), max(contacts[-1], seed_contact)
     slots = contact_slots(np.arange(first, last + 1), res.contacts)  # once for the peaks, the seed and front_outputs
@@ -173,6 +176,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
     out["peaks"]["dns"] = dns_peaks
     out["dns"] = {
         "method": res.method, "rtol": res.rtol, "atol": res.atol, "beads": res.beads, "mode": res.mode,
+        **({"full_chain_because": because} if because else {}),
         "window_beads": int(res.window_beads),
         **({"window_behind": int(res.window_rule.behind)} if res.window_rule is not None else {}),
         "engine": res.engine, "engine_reason": res.engine_reason,

@@ -163,7 +163,8 @@ def to_text(result: dict, every: int | None = None) -> str:
         d = result["dns"]
         live = d.get("live_contacts") or []
         span = f"; primary pulse alive at contacts {live[0]}..{live[-1]}" if live else "; no live primary pulse"
-        lines.append(f"  DNS: {d['method']} rtol {d['rtol']:g}, {d['beads']} beads, {d['stop_reason']}{span}")
+        full = f" (the full chain: {d['full_chain_because']})" if d.get("full_chain_because") else ""
+        lines.append(f"  DNS: {d['method']} rtol {d['rtol']:g}, {d['beads']} beads{full}, {d['stop_reason']}{span}")
         if d.get("energy_drift") is not None:
             lines.append(f"  DNS energy drift (R = 0 conserves energy: the run's accuracy): {d['energy_drift']:.2g} relative")
     for name in dict.fromkeys([*MODELS, *_columns(result)]):
