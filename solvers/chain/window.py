@@ -188,7 +188,7 @@ def resolve_rule(window, accuracy: float, damping: float = 0.0, exponent: float 
     if isinstance(window, str):
         if window != "auto":
             raise DNSInputError(f"window must be None, 'auto', an int width or a WindowRule, got {window!r}")
-        return None if mass_step > MASS_STEP_LIMIT else rule_for_accuracy(accuracy, damping, exponent)
+        return None if full_chain_because(mass_step) else rule_for_accuracy(accuracy, damping, exponent)
     return validate_rule(rule_for_width(window))
 
 
@@ -199,12 +199,11 @@ def largest_mass_step(masses) -> float:
     return float(np.exp(np.max(np.abs(np.diff(np.log(masses))))))
 
 
-def full_chain_because(chain: "Chain") -> str:
-    """Why an 'auto' window runs ``chain`` on the full chain (resolve_rule), for the run's report; "" where it
-    does not for its masses."""
-    step = largest_mass_step(chain.masses)
-    if step > MASS_STEP_LIMIT:
-        return f"neighbouring masses differ by up to {step:.3g}x, beyond the moving window's {MASS_STEP_LIMIT:g}x"
+def full_chain_because(mass_step: float) -> str:
+    """Why an 'auto' window runs the full chain over masses whose neighbours differ by up to ``mass_step``
+    (largest_mass_step), "" where it does not: resolve_rule's test, and the run's report of it."""
+    if mass_step > MASS_STEP_LIMIT:
+        return f"neighbouring masses differ by up to {mass_step:.3g}x, beyond the moving window's {MASS_STEP_LIMIT:g}x"
     return ""
 
 

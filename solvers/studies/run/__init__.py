@@ -27,7 +27,7 @@ from pulsemap.symbolic.provenance import provenance
 from pulsemap.solvers import __version__
 from pulsemap.solvers.chain.front import Snapshots
 from pulsemap.solvers.chain.dns import compiled_kernel_of, simulate
-from pulsemap.solvers.chain.window import full_chain_because
+from pulsemap.solvers.chain.window import full_chain_because, largest_mass_step
 from pulsemap.solvers.data.scene import METHODS, PROFILES, VARIANTS, Scene
 from pulsemap.solvers.studies.errors import model_error
 from pulsemap.solvers.studies.scene_chain import force_failure, scene_chain
@@ -165,7 +165,7 @@ def run_dns(state: RunState, progress: bool, dns_window: "int | str | None") -> 
         state.timings["dns_build"] = res.build_s
     state.timings["dns_compile"] = res.compile_s - res.build_s  # compiling or loading the kernel, apart from integrating
     state.timings["dns"] = time.perf_counter() - t0 - res.compile_s
-    because = full_chain_because(chain) if window == "auto" else ""  # 'auto' ran the full chain for the masses
+    because = full_chain_because(largest_mass_step(chain.masses)) if window == "auto" else ""  # as simulate's plan
     seed_contact = scene.first_perturbed - 1
     first, last = min(contacts[0], seed_contact), max(contacts[-1], seed_contact)
     slots = contact_slots(np.arange(first, last + 1), res.contacts)  # once for the peaks, the seed and front_outputs
